@@ -1,0 +1,120 @@
+/* Shared physics and sampling helpers for every fogcli stage.
+ * Each formula lives here once; the stage files only wire buffers. */
+#ifndef FOGCLI_COMMON_H
+#define FOGCLI_COMMON_H
+
+/* Rec.709 luminance (SPEC 4.5). */
+inline float luminance(float3 c) { return 0.2126f * c.x + 0.7152f * c.y + 0.0722f * c.z; }
+
+/* Elek eq. 2 (Premoze): std-dev W of the beam after travel s.
+ * Written as W^2 = 0.5 s^3 k / (2/3 sa s^2 k + 4), k = ss (1 - g), which is the printed
+ * form multiplied through by s^3 k: no division by zero at s = 0, ss = 0 or sa = 0. */
+inline float spread_w(float s, float sa, float ss, float g)
+{
+    float k = ss * (1.0f - g);
+    float s2 = s * s;
+    float w2 = 0.5f * s2 * s * k / ((2.0f / 3.0f) * sa * s2 * k + 4.0f);
+    return sqrt(fmax(w2, 0.0f));
+}
+
+/* Blur std-dev in output pixels (SPEC 4.3). d_res is the rescaled distance D' (= P),
+ * dist the ray length. SPREAD_PAPER selects Elek's reading at compile time. */
+inline float spread_px(float d_res, float dist, float sa, float ss, float g,
+                       float scale, float focal_px, float width)
+{
+    float w = spread_w(d_res, sa, ss, g);
+#ifdef SPREAD_PAPER
+    return scale * w * width / 1280.0f;
+#else
+    /* W/D -> 0 as D -> 0 (W grows like D^1.5), so a zero distance has no spread. */
+    return dist > 1e-6f ? scale * w / dist * focal_px : 0.0f;
+#endif
+}
+
+/* GLSL smoothstep; e0 == e1 degrades to a hard step instead of 0/0. */
+inline float smoothstep_(float e0, float e1, float x)
+{
+    if (e1 <= e0) return x >= e1 ? 1.0f : 0.0f;
+    float t = clamp((x - e0) / (e1 - e0), 0.0f, 1.0f);
+    return t * t * (3.0f - 2.0f * t);
+}
+
+/* Continuous MIP level of a blur of std-dev sigma (Elek eq. 10: level k holds c 2^k). */
+inline float level_of(float sigma, float c, float kmax)
+{
+    return clamp(log2(fmax(sigma, 1e-30f) / c), 0.0f, kmax);
+}
+
+/* Level-k coordinate of a level-0 pixel centre: level k pixel x has its centre at
+ * 2^k (x + 0.5) in level-0 pixel units (even filters keep MIP alignment). */
+inline float2 level_coord(float2 p0, int k)
+{
+    float s = 1.0f / (float)(1 << k);
+    return p0 * s - 0.5f;
+}
+
+/* Bilinear read of a float4 level with clamp-to-edge; (x, y) in pixel-index space. */
+inline float4 bilinear4(__global const float4 *img, int w, int h, float x, float y)
+{
+    x = clamp(x, 0.0f, (float)(w - 1));
+    y = clamp(y, 0.0f, (float)(h - 1));
+    int x0 = (int)floor(x), y0 = (int)floor(y);
+    int x1 = min(x0 + 1, w - 1), y1 = min(y0 + 1, h - 1);
+    float fx = x - x0, fy = y - y0;
+    float4 a = mix(img[y0 * w + x0], img[y0 * w + x1], fx);
+    float4 b = mix(img[y1 * w + x0], img[y1 * w + x1], fx);
+    return mix(a, b, fy);
+}
+
+inline float bilinear1(__global const float *img, int w, int h, float x, float y)
+{
+    x = clamp(x, 0.0f, (float)(w - 1));
+    y = clamp(y, 0.0f, (float)(h - 1));
+    int x0 = (int)floor(x), y0 = (int)floor(y);
+    int x1 = min(x0 + 1, w - 1), y1 = min(y0 + 1, h - 1);
+    float fx = x - x0, fy = y - y0;
+    float a = mix(img[y0 * w + x0], img[y0 * w + x1], fx);
+    float b = mix(img[y1 * w + x0], img[y1 * w + x1], fx);
+    return mix(a, b, fy);
+}
+
+/* Cubic B-spline weights folded into two bilinear taps per axis (Sigg & Hadwiger 2005,
+ * GPU Gems 2 ch. 20): returns (h0, h1, g0) with tap offsets -h0, +h1 and weight g0 on
+ * the first tap. */
+inline float3 bspline_taps(float f)
+{
+    float f2 = f * f, f3 = f2 * f;
+    float w0 = (1.0f - 3.0f * f + 3.0f * f2 - f3) / 6.0f;
+    float w1 = (4.0f - 6.0f * f2 + 3.0f * f3) / 6.0f;
+    float w2 = (1.0f + 3.0f * f + 3.0f * f2 - 3.0f * f3) / 6.0f;
+    float w3 = f3 / 6.0f;
+    float g0 = w0 + w1;
+    return (float3)(1.0f - w1 / g0 + f, 1.0f + w3 / (w2 + w3) - f, g0);
+}
+
+/* Bicubic B-spline fetch from 4 bilinear fetches. */
+inline float4 bicubic4(__global const float4 *img, int w, int h, float x, float y)
+{
+    float ix = floor(x), iy = floor(y);
+    float3 tx = bspline_taps(x - ix), ty = bspline_taps(y - iy);
+    float x0 = x - tx.x, x1 = x + tx.y, y0 = y - ty.x, y1 = y + ty.y;
+    float4 a = mix(bilinear4(img, w, h, x1, y0), bilinear4(img, w, h, x0, y0), tx.z);
+    float4 b = mix(bilinear4(img, w, h, x1, y1), bilinear4(img, w, h, x0, y1), tx.z);
+    return mix(b, a, ty.z);
+}
+
+inline float bicubic1(__global const float *img, int w, int h, float x, float y)
+{
+    float ix = floor(x), iy = floor(y);
+    float3 tx = bspline_taps(x - ix), ty = bspline_taps(y - iy);
+    float x0 = x - tx.x, x1 = x + tx.y, y0 = y - ty.x, y1 = y + ty.y;
+    float a = mix(bilinear1(img, w, h, x1, y0), bilinear1(img, w, h, x0, y0), tx.z);
+    float b = mix(bilinear1(img, w, h, x1, y1), bilinear1(img, w, h, x0, y1), tx.z);
+    return mix(b, a, ty.z);
+}
+
+/* Even-length separable pyramid filter: tap t of FILTER_TAPS reads source index
+ * 2x - FILTER_TAPS/2 + 1 + t. FILTER_WEIGHTS is set by the host (-D). */
+__constant float filter_w[FILTER_TAPS] = { FILTER_WEIGHTS };
+
+#endif

@@ -1,0 +1,89 @@
+/* Stage 3: depth-blurred level selection and the final sum (Elek eq. 10-12, Iser 4.4.3,
+ * 4.4.5). Level geometry comes from the plan: lv[k] = (offset, width, height, 0). */
+#include "common.h"
+
+/* One integer level, 2D interpolated (INTERP 0: bilinear, else bicubic B-spline). */
+inline float4 level_fetch4(__global const float4 *chain, __global const int4 *lv, int k,
+                           float2 p0)
+{
+    int4 l = lv[k];
+    float2 q = level_coord(p0, k);
+#if INTERP == 0
+    return bilinear4(chain + l.x, l.y, l.z, q.x, q.y);
+#else
+    return bicubic4(chain + l.x, l.y, l.z, q.x, q.y);
+#endif
+}
+
+inline float level_fetch1(__global const float *chain, __global const int4 *lv, int k,
+                          float2 p0)
+{
+    int4 l = lv[k];
+    float2 q = level_coord(p0, k);
+#if INTERP == 0
+    return bilinear1(chain + l.x, l.y, l.z, q.x, q.y);
+#else
+    return bicubic1(chain + l.x, l.y, l.z, q.x, q.y);
+#endif
+}
+
+/* Across levels: linear (INTERP 0, 1) or Catmull-Rom over four levels (INTERP 2). */
+inline float4 chain_fetch4(__global const float4 *chain, __global const int4 *lv, int kmax,
+                           float level, float2 p0)
+{
+    int k = (int)floor(level);
+    float f = level - k;
+#if INTERP == 2
+    float f2 = f * f, f3 = f2 * f;
+    float w0 = 0.5f * (-f3 + 2.0f * f2 - f), w1 = 0.5f * (3.0f * f3 - 5.0f * f2 + 2.0f);
+    float w2 = 0.5f * (-3.0f * f3 + 4.0f * f2 + f), w3 = 0.5f * (f3 - f2);
+    float4 r = w0 * level_fetch4(chain, lv, clamp(k - 1, 0, kmax), p0)
+             + w1 * level_fetch4(chain, lv, clamp(k, 0, kmax), p0)
+             + w2 * level_fetch4(chain, lv, clamp(k + 1, 0, kmax), p0)
+             + w3 * level_fetch4(chain, lv, clamp(k + 2, 0, kmax), p0);
+    return fmax(r, (float4)(0.0f));   /* Catmull-Rom overshoots; radiance cannot */
+#else
+    float4 a = level_fetch4(chain, lv, min(k, kmax), p0);
+    if (f <= 0.0f || k >= kmax) return a;
+    return mix(a, level_fetch4(chain, lv, k + 1, p0), f);
+#endif
+}
+
+inline float chain_fetch1(__global const float *chain, __global const int4 *lv, int kmax,
+                          float level, float2 p0)
+{
+    int k = (int)floor(level);
+    float f = level - k;
+    float a = level_fetch1(chain, lv, min(k, kmax), p0);
+    if (f <= 0.0f || k >= kmax) return a;
+    return mix(a, level_fetch1(chain, lv, k + 1, p0), f);
+}
+
+__kernel void composite(__global const float4 *direct, __global const float4 *medium_term,
+                        __global const float4 *chain, __global const float *spread_chain,
+                        __global const int4 *lv, const int kmax,
+                        const float c, const int depth_blur,
+                        __global float4 *out, const int want_aov,
+                        __global float *level_aov, __global float4 *scattered_aov)
+{
+    int i = get_global_id(0), j = get_global_id(1);
+    int width = lv[0].y, height = lv[0].z;
+    if (i >= width || j >= height) return;
+    int idx = j * width + i;
+    float2 p0 = (float2)(i + 0.5f, j + 0.5f);
+
+    float level = level_of(spread_chain[idx], c, (float)kmax);
+    if (depth_blur) {
+        /* Eq. 11: read the spread blurred as much as this pixel's own blur, then map the
+         * blurred spread to the level, so level changes at depth edges are gradual. */
+        float s1 = chain_fetch1(spread_chain, lv, kmax, level, p0);
+        level = level_of(s1, c, (float)kmax);
+    }
+    float4 sc = chain_fetch4(chain, lv, kmax, level, p0);
+    float4 d = direct[idx];
+    out[idx] = (float4)(d.xyz + medium_term[idx].xyz + sc.xyz, d.w);
+    if (want_aov) {
+        level_aov[idx] = level;
+        scattered_aov[idx] = (float4)(sc.xyz, 0.0f);
+    }
+}

@@ -1,0 +1,70 @@
+/* Stage 1: split the input into attenuated, scattered and medium terms (SPEC 4.2, 4.3;
+ * Elek sec. 3.2 with the thesis' eq. 4.4-4.5, Iser eq. 4.29, Delalandre eq. 7).
+ * Depth arrives raw (as stored in the file, holes already filled); the camera model
+ * turns it into a ray length here so that a z-buffer never reaches the physics. */
+#include "common.h"
+
+typedef struct {
+    float4 sa;          /* absorption per RGB, 1/m; .w = mean over RGB */
+    float4 ss;          /* scattering per RGB; .w = mean */
+    float4 emission;    /* L_e */
+    float4 ambient;     /* L_a */
+    float g;            /* phase asymmetry */
+    float density;      /* sum of homogeneous factors: P = density * D */
+    float depth_scale;
+    float max_depth;
+    float focal_px;
+    float spread_scale;
+    int depth_is_z;
+    int pad;
+} medium_t;
+
+__kernel void preprocess(__global const float4 *image, __global const float *depth,
+                         __global float4 *direct, __global float4 *scat0,
+                         __global float *spread0, __global float4 *medium_term,
+                         __global float4 *transmittance, const int want_transmittance,
+                         const int width, const int height, const medium_t m)
+{
+    int i = get_global_id(0), j = get_global_id(1);
+    if (i >= width || j >= height) return;
+    int idx = j * width + i;
+
+    float raw = depth[idx] * m.depth_scale;
+    float dist = raw;
+    if (m.depth_is_z) {
+        float dx = (i + 0.5f - 0.5f * width) / m.focal_px;
+        float dy = (j + 0.5f - 0.5f * height) / m.focal_px;
+        dist = raw * sqrt(dx * dx + dy * dy + 1.0f);
+    }
+    /* +inf (sky) and anything beyond max_depth is clamped there; comparisons with inf
+     * are well defined, so fmin does the job. */
+    dist = fmin(dist, m.max_depth);
+
+    float P = m.density * dist;
+    float3 L = image[idx].xyz;
+    float3 sa = m.sa.xyz, ss = m.ss.xyz, st = sa + ss;
+
+    float3 t_all = exp(-st * P);
+    float3 l_at = t_all * L;
+    /* exp(-sa P)(1 - exp(-ss P)) = exp(-sa P) - exp(-st P); the thesis form (SPEC 4.2). */
+    float3 l_sc = (exp(-sa * P) - t_all) * L;
+
+    /* Emission and ambient share 1 - exp(-st P); st -> 0 limits are P and 0. */
+    float3 one_minus = -expm1(-st * P);
+    float3 em_w = (float3)(st.x > 0.0f ? one_minus.x / st.x : P,
+                           st.y > 0.0f ? one_minus.y / st.y : P,
+                           st.z > 0.0f ? one_minus.z / st.z : P);
+    float3 amb_w = (float3)(st.x > 0.0f ? ss.x / st.x * one_minus.x : 0.0f,
+                            st.y > 0.0f ? ss.y / st.y * one_minus.y : 0.0f,
+                            st.z > 0.0f ? ss.z / st.z * one_minus.z : 0.0f);
+    float3 l_med = m.emission.xyz * em_w + m.ambient.xyz * amb_w;
+
+    float sigma = spread_px(P, dist, m.sa.w, m.ss.w, m.g, m.spread_scale, m.focal_px,
+                            (float)width);
+
+    direct[idx] = (float4)(l_at, image[idx].w);
+    scat0[idx] = (float4)(l_sc, sigma);
+    spread0[idx] = sigma;
+    medium_term[idx] = (float4)(l_med, P);
+    if (want_transmittance) transmittance[idx] = (float4)(t_all, 1.0f);
+}

@@ -1,0 +1,51 @@
+/* Stage 2: one level of the scattering MIP chain (Elek eq. 6-9, Iser 4.4.2) and of the
+ * spread chain used for depth blurring (Elek eq. 11, blurred in spread space).
+ * All levels of a chain live in one buffer; `src`/`dst` are level offsets into it.
+ * .w of the colour chain carries the luminance-weighted spread W^[k] (Elek sec. 3.5). */
+#include "common.h"
+
+__kernel void reduce_level(__global float4 *chain, __global float *spread_chain,
+                           const int src_off, const int sw, const int sh,
+                           const int dst_off, const int dw, const int dh,
+                           const float thresh, const float eps, const int masked)
+{
+    int x = get_global_id(0), y = get_global_id(1);
+    if (x >= dw || y >= dh) return;
+
+    __global const float4 *src = chain + src_off;
+    __global const float *ssrc = spread_chain + src_off;
+    int x0 = 2 * x - FILTER_TAPS / 2 + 1, y0 = 2 * y - FILTER_TAPS / 2 + 1;
+
+    float3 acc_c = (float3)(0.0f);
+    float acc_g = 0.0f, acc_s = 0.0f;
+    float acc_yw = 0.0f, acc_y = 0.0f, acc_w = 0.0f;
+    int n = 0;
+    for (int ty = 0; ty < FILTER_TAPS; ++ty) {
+        int sy = y0 + ty;
+        if (sy < 0 || sy >= sh) continue;
+        for (int tx = 0; tx < FILTER_TAPS; ++tx) {
+            int sx = x0 + tx;
+            if (sx < 0 || sx >= sw) continue;
+            int s = sy * sw + sx;
+            float4 v = src[s];
+            float wg = filter_w[tx] * filter_w[ty];
+            /* Eq. 7: pixels whose spread is below the level's threshold stay below. */
+            float m = masked ? smoothstep_(thresh, (1.0f + eps) * thresh, v.w) : 1.0f;
+            acc_c += wg * m * v.xyz;
+            acc_g += wg;
+            acc_s += wg * ssrc[s];
+            /* Eq. 8-9: box average of W weighted by the luminance of level k-1. */
+            float yl = luminance(v.xyz);
+            acc_yw += yl * v.w;
+            acc_y += yl;
+            acc_w += v.w;
+            ++n;
+        }
+    }
+    /* Border taps that fall outside are dropped and the rest renormalised, so a
+     * constant image stays constant and no energy leaves through the edge. */
+    float wk = acc_y > 1e-30f ? acc_yw / acc_y : acc_w / (float)n;
+    int d = dst_off + y * dw + x;
+    chain[d] = (float4)(acc_c / acc_g, wk);
+    spread_chain[d] = acc_s / acc_g;
+}

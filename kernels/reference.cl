@@ -1,0 +1,133 @@
+/* The screen-space reference (SPEC 4.4, Elek sec. 3.3): every pixel spreads its L_sc
+ * with a Gaussian of its own sigma_px, truncated at R = ceil(4 sigma) and normalised
+ * over the in-image pixels it reaches, so no scattered energy is lost at the border.
+ *
+ * Binned form: sigma is split between two neighbouring bins of a geometric ladder
+ * (linear weights in log sigma); each bin is a separable Gaussian whose per-pixel
+ * normalisation is the product of two 1-D in-image sums. `ref_brute` is the O(N^2)
+ * definition, kept to validate the binned form on small images. */
+#include "common.h"
+
+/* taps[r] = exp(-r^2 / (2 sigma^2)), r = 0..R */
+__kernel void ref_taps(__global float *taps, const float sigma, const int R)
+{
+    int r = get_global_id(0);
+    if (r > R) return;
+    taps[r] = exp(-(float)(r * r) / (2.0f * sigma * sigma));
+}
+
+/* norm[x] = sum of taps reaching in-image positions from x along an axis of length n */
+__kernel void ref_norm1d(__global const float *taps, const int R, const int n,
+                         __global float *norm)
+{
+    int x = get_global_id(0);
+    if (x >= n) return;
+    float s = 0.0f;
+    for (int d = max(-R, -x); d <= min(R, n - 1 - x); ++d) s += taps[abs(d)];
+    norm[x] = s;
+}
+
+/* Hat weight of pixel spread in bin b (u = log(sigma/s0)/log(ratio)), divided by the
+ * 2-D normalisation: the bin's source image. */
+__kernel void ref_bin_source(__global const float4 *scat0, __global const float *spread0,
+                             const int width, const int height, const float s0,
+                             const float log_ratio, const int b,
+                             __global const float *norm_x, __global const float *norm_y,
+                             __global float4 *src)
+{
+    int i = get_global_id(0), j = get_global_id(1);
+    if (i >= width || j >= height) return;
+    int idx = j * width + i;
+    float u = log(fmax(spread0[idx], 1e-30f) / s0) / log_ratio;
+    float w = fmax(0.0f, 1.0f - fabs(u - (float)b));
+    /* bin 0 also holds everything sharper than s0 (those stay delta-like) */
+    if (b == 0 && u < 0.0f) w = 1.0f;
+    float4 v = scat0[idx];
+    src[idx] = (float4)(w * v.xyz / (norm_x[i] * norm_y[j]), 0.0f);
+}
+
+__kernel void ref_rows(__global const float4 *src, const int width, const int height,
+                       __global const float *taps, const int R, __global float4 *dst)
+{
+    int i = get_global_id(0), j = get_global_id(1);
+    if (i >= width || j >= height) return;
+    __global const float4 *row = src + j * width;
+    float4 acc = taps[0] * row[i];
+    for (int d = 1; d <= R; ++d) {
+        float t = taps[d];
+        if (i - d >= 0) acc += t * row[i - d];
+        if (i + d < width) acc += t * row[i + d];
+    }
+    dst[j * width + i] = acc;
+}
+
+__kernel void ref_cols_acc(__global const float4 *src, const int width, const int height,
+                           __global const float *taps, const int R, __global float4 *acc_img)
+{
+    int i = get_global_id(0), j = get_global_id(1);
+    if (i >= width || j >= height) return;
+    float4 acc = taps[0] * src[j * width + i];
+    for (int d = 1; d <= R; ++d) {
+        float t = taps[d];
+        if (j - d >= 0) acc += t * src[(j - d) * width + i];
+        if (j + d < height) acc += t * src[(j + d) * width + i];
+    }
+    acc_img[j * width + i] += acc;
+}
+
+/* Brute-force definition: pixel y's normalisation, then an all-pairs gather. */
+__kernel void ref_brute_norm(__global const float *spread0, const int width,
+                             const int height, __global float *norm)
+{
+    int i = get_global_id(0), j = get_global_id(1);
+    if (i >= width || j >= height) return;
+    float s = spread0[j * width + i];
+    int R = (int)ceil(4.0f * s);
+    float nx = 0.0f, ny = 0.0f;
+    for (int d = max(-R, -i); d <= min(R, width - 1 - i); ++d)
+        nx += exp(-(float)(d * d) / (2.0f * s * s));
+    for (int d = max(-R, -j); d <= min(R, height - 1 - j); ++d)
+        ny += exp(-(float)(d * d) / (2.0f * s * s));
+    norm[j * width + i] = s > 0.0f ? nx * ny : 1.0f;
+}
+
+__kernel void ref_brute(__global const float4 *scat0, __global const float *spread0,
+                        __global const float *norm, const int width, const int height,
+                        __global float4 *out)
+{
+    int i = get_global_id(0), j = get_global_id(1);
+    if (i >= width || j >= height) return;
+    float3 acc = (float3)(0.0f);
+    for (int y = 0; y < height; ++y)
+        for (int x = 0; x < width; ++x) {
+            int s = y * width + x;
+            float sg = spread0[s];
+            int dx = i - x, dy = j - y;
+            float w;
+            if (sg > 0.0f) {
+                int R = (int)ceil(4.0f * sg);
+                if (abs(dx) > R || abs(dy) > R) continue;
+                w = exp(-(float)(dx * dx + dy * dy) / (2.0f * sg * sg));
+            } else {
+                w = (dx == 0 && dy == 0) ? 1.0f : 0.0f;
+            }
+            acc += w * scat0[s].xyz / norm[s];
+        }
+    out[j * width + i] = (float4)(acc, 0.0f);
+}
+
+/* out = L_at + L_em + L_amb + the reference blur of L_sc */
+__kernel void ref_finish(__global const float4 *direct, __global const float4 *medium_term,
+                         __global const float4 *acc_img, const int n, __global float4 *out,
+                         const int want_aov, __global float *level_aov,
+                         __global float4 *scattered_aov)
+{
+    int i = get_global_id(0);
+    if (i >= n) return;
+    float4 d = direct[i];
+    out[i] = (float4)(d.xyz + medium_term[i].xyz + acc_img[i].xyz, d.w);
+    if (want_aov) {
+        level_aov[i] = -1.0f;   /* the reference has no pyramid level */
+        scattered_aov[i] = (float4)(acc_img[i].xyz, 0.0f);
+    }
+}

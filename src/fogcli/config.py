@@ -1,0 +1,494 @@
+"""The config model (SPEC 3): YAML sources merged in order, validated once, typed.
+
+Sources merge preset < --medium file < --config < --set. Every value remembers where it
+came from (file and line), so a bad value is reported as ``file:line: key: problem``.
+"""
+from __future__ import annotations
+
+import difflib
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+from .errors import UserError
+
+# Calibrated defaults per filter size: (c, epsilon, threshold factor). The threshold of
+# level k is threshold * c * 2^(k-1) (Elek eq. 7 has threshold = 1). See docs/calibration.md.
+CALIBRATED = {
+    2: (0.80, 2.0, 1.0),
+    4: (0.80, 2.0, 1.0),
+    6: (0.80, 2.0, 1.0),
+}
+# Burt-style filters: binomial rows; 4 taps is Elek's {0.13, 0.37, 0.37, 0.13} unrounded.
+FILTERS = {
+    2: (0.5, 0.5),
+    4: (0.125, 0.375, 0.375, 0.125),
+    6: (0.03125, 0.15625, 0.3125, 0.3125, 0.15625, 0.03125),
+}
+VISIBILITY_CONTRAST = 3.912  # -ln(0.02): Koschmieder's 2 % contrast threshold
+
+
+class _Loc:
+    """Where a value came from."""
+
+    def __init__(self, source: str, line: int | None):
+        self.source, self.line = source, line
+
+    def __str__(self):
+        return f"{self.source}:{self.line}" if self.line else self.source
+
+
+# ----------------------------------------------------------------------------- loading
+
+def _node_to_py(node, source: str, path: str, locs: dict):
+    locs[path] = _Loc(source, node.start_mark.line + 1)
+    if isinstance(node, yaml.MappingNode):
+        out = {}
+        for knode, vnode in node.value:
+            key = str(knode.value)
+            if key in out:
+                raise UserError(f"{source}:{knode.start_mark.line + 1}: {path + '.' if path else ''}{key}: duplicate key")
+            out[key] = _node_to_py(vnode, source, f"{path}.{key}" if path else key, locs)
+        return out
+    if isinstance(node, yaml.SequenceNode):
+        return [_node_to_py(v, source, f"{path}[{i}]", locs) for i, v in enumerate(node.value)]
+    return yaml.safe_load(yaml.serialize(node)) if node.tag != "tag:yaml.org,2002:null" else None
+
+
+def load_yaml(path: str | Path, locs: dict) -> dict:
+    """Parse a YAML file into plain data, recording each key's line in ``locs``."""
+    p = Path(path)
+    try:
+        text = p.read_text()
+    except FileNotFoundError:
+        raise UserError(f"{p}: config file not found") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise UserError(f"{p}: cannot read config file ({exc.__class__.__name__})") from None
+    try:
+        node = yaml.compose(text)
+    except yaml.YAMLError as exc:
+        mark = getattr(exc, "problem_mark", None)
+        line = f":{mark.line + 1}" if mark else ""
+        problem = getattr(exc, "problem", None) or str(exc).splitlines()[0]
+        raise UserError(f"{p}{line}: invalid YAML: {problem}") from None
+    if node is None:
+        return {}
+    if not isinstance(node, yaml.MappingNode):
+        raise UserError(f"{p}:{node.start_mark.line + 1}: expected a mapping of sections (medium, camera, render, output)")
+    return _node_to_py(node, str(p), "", locs)
+
+
+def parse_set(item: str, locs: dict) -> dict:
+    """``--set render.kernel=6`` -> {'render': {'kernel': 6}}; the value is YAML."""
+    if "=" not in item:
+        raise UserError(f"--set {item!r}: expected KEY=VALUE, e.g. render.kernel=6")
+    key, value = item.split("=", 1)
+    parts = key.strip().split(".")
+    if not all(parts):
+        raise UserError(f"--set {item!r}: empty key part")
+    try:
+        val = yaml.safe_load(value) if value.strip() else None
+    except yaml.YAMLError:
+        raise UserError(f"--set {item!r}: value is not valid YAML") from None
+    out: dict = {}
+    cur = out
+    for p in parts[:-1]:
+        cur = cur.setdefault(p, {})
+    cur[parts[-1]] = val
+    _record(out, "", _Loc(f"--set {key.strip()}", None), locs)
+    return out
+
+
+def _record(data, path, loc, locs):
+    locs[path] = loc
+    if isinstance(data, dict):
+        for k, v in data.items():
+            _record(v, f"{path}.{k}" if path else k, loc, locs)
+
+
+# Within `medium`, the two ways of giving the coefficients exclude each other: a later
+# source that uses one form drops the other form from earlier sources.
+_FORM_A = ("absorption", "scattering")
+_FORM_B = ("visibility",)
+
+
+def merge(base: dict, new: dict) -> dict:
+    out = dict(base)
+    for k, v in new.items():
+        if k == "medium" and isinstance(v, dict) and isinstance(out.get(k), dict):
+            med = dict(out[k])
+            if any(x in v for x in _FORM_A):
+                for x in _FORM_B + ("albedo",):
+                    med.pop(x, None)
+            if any(x in v for x in _FORM_B):
+                for x in _FORM_A:
+                    med.pop(x, None)
+            out[k] = merge(med, {kk: vv for kk, vv in v.items()})
+        elif isinstance(v, dict) and isinstance(out.get(k), dict) and k != "density":
+            out[k] = merge(out[k], v)
+        else:
+            out[k] = v
+    return out
+
+
+# ----------------------------------------------------------------------------- model
+
+@dataclass
+class Density:
+    type: str
+    factor: float = 1.0
+    falloff: float = 0.0
+    direction: tuple = (0.0, 1.0, 0.0)
+    offset: tuple = (0.0, 0.0, 0.0)
+    center: tuple = (0.0, 0.0, 0.0)
+    radius: float = 1.0
+
+
+@dataclass
+class Medium:
+    absorption: tuple = (0.0, 0.0, 0.0)
+    scattering: tuple = (0.0, 0.0, 0.0)
+    asymmetry: float = 0.9
+    emission: tuple = (0.0, 0.0, 0.0)
+    ambient: tuple = (0.0, 0.0, 0.0)
+    density: list = field(default_factory=lambda: [Density("homogeneous")])
+
+
+@dataclass
+class Camera:
+    fov: float = 60.0
+    focal_px: float | None = None
+    position: tuple = (0.0, 0.0, 0.0)
+    yaw: float = 0.0
+    pitch: float = 0.0
+    roll: float = 0.0
+    depth: str = "z"
+    depth_scale: float = 1.0
+    max_depth: float = 1000.0
+
+    def focal(self, width: int) -> float:
+        if self.focal_px is not None:
+            return float(self.focal_px)
+        return (width / 2.0) / math.tan(math.radians(self.fov) / 2.0)
+
+
+@dataclass
+class Separation:
+    enabled: bool = False
+    luminance: float = 3.0
+    luminance_width: float = 3.0
+    depth: float = 200.0
+    depth_width: float = 200.0
+    level: float = 0.7
+
+
+@dataclass
+class Render:
+    method: str = "pyramid"
+    spread_model: str = "angular"
+    spread_scale: float = 1.0
+    kernel: int = 4
+    interpolation: str = "linear-bicubic"
+    c: float | str = "auto"
+    epsilon: float | str = "auto"
+    threshold: float | str = "auto"
+    levels: int | str = "auto"
+    separation: Separation = field(default_factory=Separation)
+
+    def resolved(self) -> tuple[float, float, float]:
+        """(c, epsilon, threshold) with `auto` replaced by the calibrated values."""
+        c0, e0, t0 = CALIBRATED[self.kernel]
+        pick = lambda v, d: d if v == "auto" else float(v)  # noqa: E731
+        return pick(self.c, c0), pick(self.epsilon, e0), pick(self.threshold, t0)
+
+
+@dataclass
+class Output:
+    exposure: float = 0.0
+    half: bool = False
+
+
+@dataclass
+class Config:
+    medium: Medium = field(default_factory=Medium)
+    camera: Camera = field(default_factory=Camera)
+    render: Render = field(default_factory=Render)
+    output: Output = field(default_factory=Output)
+
+
+# ----------------------------------------------------------------------------- validation
+
+class _Checker:
+    def __init__(self, locs: dict):
+        self.locs = locs
+        self.problems: list[str] = []
+
+    def fail(self, path: str, msg: str):
+        loc = self.locs.get(path)
+        while loc is None and "." in path:
+            path_up = path.rsplit(".", 1)[0]
+            loc = self.locs.get(path_up)
+            if loc is not None:
+                break
+            path = path_up
+        where = f"{loc}: " if loc else ""
+        self.problems.append(f"{where}{self._orig(path)}: {msg}")
+
+    def _orig(self, path):
+        return path
+
+    def keys(self, data: dict, path: str, allowed: dict):
+        for k in data:
+            if k not in allowed:
+                hint = difflib.get_close_matches(str(k), list(allowed), n=1)
+                extra = f" (did you mean {hint[0]}?)" if hint else f" (expected one of: {', '.join(allowed)})"
+                self.fail(f"{path}.{k}" if path else str(k), f"unknown key{extra}")
+
+    def number(self, v, path, lo=None, hi=None, lo_open=False, hi_open=False, integer=False):
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or (integer and not isinstance(v, int)):
+            self.fail(path, f"expected {'an integer' if integer else 'a number'}, got {v!r}")
+            return None
+        v = float(v) if not integer else v
+        if not math.isfinite(v):
+            self.fail(path, f"expected a finite number, got {v!r}")
+            return None
+        rng = ""
+        if lo is not None and (v < lo or (lo_open and v == lo)):
+            rng = "bad"
+        if hi is not None and (v > hi or (hi_open and v == hi)):
+            rng = "bad"
+        if rng:
+            lb = "(" if lo_open else "["
+            rb = ")" if hi_open else "]"
+            self.fail(path, f"expected a value in {lb}{lo if lo is not None else '-inf'}, {hi if hi is not None else 'inf'}{rb}, got {v!r}")
+            return None
+        return v
+
+    def rgb(self, v, path, lo=0.0):
+        if isinstance(v, (int, float)) and not isinstance(v, bool):
+            x = self.number(v, path, lo=lo)
+            return None if x is None else (x, x, x)
+        if isinstance(v, list) and len(v) == 3:
+            xs = [self.number(x, f"{path}[{i}]", lo=lo) for i, x in enumerate(v)]
+            return None if None in xs else tuple(xs)
+        self.fail(path, f"expected a number or a list of 3 numbers (R, G, B), got {v!r}")
+        return None
+
+    def vec3(self, v, path):
+        if isinstance(v, list) and len(v) == 3:
+            xs = [self.number(x, f"{path}[{i}]") for i, x in enumerate(v)]
+            return None if None in xs else tuple(xs)
+        self.fail(path, f"expected a list of 3 numbers [x, y, z], got {v!r}")
+        return None
+
+    def choice(self, v, path, options):
+        if v not in options:
+            self.fail(path, f"expected one of {', '.join(map(str, options))}, got {v!r}")
+            return None
+        return v
+
+    def auto_or(self, v, path, **kw):
+        if v == "auto":
+            return "auto"
+        return self.number(v, path, **kw)
+
+    def boolean(self, v, path):
+        if not isinstance(v, bool):
+            self.fail(path, f"expected true or false, got {v!r}")
+            return None
+        return v
+
+
+_MEDIUM_KEYS = dict.fromkeys(["absorption", "scattering", "visibility", "albedo", "asymmetry",
+                              "emission", "ambient", "density"])
+_DENSITY_KEYS = {
+    "homogeneous": ("type", "factor"),
+    "exponential": ("type", "factor", "falloff", "direction", "offset"),
+    "sphere": ("type", "factor", "center", "radius"),
+}
+_CAMERA_KEYS = dict.fromkeys(["fov", "focal_px", "position", "yaw", "pitch", "roll", "depth",
+                              "depth_scale", "max_depth"])
+_RENDER_KEYS = dict.fromkeys(["method", "spread_model", "spread_scale", "kernel", "interpolation",
+                              "c", "epsilon", "threshold", "levels", "separation"])
+_SEP_KEYS = dict.fromkeys(["enabled", "luminance", "luminance_width", "depth", "depth_width", "level"])
+_OUTPUT_KEYS = dict.fromkeys(["exposure", "half"])
+_SECTIONS = {"medium": _MEDIUM_KEYS, "camera": _CAMERA_KEYS, "render": _RENDER_KEYS, "output": _OUTPUT_KEYS}
+
+
+def _section(ck: _Checker, data: dict, name: str) -> dict:
+    sec = data.get(name, {})
+    if sec is None:
+        return {}
+    if not isinstance(sec, dict):
+        ck.fail(name, f"expected a mapping, got {sec!r}")
+        return {}
+    ck.keys(sec, name, _SECTIONS[name])
+    return sec
+
+
+def _medium(ck: _Checker, sec: dict) -> Medium:
+    m = Medium()
+    if "visibility" in sec and any(k in sec for k in _FORM_A):
+        ck.fail("medium.visibility", "give either visibility (+ albedo) or absorption + scattering, not both")
+    sa = ck.rgb(sec["absorption"], "medium.absorption") if "absorption" in sec else None
+    ss = ck.rgb(sec["scattering"], "medium.scattering") if "scattering" in sec else None
+    m.absorption = sa if sa else m.absorption
+    m.scattering = ss if ss else m.scattering
+    albedo = ck.number(sec["albedo"], "medium.albedo", lo=0.0, hi=1.0) if "albedo" in sec else None
+    if "visibility" in sec:
+        v = ck.number(sec["visibility"], "medium.visibility", lo=0.0, lo_open=True)
+        if v is not None:
+            st = VISIBILITY_CONTRAST / v
+            a = 0.9 if albedo is None else albedo
+            m.absorption, m.scattering = ((1 - a) * st,) * 3, (a * st,) * 3
+    elif albedo is not None:
+        # albedo alone redistributes the extinction of the coefficients already given
+        st = [x + y for x, y in zip(m.absorption, m.scattering)]
+        m.absorption = tuple((1 - albedo) * t for t in st)
+        m.scattering = tuple(albedo * t for t in st)
+    if "asymmetry" in sec:
+        g = ck.number(sec["asymmetry"], "medium.asymmetry", lo=0.0, hi=1.0, hi_open=True)
+        m.asymmetry = g if g is not None else m.asymmetry
+    for key in ("emission", "ambient"):
+        if key in sec:
+            v = ck.rgb(sec[key], f"medium.{key}")
+            if v:
+                setattr(m, key, v)
+    if "density" in sec:
+        m.density = _densities(ck, sec["density"])
+    return m
+
+
+def _densities(ck: _Checker, items) -> list:
+    if not isinstance(items, list) or not items:
+        ck.fail("medium.density", "expected a non-empty list of density primitives")
+        return [Density("homogeneous")]
+    out = []
+    for i, d in enumerate(items):
+        path = f"medium.density[{i}]"
+        if not isinstance(d, dict) or "type" not in d:
+            ck.fail(path, "expected a mapping with a type (homogeneous, exponential, sphere)")
+            continue
+        t = ck.choice(d["type"], f"{path}.type", list(_DENSITY_KEYS))
+        if t is None:
+            continue
+        ck.keys(d, path, dict.fromkeys(_DENSITY_KEYS[t]))
+        prim = Density(t)
+        if "factor" in d:
+            prim.factor = ck.number(d["factor"], f"{path}.factor", lo=0.0) or 0.0
+        if t == "exponential":
+            if "falloff" in d:
+                prim.falloff = ck.number(d["falloff"], f"{path}.falloff") or 0.0
+            if "direction" in d:
+                v = ck.vec3(d["direction"], f"{path}.direction")
+                if v and math.hypot(*v) == 0.0:
+                    ck.fail(f"{path}.direction", "expected a non-zero direction, got [0, 0, 0]")
+                elif v:
+                    prim.direction = v
+            if "offset" in d:
+                prim.offset = ck.vec3(d["offset"], f"{path}.offset") or prim.offset
+        if t == "sphere":
+            if "center" in d:
+                prim.center = ck.vec3(d["center"], f"{path}.center") or prim.center
+            if "radius" in d:
+                prim.radius = ck.number(d["radius"], f"{path}.radius", lo=0.0, lo_open=True) or 1.0
+        out.append(prim)
+    return out or [Density("homogeneous")]
+
+
+def _camera(ck: _Checker, sec: dict) -> Camera:
+    c = Camera()
+    if "fov" in sec:
+        c.fov = ck.number(sec["fov"], "camera.fov", lo=0.0, hi=180.0, lo_open=True, hi_open=True) or c.fov
+    if "focal_px" in sec:
+        c.focal_px = ck.number(sec["focal_px"], "camera.focal_px", lo=0.0, lo_open=True)
+    if "position" in sec:
+        c.position = ck.vec3(sec["position"], "camera.position") or c.position
+    for k in ("yaw", "pitch", "roll"):
+        if k in sec:
+            v = ck.number(sec[k], f"camera.{k}")
+            setattr(c, k, v if v is not None else 0.0)
+    if "depth" in sec:
+        c.depth = ck.choice(sec["depth"], "camera.depth", ["z", "distance"]) or c.depth
+    if "depth_scale" in sec:
+        c.depth_scale = ck.number(sec["depth_scale"], "camera.depth_scale", lo=0.0, lo_open=True) or 1.0
+    if "max_depth" in sec:
+        c.max_depth = ck.number(sec["max_depth"], "camera.max_depth", lo=0.0, lo_open=True) or c.max_depth
+    return c
+
+
+def _render(ck: _Checker, sec: dict) -> Render:
+    r = Render()
+    choices = {
+        "method": ["pyramid", "naive", "reference"],
+        "spread_model": ["angular", "paper"],
+        "interpolation": ["linear-bilinear", "linear-bicubic", "cubic-bicubic"],
+    }
+    for k, opts in choices.items():
+        if k in sec:
+            setattr(r, k, ck.choice(sec[k], f"render.{k}", opts) or getattr(r, k))
+    if "kernel" in sec:
+        k = sec["kernel"]
+        r.kernel = int(k) if not isinstance(k, bool) and k in (2, 4, 6) else ck.choice(k, "render.kernel", [2, 4, 6]) or r.kernel
+    if "spread_scale" in sec:
+        r.spread_scale = ck.number(sec["spread_scale"], "render.spread_scale", lo=0.0) or 0.0
+    if "c" in sec:
+        r.c = ck.auto_or(sec["c"], "render.c", lo=0.0, lo_open=True) or "auto"
+    if "epsilon" in sec:
+        v = ck.auto_or(sec["epsilon"], "render.epsilon", lo=0.0)
+        r.epsilon = "auto" if v is None else v
+    if "threshold" in sec:
+        r.threshold = ck.auto_or(sec["threshold"], "render.threshold", lo=0.0, lo_open=True) or "auto"
+    if "levels" in sec:
+        v = sec["levels"]
+        r.levels = v if v == "auto" else (ck.number(v, "render.levels", lo=1, hi=24, integer=True) or "auto")
+    if "separation" in sec:
+        s = sec["separation"]
+        if not isinstance(s, dict):
+            ck.fail("render.separation", f"expected a mapping, got {s!r}")
+        else:
+            ck.keys(s, "render.separation", _SEP_KEYS)
+            sp = Separation()
+            if "enabled" in s:
+                sp.enabled = bool(ck.boolean(s["enabled"], "render.separation.enabled"))
+            for k in ("luminance", "luminance_width", "depth", "depth_width"):
+                if k in s:
+                    setattr(sp, k, ck.number(s[k], f"render.separation.{k}", lo=0.0) or 0.0)
+            if "level" in s:
+                sp.level = ck.number(s["level"], "render.separation.level", lo=0.0, hi=1.0) or 0.0
+            r.separation = sp
+    return r
+
+
+def _output(ck: _Checker, sec: dict) -> Output:
+    o = Output()
+    if "exposure" in sec:
+        o.exposure = ck.number(sec["exposure"], "output.exposure") or 0.0
+    if "half" in sec:
+        o.half = bool(ck.boolean(sec["half"], "output.half"))
+    return o
+
+
+def problems_of(data: dict, locs: dict) -> tuple[Config | None, list[str]]:
+    ck = _Checker(locs)
+    if not isinstance(data, dict):
+        return None, ["expected a mapping of sections"]
+    ck.keys(data, "", _SECTIONS)
+    cfg = Config(
+        medium=_medium(ck, _section(ck, data, "medium")),
+        camera=_camera(ck, _section(ck, data, "camera")),
+        render=_render(ck, _section(ck, data, "render")),
+        output=_output(ck, _section(ck, data, "output")),
+    )
+    return (None if ck.problems else cfg), ck.problems
+
+
+def build(data: dict, locs: dict) -> Config:
+    cfg, problems = problems_of(data, locs)
+    if problems:
+        more = f" (and {len(problems) - 1} more problem{'s' if len(problems) > 2 else ''})" if len(problems) > 1 else ""
+        raise UserError(problems[0] + more)
+    return cfg

@@ -1,0 +1,59 @@
+"""Medium presets (configs/*.yaml shipped in the package) and the config assembly
+preset < --medium file < --config < --set."""
+from __future__ import annotations
+
+from pathlib import Path
+
+from . import config as C
+from .errors import UserError
+
+PRESET_DIR = Path(__file__).resolve().parent / "configs"
+DEFAULT_MEDIUM = "fog"
+
+
+def presets() -> dict[str, Path]:
+    return {p.stem: p for p in sorted(PRESET_DIR.glob("*.yaml"))}
+
+
+def describe(path: Path) -> str:
+    """The preset's first comment line."""
+    for line in path.read_text().splitlines():
+        if line.startswith("#"):
+            return line.lstrip("# ").strip()
+    return ""
+
+
+def _medium_source(name: str) -> Path:
+    p = Path(name)
+    if p.suffix.lower() in (".yaml", ".yml") or p.exists():
+        if not p.is_file():
+            raise UserError(f"--medium {name}: file not found")
+        return p
+    table = presets()
+    if name not in table:
+        raise UserError(f"--medium {name}: no such preset (have: {', '.join(table)}) and no such file")
+    return table[name]
+
+
+def assemble(medium: str | None = None, config_file: str | None = None,
+             sets: tuple[str, ...] = ()) -> C.Config:
+    """Merge the sources in order and validate once."""
+    locs: dict = {}
+    src = _medium_source(medium or DEFAULT_MEDIUM)
+    data = C.load_yaml(src, locs)
+    if config_file:
+        data = C.merge(data, C.load_yaml(config_file, locs))
+    for item in sets:
+        data = C.merge(data, C.parse_set(item, locs))
+    return C.build(data, locs)
+
+
+def check_file(path: str) -> list[str]:
+    """Every problem of one config file (empty when fine)."""
+    locs: dict = {}
+    try:
+        data = C.load_yaml(path, locs)
+    except UserError as exc:
+        return [str(exc)]
+    _, problems = C.problems_of(data, locs)
+    return problems

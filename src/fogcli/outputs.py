@@ -1,0 +1,109 @@
+"""Writing outputs: scene-linear EXR (float or half, with AOV channels, metadata and both
+windows kept) or display-referred sRGB PNG/TIFF/JPEG. Written to a temporary name in the
+target folder and renamed, so a reader never sees a partial file."""
+from __future__ import annotations
+
+import os
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+from .colour import linear_to_srgb
+from .errors import ProcessingError, UserError
+
+DISPLAY_EXT = {".png", ".tif", ".tiff", ".jpg", ".jpeg"}
+LINEAR_EXT = {".exr", ".hdr"}
+# Attributes that describe the old file's encoding, not the picture.
+_DROP = ("compression", "oiio:", "openexr:chunkCount", "openexr:lineOrder", "tiff:", "png:",
+         "jpeg:", "planarconfig", "Orientation", "PixelAspectRatio", "XResolution",
+         "YResolution", "ResolutionUnit")
+
+
+def check_target(output: Path, *inputs: Path | None) -> None:
+    ext = output.suffix.lower()
+    if ext not in DISPLAY_EXT | LINEAR_EXT:
+        raise UserError(f"-o {output}: unsupported output format {ext or '(none)'} (use .exr, .hdr, .png, .tif, .jpg)")
+    for p in inputs:
+        if p is not None and output.exists() and output.resolve() == Path(p).resolve():
+            raise UserError(f"-o {output}: refusing to overwrite the input file")
+    if not output.parent.exists():
+        raise UserError(f"-o {output}: folder {output.parent} does not exist")
+
+
+def _atomic_write(path: Path, write) -> None:
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}.", suffix=f".tmp{path.suffix}", dir=path.parent)
+    os.close(fd)
+    try:
+        write(tmp)
+        os.replace(tmp, path)
+    except BaseException:
+        try:
+            os.unlink(tmp)
+        except OSError:
+            pass
+        raise
+
+
+def write(path: Path, rgb: np.ndarray, alpha: np.ndarray | None, aovs: dict, frame, half: bool,
+          exposure: float) -> None:
+    """rgb (h, w, 3) scene-linear; aovs: channel name -> (h, w) array."""
+    import OpenImageIO as oiio
+
+    ext = path.suffix.lower()
+    h, w = rgb.shape[:2]
+    if ext in LINEAR_EXT:
+        planes = [rgb[:, :, 0], rgb[:, :, 1], rgb[:, :, 2]]
+        names = ["R", "G", "B"]
+        if alpha is not None:
+            planes.append(alpha)
+            names.append("A")
+        if ext == ".exr":
+            for name, plane in aovs.items():
+                planes.append(plane)
+                names.append(name)
+        data = np.ascontiguousarray(np.stack(planes, axis=2), dtype=np.float32)
+        fmt = "half" if (half and ext == ".exr") else "float"
+        spec = oiio.ImageSpec(w, h, data.shape[2], fmt)
+        spec.channelnames = tuple(names)
+        if alpha is not None:
+            spec.alpha_channel = 3
+        if ext == ".exr":
+            spec.x, spec.y = frame.window
+            fx, fy, fw, fh = frame.display
+            spec.full_x, spec.full_y = fx, fy
+            spec.full_width, spec.full_height = (fw or w), (fh or h)
+            if frame.is_exr:
+                for name, typ, value in frame.attributes:
+                    if not name.startswith(_DROP):
+                        try:
+                            spec.attribute(name, typ, value)
+                        except Exception:
+                            pass
+            spec.attribute("compression", "zip")
+        spec.attribute("Software", "fogcli")
+    else:
+        disp = linear_to_srgb(rgb * np.float32(2.0 ** exposure))
+        planes = [disp]
+        if alpha is not None and ext not in (".jpg", ".jpeg"):
+            planes.append(np.clip(alpha, 0, 1)[:, :, None])
+        data = np.concatenate(planes, axis=2)
+        fmt = "uint16" if ext in (".tif", ".tiff") else "uint8"
+        spec = oiio.ImageSpec(w, h, data.shape[2], fmt)
+        if data.shape[2] == 4:
+            spec.channelnames = ("R", "G", "B", "A")
+            spec.alpha_channel = 3
+        spec.attribute("oiio:ColorSpace", "sRGB")
+        data = np.ascontiguousarray(data, dtype=np.float32)
+
+    def _write(tmp):
+        out = oiio.ImageOutput.create(tmp)
+        if out is None or not out.open(tmp, spec):
+            raise ProcessingError(f"{path}: cannot write ({oiio.geterror().strip() or 'open failed'})")
+        ok = out.write_image(data)
+        err = out.geterror()
+        out.close()
+        if not ok:
+            raise ProcessingError(f"{path}: cannot write ({err.strip() or 'write failed'})")
+
+    _atomic_write(path, _write)

@@ -1,0 +1,223 @@
+"""The per-image plan: buffers of every level allocated once per image size (silx style),
+then preprocess -> pyramid -> composite, or preprocess -> reference. Kernel times come
+from OpenCL profiling events, grouped per stage."""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .config import FILTERS, Config
+from .errors import ProcessingError
+from .runtime import Runtime, get_runtime
+
+INTERP = {"linear-bilinear": 0, "linear-bicubic": 1, "cubic-bicubic": 2}
+MEDIUM_T = np.dtype([
+    ("sa", np.float32, 4), ("ss", np.float32, 4), ("emission", np.float32, 4),
+    ("ambient", np.float32, 4), ("g", np.float32), ("density", np.float32),
+    ("depth_scale", np.float32), ("max_depth", np.float32), ("focal_px", np.float32),
+    ("spread_scale", np.float32), ("depth_is_z", np.int32), ("pad", np.int32),
+])
+AOV_NAMES = ("optical_depth", "transmittance", "spread", "level", "direct", "scattered", "emission")
+
+
+def level_sizes(width: int, height: int, levels: int | str) -> list[tuple[int, int]]:
+    """Level 0 and every halving (rounded up) down to 1x1, or `levels` levels above 0."""
+    sizes = [(width, height)]
+    while sizes[-1] != (1, 1) and (levels == "auto" or len(sizes) <= int(levels)):
+        w, h = sizes[-1]
+        sizes.append(((w + 1) // 2, (h + 1) // 2))
+    return sizes
+
+
+@dataclass
+class Timings:
+    stages: dict = field(default_factory=dict)
+
+    def add(self, stage: str, event) -> None:
+        self.stages.setdefault(stage, []).append(event)
+
+    def resolve(self) -> dict[str, float]:
+        out = {}
+        for stage, events in self.stages.items():
+            out[stage] = sum((e.profile.end - e.profile.start) for e in events) * 1e-6
+        return out
+
+
+def defines(cfg: Config) -> dict:
+    taps = FILTERS[cfg.render.kernel]
+    d = {"FILTER_TAPS": len(taps), "FILTER_WEIGHTS": ",".join(f"{t!r}f" for t in taps),
+         "INTERP": INTERP[cfg.render.interpolation]}
+    if cfg.render.spread_model == "paper":
+        d["SPREAD_PAPER"] = 1
+    return d
+
+
+def medium_struct(cfg: Config, width: int) -> np.ndarray:
+    m, cam = cfg.medium, cfg.camera
+    non_homog = [d.type for d in m.density if d.type != "homogeneous"]
+    if non_homog:
+        from .errors import UserError
+
+        raise UserError(f"medium.density: {non_homog[0]} densities are not implemented yet; "
+                        "only homogeneous primitives are supported in this version")
+    s = np.zeros((), MEDIUM_T)
+    sa, ss = np.array(m.absorption, np.float32), np.array(m.scattering, np.float32)
+    s["sa"] = [*sa, sa.mean()]
+    s["ss"] = [*ss, ss.mean()]
+    s["emission"] = [*m.emission, 0.0]
+    s["ambient"] = [*m.ambient, 0.0]
+    s["g"] = m.asymmetry
+    s["density"] = sum(d.factor for d in m.density)
+    s["depth_scale"] = cam.depth_scale
+    s["max_depth"] = cam.max_depth
+    s["focal_px"] = cam.focal(width)
+    s["spread_scale"] = cfg.render.spread_scale
+    s["depth_is_z"] = 1 if cam.depth == "z" else 0
+    return s
+
+
+class Plan:
+    """Device buffers for one image size and one set of compile-time options."""
+
+    def __init__(self, rt: Runtime, width: int, height: int, cfg: Config, aovs=()):
+        self.rt, self.w, self.h, self.cfg = rt, width, height, cfg
+        cl = rt.cl
+        self.aovs = tuple(aovs)
+        self.sizes = level_sizes(width, height, cfg.render.levels)
+        offs = np.cumsum([0] + [w * h for w, h in self.sizes])
+        self.lv = np.array([[o, w, h, 0] for o, (w, h) in zip(offs[:-1], self.sizes)], np.int32)
+        total = int(offs[-1])
+        n = width * height
+        mf = cl.mem_flags
+        need = 4 * (4 * n * 4 + n + 4 * total + total) + (4 * 4 * n * 2 + 4 * n if aovs else 0)
+        if need > rt.device.global_mem_size:
+            raise ProcessingError(f"image of {width}x{height} needs {need / 2**20:.0f} MiB, "
+                                  f"device {rt.info.name} has {rt.device.global_mem_size / 2**20:.0f} MiB")
+        try:
+            B = lambda nbytes: cl.Buffer(rt.ctx, mf.READ_WRITE, max(int(nbytes), 16))  # noqa: E731
+            self.image = B(16 * n)
+            self.depth = B(4 * n)
+            self.direct = B(16 * n)
+            self.medium = B(16 * n)
+            self.chain = B(16 * total)
+            self.spread = B(4 * total)
+            self.out = B(16 * n)
+            want = bool(aovs)
+            self.trans = B(16 * n if "transmittance" in self.aovs else 16)
+            self.level_aov = B(4 * n if want else 16)
+            self.scat_aov = B(16 * n if want else 16)
+            self.lv_buf = cl.Buffer(rt.ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=self.lv)
+        except cl.Error as exc:
+            raise ProcessingError(f"cannot allocate device buffers for {width}x{height}: {exc}") from exc
+        d = defines(cfg)
+        self.k_pre = rt.program("preprocess", **d).preprocess
+        self.k_reduce = rt.program("pyramid", **d).reduce_level
+        self.k_comp = rt.program("composite", **d).composite
+
+    # -- stages --------------------------------------------------------------------
+    def upload(self, rgba: np.ndarray, depth: np.ndarray, t: Timings) -> None:
+        cl = self.rt.cl
+        t.add("upload", cl.enqueue_copy(self.rt.queue, self.image, np.ascontiguousarray(rgba, np.float32)))
+        t.add("upload", cl.enqueue_copy(self.rt.queue, self.depth, np.ascontiguousarray(depth, np.float32)))
+
+    def preprocess(self, t: Timings) -> None:
+        q, gs = self.rt.queue, (self.w, self.h)
+        t.add("preprocess", self.k_pre(
+            q, gs, None, self.image, self.depth, self.direct, self.chain, self.spread,
+            self.medium, self.trans, np.int32("transmittance" in self.aovs),
+            np.int32(self.w), np.int32(self.h), medium_struct(self.cfg, self.w)))
+
+    def pyramid(self, t: Timings, masked: bool) -> None:
+        c, eps, thr = self.cfg.render.resolved()
+        q = self.rt.queue
+        for k in range(1, len(self.sizes)):
+            (so, sw, sh, _), (do, dw, dh, _) = self.lv[k - 1], self.lv[k]
+            t.add("pyramid", self.k_reduce(
+                q, (int(dw), int(dh)), None, self.chain, self.spread,
+                np.int32(so), np.int32(sw), np.int32(sh), np.int32(do), np.int32(dw), np.int32(dh),
+                np.float32(thr * c * 2.0 ** (k - 1)), np.float32(eps), np.int32(masked)))
+
+    def composite(self, t: Timings, depth_blur: bool) -> None:
+        c, _, _ = self.cfg.render.resolved()
+        t.add("composite", self.k_comp(
+            self.rt.queue, (self.w, self.h), None, self.direct, self.medium, self.chain,
+            self.spread, self.lv_buf, np.int32(len(self.sizes) - 1), np.float32(c),
+            np.int32(depth_blur), self.out, np.int32(bool(self.aovs)), self.level_aov, self.scat_aov))
+
+    def download(self, buf, channels: int, t: Timings) -> np.ndarray:
+        arr = np.empty((self.h, self.w, channels) if channels > 1 else (self.h, self.w), np.float32)
+        t.add("download", self.rt.cl.enqueue_copy(self.rt.queue, arr, buf))
+        return arr
+
+    def aov_planes(self, t: Timings) -> dict:
+        if not self.aovs:
+            return {}
+        out = {}
+        want = set(self.aovs)
+        direct = self.download(self.direct, 4, t) if "direct" in want else None
+        medium = self.download(self.medium, 4, t) if want & {"optical_depth", "emission"} else None
+        for name in self.aovs:
+            if name == "optical_depth":
+                out["optical_depth"] = medium[:, :, 3]
+            elif name == "spread":
+                out["spread"] = self.download(self.spread, 1, t)   # level 0 of the chain
+            elif name == "level":
+                out["level"] = self.download(self.level_aov, 1, t)
+            else:
+                src = {"transmittance": None, "direct": direct, "emission": medium, "scattered": None}[name]
+                if name == "transmittance":
+                    src = self.download(self.trans, 4, t)
+                elif name == "scattered":
+                    src = self.download(self.scat_aov, 4, t)
+                for i, ch in enumerate("RGB"):
+                    out[f"{name}.{ch}"] = src[:, :, i]
+        return out
+
+
+_PLANS: dict = {}
+
+
+def get_plan(rt: Runtime, width: int, height: int, cfg: Config, aovs=()) -> Plan:
+    """Reuse buffers across images of one size and one compile-time configuration."""
+    key = (id(rt), width, height, tuple(sorted(defines(cfg).items())), cfg.render.levels, tuple(aovs))
+    plan = _PLANS.get(key)
+    if plan is None:
+        if len(_PLANS) > 4:
+            _PLANS.clear()
+        plan = _PLANS[key] = Plan(rt, width, height, cfg, aovs)
+    plan.cfg = cfg
+    return plan
+
+
+def run(rgb: np.ndarray, depth: np.ndarray, cfg: Config, alpha=None, aovs=(), device=None,
+        timings: Timings | None = None) -> tuple[np.ndarray, dict]:
+    """Process one frame on the device. Returns (rgb out (h, w, 3), aov planes)."""
+    h, w = depth.shape
+    if rgb.shape[:2] != (h, w):
+        raise ValueError(f"image {rgb.shape[:2]} and depth {depth.shape} differ in size")
+    t = timings if timings is not None else Timings()
+    rt = get_runtime(device)
+    plan = get_plan(rt, w, h, cfg, aovs)
+    rgba = np.empty((h, w, 4), np.float32)
+    rgba[:, :, :3] = rgb
+    rgba[:, :, 3] = 1.0 if alpha is None else alpha
+    plan.upload(rgba, depth, t)
+    plan.preprocess(t)
+    method = cfg.render.method
+    if method == "reference":
+        from .reference import reference_into
+
+        reference_into(plan, t)
+    else:
+        plan.pyramid(t, masked=(method == "pyramid"))
+        plan.composite(t, depth_blur=(method == "pyramid"))
+    out = plan.download(plan.out, 4, t)
+    planes = plan.aov_planes(t)
+    rt.queue.finish()
+    return out[:, :, :3], planes
+
+
+def kernel_ms(t: Timings) -> tuple[dict, float]:
+    stages = t.resolve()
+    return stages, float(sum(stages.values()))

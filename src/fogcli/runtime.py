@@ -1,0 +1,148 @@
+"""The OpenCL runtime: device choice, one context and queue, programs built once.
+
+Device choice (first match wins): the explicit spec (``--device`` / ``FOGCLI_DEVICE``),
+else the first GPU or accelerator of any platform, else the first CPU device (PoCL from
+pip is the embedded default). A spec is ``P:D`` (platform and device index, as listed
+by ``fogcli devices``, needed when two platforms share a name), ``cpu``, ``gpu`` or a
+case-insensitive substring of the platform or device name.
+"""
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass
+from pathlib import Path
+
+from .errors import ProcessingError, UserError
+
+KERNEL_DIR = Path(__file__).resolve().parent / "kernels"
+
+
+def _user_cache_dir() -> Path:
+    base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
+    return Path(base) / "fogcli"
+
+
+def _prepare_environment() -> None:
+    # PoCL compiles kernels into a cache; by default under $HOME/.cache/pocl, but a
+    # read-only or shared HOME must not break us, so give it our own user cache dir.
+    cache = _user_cache_dir() / "pocl"
+    if "POCL_CACHE_DIR" not in os.environ:
+        try:
+            cache.mkdir(parents=True, exist_ok=True)
+            os.environ["POCL_CACHE_DIR"] = str(cache)
+        except OSError:
+            pass
+
+
+def _cl():
+    _prepare_environment()
+    import pyopencl as cl  # imported lazily: `fogcli check` and `media` never touch OpenCL
+
+    return cl
+
+
+@dataclass(frozen=True)
+class DeviceInfo:
+    platform_index: int
+    device_index: int
+    platform: str
+    name: str
+    kind: str
+    version: str
+
+    @property
+    def spec(self) -> str:
+        return f"{self.platform_index}:{self.device_index}"
+
+    def label(self) -> str:
+        return f"{self.name} [{self.platform}, {self.spec}]"
+
+
+def list_devices() -> list[tuple[DeviceInfo, object]]:
+    cl = _cl()
+    try:
+        platforms = cl.get_platforms()
+    except Exception as exc:  # pyopencl raises LogicError with no ICD at all
+        raise ProcessingError(f"no OpenCL platform found ({exc}); install pocl-binary-distribution") from exc
+    out = []
+    for pi, p in enumerate(platforms):
+        try:
+            devices = p.get_devices()
+        except Exception:
+            continue
+        for di, d in enumerate(devices):
+            kind = cl.device_type.to_string(d.type).replace("ALL | ", "").lower()
+            out.append((DeviceInfo(pi, di, p.name.strip(), d.name.strip(), kind, p.version.strip()), d))
+    if not out:
+        raise ProcessingError("no OpenCL device available; install pocl-binary-distribution")
+    return out
+
+
+def choose(devices, spec: str | None):
+    if spec:
+        s = spec.strip().lower()
+        for info, dev in devices:
+            if s == info.spec or (s in ("cpu", "gpu", "accelerator") and s in info.kind):
+                return info, dev
+        for info, dev in devices:
+            if s in info.name.lower() or s in info.platform.lower():
+                return info, dev
+        known = ", ".join(i.spec + " " + i.name for i, _ in devices)
+        raise UserError(f"--device {spec!r}: no such OpenCL device (have: {known})")
+    for info, dev in devices:
+        if "gpu" in info.kind or "accelerator" in info.kind:
+            return info, dev
+    return devices[0]
+
+
+class _Kernels:
+    """Kernels of one program, each retrieved once (a retrieval is a new cl.Kernel)."""
+
+    def __init__(self, cl, program):
+        self._cl, self._program, self._cache = cl, program, {}
+
+    def __getattr__(self, name):
+        k = self._cache.get(name)
+        if k is None:
+            k = self._cache[name] = self._cl.Kernel(self._program, name)
+        return k
+
+
+class Runtime:
+    """One context, one profiling queue, and a cache of built programs."""
+
+    def __init__(self, spec: str | None = None):
+        cl = _cl()
+        self.cl = cl
+        self.info, device = choose(list_devices(), spec or os.environ.get("FOGCLI_DEVICE"))
+        self.device = device
+        self.ctx = cl.Context([device])
+        self.queue = cl.CommandQueue(self.ctx, properties=cl.command_queue_properties.PROFILING_ENABLE)
+        self._programs: dict[tuple, object] = {}
+
+    def program(self, name: str, **defines):
+        """Kernels of kernels/<name>.cl built with -D defines, once per process."""
+        key = (name,) + tuple(sorted(defines.items()))
+        prog = self._programs.get(key)
+        if prog is None:
+            src = (KERNEL_DIR / f"{name}.cl").read_text()
+            opts = ["-I", str(KERNEL_DIR)]
+            for k, v in sorted(defines.items()):
+                opts += ["-D", f"{k}={v}"]
+            try:
+                prog = _Kernels(self.cl, self.cl.Program(self.ctx, src).build(options=opts))
+            except self.cl.RuntimeError as exc:
+                raise ProcessingError(f"kernel {name}.cl failed to build: {exc}") from exc
+            self._programs[key] = prog
+        return prog
+
+
+_RUNTIMES: dict[str | None, Runtime] = {}
+
+
+def get_runtime(spec: str | None = None) -> Runtime:
+    """The process-wide runtime for a device spec (built lazily, once)."""
+    rt = _RUNTIMES.get(spec)
+    if rt is None:
+        rt = _RUNTIMES[spec] = Runtime(spec)
+    return rt
