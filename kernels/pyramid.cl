@@ -49,3 +49,24 @@ __kernel void reduce_level(__global float4 *chain, __global float *spread_chain,
     chain[d] = (float4)(acc_c / acc_g, wk);
     spread_chain[d] = acc_s / acc_g;
 }
+
+/* Source-driven collapse (fogcli's alternative to Elek eq. 10-12, `render.fetch: source`):
+ * level k keeps the part of I^[k] that eq. 7 masks out of level k+1, at level k's blur,
+ * and adds the collapsed levels above: E_k = (1 - M^[k+1]) I^[k] + up(E_{k+1}), in place. */
+__kernel void collapse_level(__global float4 *chain, const int off, const int w, const int h,
+                             const int up_off, const int uw, const int uh,
+                             const float thresh, const float eps)
+{
+    int x = get_global_id(0), y = get_global_id(1);
+    if (x >= w || y >= h) return;
+    int d = off + y * w + x;
+    float4 v = chain[d];
+    float m = smoothstep_(thresh, (1.0f + eps) * thresh, v.w);
+    float ux = (x + 0.5f) * 0.5f - 0.5f, uy = (y + 0.5f) * 0.5f - 0.5f;
+#if INTERP == 0
+    float4 up = bilinear4(chain + up_off, uw, uh, ux, uy);
+#else
+    float4 up = bicubic4(chain + up_off, uw, uh, ux, uy);
+#endif
+    chain[d] = (float4)((1.0f - m) * v.xyz + up.xyz, v.w);
+}

@@ -196,6 +196,7 @@ class Render:
     epsilon: float | str = "auto"
     threshold: float | str = "auto"
     levels: int | str = "auto"
+    fetch: str = "source"
     separation: Separation = field(default_factory=Separation)
 
     def resolved(self) -> tuple[float, float, float]:
@@ -312,7 +313,7 @@ _DENSITY_KEYS = {
 _CAMERA_KEYS = dict.fromkeys(["fov", "focal_px", "position", "yaw", "pitch", "roll", "depth",
                               "depth_scale", "max_depth"])
 _RENDER_KEYS = dict.fromkeys(["method", "spread_model", "spread_scale", "kernel", "interpolation",
-                              "c", "epsilon", "threshold", "levels", "separation"])
+                              "c", "epsilon", "threshold", "levels", "fetch", "separation"])
 _SEP_KEYS = dict.fromkeys(["enabled", "luminance", "luminance_width", "depth", "depth_width", "level"])
 _OUTPUT_KEYS = dict.fromkeys(["exposure", "half"])
 _SECTIONS = {"medium": _MEDIUM_KEYS, "camera": _CAMERA_KEYS, "render": _RENDER_KEYS, "output": _OUTPUT_KEYS}
@@ -426,6 +427,7 @@ def _render(ck: _Checker, sec: dict) -> Render:
         "method": ["pyramid", "naive", "reference"],
         "spread_model": ["angular", "paper"],
         "interpolation": ["linear-bilinear", "linear-bicubic", "cubic-bicubic"],
+        "fetch": ["source", "receiver"],
     }
     for k, opts in choices.items():
         if k in sec:

@@ -114,6 +114,7 @@ class Plan:
         self.k_pre = rt.program("preprocess", **d).preprocess
         self.k_reduce = rt.program("pyramid", **d).reduce_level
         self.k_comp = rt.program("composite", **d).composite
+        self.k_collapse = rt.program("pyramid", **d).collapse_level
 
     # -- stages --------------------------------------------------------------------
     def upload(self, rgba: np.ndarray, depth: np.ndarray, t: Timings) -> None:
@@ -138,8 +139,19 @@ class Plan:
                 np.int32(so), np.int32(sw), np.int32(sh), np.int32(do), np.int32(dw), np.int32(dh),
                 np.float32(thr * c * 2.0 ** (k - 1)), np.float32(eps), np.int32(masked)))
 
-    def composite(self, t: Timings, depth_blur: bool) -> None:
+    def collapse(self, t: Timings) -> None:
+        c, eps, thr = self.cfg.render.resolved()
+        q = self.rt.queue
+        for k in range(len(self.sizes) - 2, -1, -1):
+            (o, w, h, _), (uo, uw, uh, _) = self.lv[k], self.lv[k + 1]
+            t.add("composite", self.k_collapse(
+                q, (int(w), int(h)), None, self.chain, np.int32(o), np.int32(w), np.int32(h),
+                np.int32(uo), np.int32(uw), np.int32(uh), np.float32(thr * c * 2.0 ** k), np.float32(eps)))
+
+    def composite(self, t: Timings, depth_blur: bool, level0: bool = False) -> None:
         c, _, _ = self.cfg.render.resolved()
+        if level0:
+            c = 1e30  # every pixel maps to level 0
         t.add("composite", self.k_comp(
             self.rt.queue, (self.w, self.h), None, self.direct, self.medium, self.chain,
             self.spread, self.lv_buf, np.int32(len(self.sizes) - 1), np.float32(c),
@@ -211,7 +223,12 @@ def run(rgb: np.ndarray, depth: np.ndarray, cfg: Config, alpha=None, aovs=(), de
         reference_into(plan, t)
     else:
         plan.pyramid(t, masked=(method == "pyramid"))
-        plan.composite(t, depth_blur=(method == "pyramid"))
+        if method == "pyramid" and cfg.render.fetch == "source":
+            plan.collapse(t)
+            # level 0 of the chain now holds the blurred L_sc: fetch it at level 0
+            plan.composite(t, depth_blur=False, level0=True)
+        else:
+            plan.composite(t, depth_blur=(method == "pyramid"))
     out = plan.download(plan.out, 4, t)
     planes = plan.aov_planes(t)
     rt.queue.finish()
@@ -221,3 +238,28 @@ def run(rgb: np.ndarray, depth: np.ndarray, cfg: Config, alpha=None, aovs=(), de
 def kernel_ms(t: Timings) -> tuple[dict, float]:
     stages = t.resolve()
     return stages, float(sum(stages.values()))
+
+
+def read_chain(plan: Plan) -> tuple[list, list]:
+    """Every level of the colour chain (h, w, 4) and of the spread chain (h, w): for tests
+    and inspection."""
+    total = int(plan.lv[-1, 0] + plan.lv[-1, 1] * plan.lv[-1, 2])
+    c = np.empty((total, 4), np.float32)
+    s = np.empty(total, np.float32)
+    cl, q = plan.rt.cl, plan.rt.queue
+    cl.enqueue_copy(q, c, plan.chain)
+    cl.enqueue_copy(q, s, plan.spread)
+    q.finish()
+    cols, spreads = [], []
+    for o, w, h, _ in plan.lv:
+        cols.append(c[o:o + w * h].reshape(h, w, 4))
+        spreads.append(s[o:o + w * h].reshape(h, w))
+    return cols, spreads
+
+
+def write_level0(plan: Plan, scat: np.ndarray, spread: np.ndarray) -> None:
+    """Set level 0 of both chains (tests drive the pyramid from chosen inputs)."""
+    cl, q = plan.rt.cl, plan.rt.queue
+    cl.enqueue_copy(q, plan.chain, np.ascontiguousarray(scat, np.float32))
+    cl.enqueue_copy(q, plan.spread, np.ascontiguousarray(spread, np.float32))
+    q.finish()

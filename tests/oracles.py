@@ -1,0 +1,145 @@
+"""Small numpy oracles of every kernel: loops written for reading, not for speed."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+LUM = np.array([0.2126, 0.7152, 0.0722])
+
+
+def spread_w(s, sa, ss, g):
+    """Elek eq. 2 as printed (s > 0)."""
+    s = np.asarray(s, np.float64)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        inner = 2 * sa / (3 * s) + 4 / (s ** 3 * ss * (1 - g))
+        w = np.sqrt(0.5 / inner)
+    return np.where(s > 0, w, 0.0)
+
+
+def preprocess(img, depth, sa, ss, g, focal, scale=1.0, density=1.0, depth_scale=1.0,
+               max_depth=1000.0, z=True, paper=False, emission=(0, 0, 0), ambient=(0, 0, 0)):
+    h, w = depth.shape
+    sa, ss = np.asarray(sa, float), np.asarray(ss, float)
+    st = sa + ss
+    jj, ii = np.mgrid[0:h, 0:w] + 0.5
+    dist = depth.astype(np.float64) * depth_scale
+    if z:
+        dist = dist * np.sqrt(((ii - w / 2) / focal) ** 2 + ((jj - h / 2) / focal) ** 2 + 1)
+    dist = np.minimum(dist, max_depth)
+    P = density * dist
+    L = img[:, :, :3].astype(np.float64)
+    at = np.exp(-st * P[..., None]) * L
+    sc = np.exp(-sa * P[..., None]) * (1 - np.exp(-ss * P[..., None])) * L
+    W = spread_w(P, sa.mean(), ss.mean(), g)
+    if paper:
+        sigma = scale * W * w / 1280
+    else:
+        sigma = np.where(dist > 0, scale * W / np.maximum(dist, 1e-30) * focal, 0)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        em = np.where(st > 0, (1 - np.exp(-st * P[..., None])) / st, P[..., None]) * np.asarray(emission)
+        amb = np.where(st > 0, ss / st * (1 - np.exp(-st * P[..., None])), 0) * np.asarray(ambient)
+    return at, sc, sigma, em + amb, P
+
+
+def smoothstep(e0, e1, x):
+    t = np.clip((x - e0) / (e1 - e0), 0, 1)
+    return t * t * (3 - 2 * t)
+
+
+def reduce_level(src, spread, taps, thresh, eps, masked=True):
+    """One pyramid level: src (h, w, 4) with W in [..., 3], spread (h, w)."""
+    h, w = spread.shape
+    n = len(taps)
+    dh, dw = (h + 1) // 2, (w + 1) // 2
+    out = np.zeros((dh, dw, 4))
+    sout = np.zeros((dh, dw))
+    for y in range(dh):
+        for x in range(dw):
+            c = np.zeros(3)
+            gsum = ssum = yw = ysum = wsum = 0.0
+            cnt = 0
+            for ty in range(n):
+                sy = 2 * y - n // 2 + 1 + ty
+                if not 0 <= sy < h:
+                    continue
+                for tx in range(n):
+                    sx = 2 * x - n // 2 + 1 + tx
+                    if not 0 <= sx < w:
+                        continue
+                    v = src[sy, sx]
+                    wg = taps[tx] * taps[ty]
+                    m = smoothstep(thresh, (1 + eps) * thresh, v[3]) if masked else 1.0
+                    c += wg * m * v[:3]
+                    gsum += wg
+                    ssum += wg * spread[sy, sx]
+                    lum = LUM @ v[:3]
+                    yw += lum * v[3]
+                    ysum += lum
+                    wsum += v[3]
+                    cnt += 1
+            out[y, x, :3] = c / gsum
+            out[y, x, 3] = yw / ysum if ysum > 1e-30 else wsum / cnt
+            sout[y, x] = ssum / gsum
+    return out, sout
+
+
+def _bspline(f):
+    return np.array([(1 - f) ** 3, 3 * f ** 3 - 6 * f ** 2 + 4, -3 * f ** 3 + 3 * f ** 2 + 3 * f + 1, f ** 3]) / 6
+
+
+def sample(img, x, y, cubic):
+    """Clamp-to-edge bilinear or cubic B-spline (16 taps) at index-space (x, y)."""
+    h, w = img.shape[:2]
+    cx = lambda i: min(max(i, 0), w - 1)  # noqa: E731
+    cy = lambda j: min(max(j, 0), h - 1)  # noqa: E731
+    if not cubic:
+        x = min(max(x, 0.0), w - 1.0)
+        y = min(max(y, 0.0), h - 1.0)
+        x0, y0 = int(math.floor(x)), int(math.floor(y))
+        fx, fy = x - x0, y - y0
+        a = img[y0, x0] * (1 - fx) + img[y0, cx(x0 + 1)] * fx
+        b = img[cy(y0 + 1), x0] * (1 - fx) + img[cy(y0 + 1), cx(x0 + 1)] * fx
+        return a * (1 - fy) + b * fy
+    ix, iy = math.floor(x), math.floor(y)
+    wx, wy = _bspline(x - ix), _bspline(y - iy)
+    acc = 0.0
+    for b in range(4):
+        for a in range(4):
+            acc = acc + wx[a] * wy[b] * img[cy(iy - 1 + b), cx(ix - 1 + a)]
+    return acc
+
+
+def collapse(levels, taps_c, eps, cubic, thr=1.0):
+    """E_k = (1 - M^[k+1]) I^[k] + up(E_{k+1}) over a list of (h, w, 4) levels."""
+    E = [lv.astype(np.float64).copy() for lv in levels]
+    for k in range(len(E) - 2, -1, -1):
+        T = thr * taps_c * 2.0 ** k
+        h, w = E[k].shape[:2]
+        for y in range(h):
+            for x in range(w):
+                m = smoothstep(T, (1 + eps) * T, E[k][y, x, 3])
+                up = sample(E[k + 1], (x + 0.5) * 0.5 - 0.5, (y + 0.5) * 0.5 - 0.5, cubic)
+                E[k][y, x, :3] = (1 - m) * E[k][y, x, :3] + up[:3]
+    return E[0]
+
+
+def reference(sc, sigma):
+    """Brute-force screen-space reference: Gaussian per source pixel, truncated at
+    ceil(4 sigma), normalised over the in-image pixels."""
+    h, w = sigma.shape
+    out = np.zeros((h, w, 3))
+    for j in range(h):
+        for i in range(w):
+            s = sigma[j, i]
+            if s <= 0:
+                out[j, i] += sc[j, i]
+                continue
+            R = int(math.ceil(4 * s))
+            xs = np.arange(max(0, i - R), min(w, i + R + 1))
+            ys = np.arange(max(0, j - R), min(h, j + R + 1))
+            gx = np.exp(-((xs - i) ** 2) / (2 * s * s))
+            gy = np.exp(-((ys - j) ** 2) / (2 * s * s))
+            k = np.outer(gy, gx)
+            out[ys[0]:ys[-1] + 1, xs[0]:xs[-1] + 1] += k[:, :, None] * sc[j, i] / k.sum()
+    return out
