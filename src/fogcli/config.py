@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import difflib
 import math
+import re
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -29,6 +30,17 @@ FILTERS = {
     6: (0.03125, 0.15625, 0.3125, 0.3125, 0.15625, 0.03125),
 }
 VISIBILITY_CONTRAST = 3.912  # -ln(0.02): Koschmieder's 2 % contrast threshold
+
+
+class _Loader(yaml.SafeLoader):
+    """YAML with 1.2-style floats, so that 1e9 and 5E-3 are numbers, as users expect."""
+
+
+_Loader.add_implicit_resolver(
+    "tag:yaml.org,2002:float",
+    re.compile(r"^[-+]?(?:[0-9][0-9_]*\.?[0-9_]*(?:[eE][-+]?[0-9]+)?|\.[0-9_]+(?:[eE][-+]?[0-9]+)?"
+               r"|[-+]?\.(?:inf|Inf|INF)|\.(?:nan|NaN|NAN))$"),
+    list("-+0123456789."))
 
 
 class _Loc:
@@ -55,7 +67,7 @@ def _node_to_py(node, source: str, path: str, locs: dict):
         return out
     if isinstance(node, yaml.SequenceNode):
         return [_node_to_py(v, source, f"{path}[{i}]", locs) for i, v in enumerate(node.value)]
-    return yaml.safe_load(yaml.serialize(node)) if node.tag != "tag:yaml.org,2002:null" else None
+    return yaml.load(yaml.serialize(node), Loader=_Loader) if node.tag != "tag:yaml.org,2002:null" else None
 
 
 def load_yaml(path: str | Path, locs: dict) -> dict:
@@ -68,7 +80,7 @@ def load_yaml(path: str | Path, locs: dict) -> dict:
     except (OSError, UnicodeDecodeError) as exc:
         raise UserError(f"{p}: cannot read config file ({exc.__class__.__name__})") from None
     try:
-        node = yaml.compose(text)
+        node = yaml.compose(text, Loader=_Loader)
     except yaml.YAMLError as exc:
         mark = getattr(exc, "problem_mark", None)
         line = f":{mark.line + 1}" if mark else ""
@@ -90,7 +102,7 @@ def parse_set(item: str, locs: dict) -> dict:
     if not all(parts):
         raise UserError(f"--set {item!r}: empty key part")
     try:
-        val = yaml.safe_load(value) if value.strip() else None
+        val = yaml.load(value, Loader=_Loader) if value.strip() else None
     except yaml.YAMLError:
         raise UserError(f"--set {item!r}: value is not valid YAML") from None
     out: dict = {}

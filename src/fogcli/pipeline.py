@@ -208,6 +208,10 @@ def run(rgb: np.ndarray, depth: np.ndarray, cfg: Config, alpha=None, aovs=(), de
     h, w = depth.shape
     if rgb.shape[:2] != (h, w):
         raise ValueError(f"image {rgb.shape[:2]} and depth {depth.shape} differ in size")
+    if cfg.render.separation.enabled:
+        from .errors import UserError
+
+        raise UserError("render.separation.enabled: pixel separation is not implemented in this version")
     t = timings if timings is not None else Timings()
     rt = get_runtime(device)
     plan = get_plan(rt, w, h, cfg, aovs)

@@ -37,8 +37,9 @@ def scene(width=320, height=240, seed=0, night=True, fov=60.0, lamps=6, scale=1.
     # ground plane with a texture whose scale shrinks with distance
     zg = _ground(h, w, f, cam_h, horizon)
     g = np.isfinite(zg)
-    xw = (xx - w / 2) / f * zg
-    tex = 0.5 + 0.5 * np.sign(np.sin(xw * 0.8 / scale) * np.sin(zg * 0.8 / scale))
+    zf = np.where(g, zg, 0.0)
+    xw = (xx - w / 2) / f * zf
+    tex = 0.5 + 0.5 * np.sign(np.sin(xw * 0.8 / scale) * np.sin(zf * 0.8 / scale))
     base = np.array([0.05, 0.045, 0.04]) if night else np.array([0.25, 0.22, 0.18])
     ground_rgb = base[None, None, :] * (0.6 + 0.4 * tex[:, :, None])
     rgb[g] = ground_rgb[g]
@@ -92,6 +93,66 @@ def scene(width=320, height=240, seed=0, night=True, fov=60.0, lamps=6, scale=1.
     return rgb.astype(np.float32), z, fov
 
 
-def harbour_sample(width=640, height=360):
-    """The bundled sample: a harbour at night, lamps near and far, a lit far quay."""
-    return scene(width, height, seed=7, night=True, fov=65.0, lamps=8)
+def harbour_sample(width=640, height=360, fov=60.0):
+    """The bundled sample: a harbour at night seen from 2 m above the water. A quay on the
+    left with lamp posts every 12 m, a moored boat with a mast light, a far shore with lit
+    windows at 350 m, a beacon at 500 m, lamp reflections on the water, a night sky."""
+    rng = np.random.default_rng(7)
+    h, w = height, width
+    f = (w / 2) / math.tan(math.radians(fov) / 2)
+    jj, ii = np.mgrid[0:h, 0:w].astype(np.float64) + 0.5
+    dx, dy = (ii - w / 2) / f, -(jj - h / 2) / f          # ray (dx, dy, -1), camera at y = 2
+    cam_y = 2.0
+    t_sky = np.clip((jj / h) * 2.2, 0, 1)[:, :, None]
+    rgb = (np.array([0.004, 0.006, 0.016]) * (1 - t_sky) + np.array([0.030, 0.024, 0.030]) * t_sky)
+    z = np.full((h, w), np.inf)
+
+    def put(mask, depth, colour):
+        m = mask & (depth < z)
+        z[m] = depth[m] if np.ndim(depth) else depth
+        rgb[m] = colour[m] if np.ndim(colour) == 3 else colour
+
+    with np.errstate(divide="ignore", invalid="ignore"):
+        # far shore: a skyline plane at 350 m with lit windows
+        zs = 350.0
+        x_s, y_s = dx * zs, cam_y + dy * zs
+        skyline = 6 + 18 * np.abs(np.sin(np.floor(x_s / 14) * 1.7)) + 8 * (np.floor(x_s / 31) % 2)
+        shore = (y_s > 0) & (y_s < skyline)
+        win = ((np.floor(x_s / 2.5) + np.floor(y_s / 3)) % 3 == 0) & (rng.random((h, w)) < 1.0)
+        lit = win & (np.sin(np.floor(x_s / 2.5) * 12.9 + np.floor(y_s / 3) * 78.2) > 0.55)
+        col = np.where(lit[:, :, None], np.array([6.0, 4.5, 2.5]), np.array([0.012, 0.012, 0.016]))
+        put(shore, np.full((h, w), zs), col)
+        # water: plane y = 0, dark, with a faint sky reflection
+        t_w = np.where(dy < 0, cam_y / -dy, np.inf)
+        put(np.isfinite(t_w), t_w, np.array([0.006, 0.009, 0.014]))
+        # quay: top at y = 1 for x < -6, side wall at x = -6, from 3 m to 300 m away
+        t_top = np.where(dy < 0, (cam_y - 1.0) / -dy, np.inf)
+        quay_top = (dx * t_top < -6) & (t_top > 3) & (t_top < 300)
+        put(quay_top, t_top, np.array([0.035, 0.032, 0.028]))
+        t_wall = np.where(dx < 0, -6.0 / dx, np.inf)
+        y_wall = cam_y + dy * t_wall
+        put((y_wall > 0) & (y_wall < 1) & (t_wall > 3) & (t_wall < 300), t_wall, np.array([0.02, 0.019, 0.018]))
+        # boat: hull box and cabin on the right at 22-30 m
+        for (x0, x1, y0, y1, z0, z1, c) in [(3, 10, 0, 1.2, 22, 30, (0.05, 0.02, 0.02)),
+                                            (5, 8, 1.2, 2.6, 24, 28, (0.06, 0.06, 0.06))]:
+            t_f = np.full((h, w), float(z0))
+            xf, yf = dx * t_f, cam_y + dy * t_f
+            put((xf > x0) & (xf < x1) & (yf > y0) & (yf < y1), t_f, np.array(c))
+    lights = [(-6.5, 6.2, zq, 0.22, (1.0, 0.72, 0.42), 400.0) for zq in range(8, 140, 12)]
+    lights += [(6.5, 6.0, 26, 0.15, (0.2, 1.0, 0.3), 150.0), (9.5, 1.8, 22, 0.1, (1.0, 0.15, 0.1), 200.0),
+               (60.0, 15.0, 500, 1.2, (1.0, 0.95, 0.85), 2000.0)]
+    for lx, ly, lz, r, col, power in lights:
+        px, py = w / 2 + lx / lz * f, h / 2 - (ly - cam_y) / lz * f
+        rad = max(0.7, r / lz * f)
+        # post from the quay top to the lamp
+        if lx < 0:
+            post = (np.abs(ii - px) < max(0.5, 0.06 / lz * f)) & (jj > py) & (jj < h / 2 - (1 - cam_y) / lz * f)
+            put(post, np.full((h, w), float(lz)), np.array([0.015, 0.015, 0.015]))
+        disc = (ii - px) ** 2 + (jj - py) ** 2 < rad * rad
+        put(disc, np.full((h, w), float(lz)), np.array(col) * power)
+        # reflection: a vertical streak below the mirror image, on the water only
+        my = h / 2 + (ly + cam_y) / lz * f
+        streak = np.exp(-((ii - px) / max(1.0, 0.6 * rad)) ** 2) * np.exp(-((jj - my) / (6 + 30 / lz * f / 50)) ** 2)
+        water = (z >= cam_y / np.maximum(-dy, 1e-9) - 1e-6) & (dy < 0)
+        rgb[water] += (np.array(col) * power * 0.01 * streak[:, :, None])[water]
+    return rgb.astype(np.float32), z.astype(np.float32), fov

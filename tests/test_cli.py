@@ -1,0 +1,275 @@
+"""The command line: outputs, formats, metadata, and every bad input as exit 2 with one
+line and no traceback. Runs through click's runner and, once, a real subprocess."""
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import OpenImageIO as oiio
+import pytest
+from click.testing import CliRunner
+
+from fogcli.cli import main
+from fogcli.colour import linear_to_srgb
+
+ROOT = Path(__file__).resolve().parents[1]
+SAMPLE = ROOT / "samples" / "harbour.exr"
+
+
+def write_img(path, data, names, fmt="float", window=None, display=None, attrs=()):
+    data = np.ascontiguousarray(data, np.float32 if fmt in ("float", "half") else None)
+    h, w, c = data.shape
+    spec = oiio.ImageSpec(w, h, c, fmt)
+    spec.channelnames = tuple(names)
+    if "A" in names:
+        spec.alpha_channel = list(names).index("A")
+    if window:
+        spec.x, spec.y = window
+    if display:
+        spec.full_x, spec.full_y, spec.full_width, spec.full_height = display
+    for k, v in attrs:
+        spec.attribute(k, v)
+    out = oiio.ImageOutput.create(str(path))
+    assert out.open(str(path), spec), oiio.geterror()
+    assert out.write_image(data)
+    out.close()
+
+
+def read(path):
+    inp = oiio.ImageInput.open(str(path))
+    spec = inp.spec()
+    px = inp.read_image(0, 0, 0, spec.nchannels, "float")
+    inp.close()
+    return spec, np.asarray(px).reshape(spec.height, spec.width, spec.nchannels)
+
+
+@pytest.fixture
+def rgbz(tmp_path):
+    rng = np.random.default_rng(0)
+    h, w = 45, 61
+    rgb = rng.uniform(0, 1, (h, w, 3)).astype(np.float32)
+    rgb[10, 10] = 300.0
+    z = rng.uniform(5, 200, (h, w)).astype(np.float32)
+    z[:5] = np.inf
+    p = tmp_path / "in.exr"
+    write_img(p, np.dstack([rgb, z]), ["R", "G", "B", "Z"])
+    return p, rgb, z
+
+
+def run(*args):
+    r = CliRunner().invoke(main, [str(a) for a in args])
+    return r.exit_code, r.output, getattr(r, "stderr", r.output)
+
+
+def assert_one_line_error(code, out, needle):
+    assert code == 2, out
+    assert "Traceback" not in out
+    lines = [ln for ln in out.strip().splitlines() if ln.strip()]
+    assert len(lines) == 1, out
+    assert needle in lines[0], lines[0]
+
+
+def test_apply_exr_with_embedded_z_and_timings(rgbz, tmp_path):
+    p, rgb, z = rgbz
+    out = tmp_path / "out.exr"
+    code, text, _ = run("apply", p, "-o", out, "--medium", "fog", "--timings")
+    assert code == 0, text
+    spec, px = read(out)
+    assert spec.channelnames[:3] == ("R", "G", "B")
+    assert np.isfinite(px).all() and px.shape == (45, 61, 3)
+    assert not np.allclose(px, rgb)
+    t = json.loads(text.strip().splitlines()[-1])
+    assert set(t) == {"stages", "kernel_ms", "io_ms", "total_ms", "device", "pixels"}
+    assert t["pixels"] == 45 * 61
+    assert {"preprocess", "pyramid", "composite", "upload", "download"} <= set(t["stages"])
+    assert abs(sum(t["stages"].values()) - t["kernel_ms"]) < 0.01
+    assert 0 < t["kernel_ms"] < t["total_ms"]
+    assert list(tmp_path.iterdir()) == sorted([p, out]) or set(tmp_path.iterdir()) == {p, out}
+
+
+def test_aovs_as_exr_channels(rgbz, tmp_path):
+    p, rgb, z = rgbz
+    out = tmp_path / "aov.exr"
+    code, text, _ = run("apply", p, "-o", out, *sum([["--aov", a] for a in
+                        ["optical_depth", "transmittance", "spread", "level", "direct", "scattered", "emission"]], []))
+    assert code == 0, text
+    spec, px = read(out)
+    names = list(spec.channelnames)
+    for ch in ["optical_depth", "transmittance.R", "spread", "level", "direct.B", "scattered.G", "emission.R"]:
+        assert ch in names
+    od = px[:, :, names.index("optical_depth")]
+    assert od[:5].max() == pytest.approx(1000.0)      # sky clamped at max_depth (fog: density 1)
+    total = px[:, :, :3]
+    parts = sum(px[:, :, [names.index(f"{k}.{c}") for c in "RGB"]] for k in ("direct", "scattered", "emission"))
+    np.testing.assert_allclose(total, parts, rtol=1e-4, atol=1e-6)
+
+
+def test_windows_alpha_metadata_and_half(tmp_path):
+    rng = np.random.default_rng(1)
+    h, w = 20, 30
+    data = np.dstack([rng.uniform(0, 1, (h, w, 3)), rng.uniform(0, 1, (h, w)), rng.uniform(2, 50, (h, w))])
+    p = tmp_path / "win.exr"
+    write_img(p, data, ["R", "G", "B", "A", "Z"], window=(5, 7), display=(0, 0, 64, 48),
+              attrs=[("studio:shot", "sh010"), ("Copyright", "vfx")])
+    out = tmp_path / "win_out.exr"
+    code, text, _ = run("apply", p, "-o", out, "--set", "output.half=true")
+    assert code == 0, text
+    spec, px = read(out)
+    assert (spec.x, spec.y, spec.width, spec.height) == (5, 7, w, h)
+    assert (spec.full_x, spec.full_y, spec.full_width, spec.full_height) == (0, 0, 64, 48)
+    assert spec.getattribute("studio:shot") == "sh010" and spec.getattribute("Copyright") == "vfx"
+    assert str(spec.format) == "half"
+    a = px[:, :, list(spec.channelnames).index("A")]
+    np.testing.assert_allclose(a, data[:, :, 3], atol=1e-3)    # half precision
+
+
+@pytest.mark.parametrize("kind", ["exr", "tif", "png16", "npy"])
+def test_separate_depth_files(rgbz, tmp_path, kind):
+    p, rgb, z = rgbz
+    img = tmp_path / "rgb.exr"
+    write_img(img, rgb, ["R", "G", "B"])
+    zf = np.where(np.isfinite(z), z, 0).astype(np.float32)   # 0 = hole, filled
+    ref_out = tmp_path / "ref.exr"
+    d_exr = tmp_path / "d.exr"
+    write_img(d_exr, zf[:, :, None], ["Z"])
+    assert run("apply", img, "--depth", d_exr, "-o", ref_out)[0] == 0
+    extra = []
+    if kind == "exr":
+        d = d_exr
+    elif kind == "tif":
+        d = tmp_path / "d.tif"
+        write_img(d, zf[:, :, None], ["Y"])
+    elif kind == "png16":
+        d = tmp_path / "d.png"
+        write_img(d, np.round(zf * 100)[:, :, None].astype(np.uint16), ["Y"], fmt="uint16")
+        extra = ["--set", "camera.depth_scale=0.01"]
+    else:
+        d = tmp_path / "d.npy"
+        np.save(d, zf)
+    out = tmp_path / f"o_{kind}.exr"
+    code, text, _ = run("apply", img, "--depth", d, "-o", out, *extra)
+    assert code == 0, text
+    assert "invalid depth pixel" in text            # the zero rows were holes
+    tol = 2e-3 if kind == "png16" else 1e-6
+    np.testing.assert_allclose(read(out)[1], read(ref_out)[1], rtol=tol, atol=tol)
+
+
+def test_srgb_png_in_and_out(tmp_path):
+    """8/16-bit inputs are sRGB: decoded to linear before physics (with no medium the
+    output equals the decoded input), and PNG output is sRGB with exposure."""
+    rng = np.random.default_rng(2)
+    lin = rng.uniform(0, 1, (16, 24, 3)).astype(np.float32)
+    png = tmp_path / "in.png"
+    write_img(png, np.round(linear_to_srgb(lin) * 65535).astype(np.uint16), ["R", "G", "B"], fmt="uint16")
+    d = tmp_path / "d.npy"
+    np.save(d, np.full((16, 24), 10.0, np.float32))
+    out = tmp_path / "o.exr"
+    code, text, _ = run("apply", png, "--depth", d, "-o", out, "--set", "medium.visibility=1e9")
+    assert code == 0, text
+    np.testing.assert_allclose(read(out)[1], lin, atol=1e-3)
+    out_png = tmp_path / "o.png"
+    code, text, _ = run("apply", png, "--depth", d, "-o", out_png, "--set", "medium.visibility=1e9",
+                        "--set", "output.exposure=-1")
+    assert code == 0, text
+    spec, px = read(out_png)
+    assert str(spec.format) == "uint8"
+    np.testing.assert_allclose(px, linear_to_srgb(lin * 0.5), atol=1 / 255 + 1e-3)
+
+
+def test_nan_depth_is_filled_and_counted(rgbz, tmp_path):
+    p, rgb, z = rgbz
+    z2 = z.copy()
+    z2[20:23, 30:33] = np.nan
+    z2[0, 0] = -1
+    q = tmp_path / "holes.exr"
+    write_img(q, np.dstack([rgb, z2]), ["R", "G", "B", "Z"])
+    code, text, _ = run("apply", q, "-o", tmp_path / "o.exr")
+    assert code == 0
+    assert "10 invalid depth pixel(s)" in text
+    assert np.isfinite(read(tmp_path / "o.exr")[1]).all()
+
+
+def test_bad_inputs_exit_2_with_one_line(rgbz, tmp_path):
+    p, rgb, z = rgbz
+    out = tmp_path / "o.exr"
+    assert_one_line_error(*run("apply", tmp_path / "nope.exr", "-o", out)[:2], "nope.exr: file not found")
+    junk = tmp_path / "junk.exr"
+    junk.write_text("not an exr")
+    assert_one_line_error(*run("apply", junk, "-o", out)[:2], "junk.exr")
+    trunc = tmp_path / "trunc.exr"
+    trunc.write_bytes(p.read_bytes()[: p.stat().st_size // 2])
+    assert_one_line_error(*run("apply", trunc, "-o", out)[:2], "trunc.exr")
+    small = tmp_path / "small.npy"
+    np.save(small, np.ones((10, 10), np.float32))
+    assert_one_line_error(*run("apply", p, "--depth", small, "-o", out)[:2], "must match")
+    colour = tmp_path / "colour.exr"
+    write_img(colour, np.random.default_rng(0).uniform(0, 1, (45, 61, 3)), ["R", "G", "B"])
+    assert_one_line_error(*run("apply", p, "--depth", colour, "-o", out)[:2], "no usable depth channel")
+    assert_one_line_error(*run("apply", colour, "-o", out)[:2], "no depth channel")
+    zero = tmp_path / "zero.npy"
+    np.save(zero, np.zeros((45, 61), np.float32))
+    assert_one_line_error(*run("apply", p, "--depth", zero, "-o", out)[:2], "no valid pixel")
+    cfg = tmp_path / "c.yaml"
+    cfg.write_text("render:\n  levels: 3\n  kernal: 4\n")
+    assert_one_line_error(*run("apply", p, "--config", cfg, "-o", out)[:2], "c.yaml:3: render.kernal")
+    assert_one_line_error(*run("apply", p, "--medium", "fogg", "-o", out)[:2], "no such preset")
+    assert_one_line_error(*run("apply", p, "-o", p)[:2], "refusing to overwrite the input")
+    assert_one_line_error(*run("apply", p, "-o", tmp_path / "o.bmp")[:2], "unsupported output format")
+    assert not out.exists()
+    assert sorted(f.name for f in tmp_path.iterdir()) == sorted(
+        ["in.exr", "junk.exr", "trunc.exr", "small.npy", "colour.exr", "zero.npy", "c.yaml"])
+
+
+def test_output_replaced_atomically_and_input_untouched(rgbz, tmp_path):
+    p, rgb, z = rgbz
+    before = p.read_bytes()
+    out = tmp_path / "o.exr"
+    out.write_text("old")
+    assert run("apply", p, "-o", out)[0] == 0
+    assert p.read_bytes() == before
+    assert read(out)[1].shape == (45, 61, 3)
+    assert not [f for f in tmp_path.iterdir() if ".tmp" in f.name]
+
+
+def test_devices_media_check(tmp_path):
+    code, text, _ = run("devices")
+    assert code == 0 and "default:" in text and "0:0" in text
+    code, text, _ = run("media")
+    assert code == 0 and all(n in text for n in ("fog", "haze", "sea", "harbour", "smoke"))
+    good = tmp_path / "g.yaml"
+    good.write_text("medium:\n  visibility: 80\n  albedo: 0.9\n")
+    bad = tmp_path / "b.yaml"
+    bad.write_text("medium:\n  visibility: -3\ncamera:\n  depth: zz\n")
+    code, text, _ = run("check", good)
+    assert code == 0 and "ok" in text
+    code, text, _ = run("check", good, bad)
+    assert code == 2 and "b.yaml:2: medium.visibility" in text and "b.yaml:4: camera.depth" in text
+    assert "Traceback" not in text
+
+
+def test_methods_run_through_the_same_command(rgbz, tmp_path):
+    p, rgb, z = rgbz
+    outs = {}
+    for m in ("pyramid", "naive", "reference"):
+        o = tmp_path / f"{m}.exr"
+        assert run("apply", p, "-o", o, "--set", f"render.method={m}")[0] == 0
+        outs[m] = read(o)[1]
+    assert not np.allclose(outs["pyramid"], outs["naive"])
+    assert not np.allclose(outs["pyramid"], outs["reference"])
+
+
+def test_real_subprocess_on_the_sample(tmp_path):
+    out = tmp_path / "harbour_fog.png"
+    env = dict(os.environ, FOGCLI_DEVICE="cpu")
+    r = subprocess.run([sys.executable, "-m", "fogcli", "apply", str(SAMPLE), "--medium", "sea",
+                        "-o", str(out), "--timings"], capture_output=True, text=True, env=env, timeout=300)
+    assert r.returncode == 0, r.stderr
+    t = json.loads(r.stderr.strip().splitlines()[-1])
+    assert t["pixels"] == 640 * 360
+    spec, px = read(out)
+    assert (spec.width, spec.height) == (640, 360) and px.std() > 0.01
+    r = subprocess.run([sys.executable, "-m", "fogcli", "apply", str(tmp_path / "missing.exr")],
+                       capture_output=True, text=True, timeout=300)
+    assert r.returncode == 2 and "Traceback" not in r.stderr and len(r.stderr.strip().splitlines()) == 1
