@@ -113,6 +113,36 @@ inline float bicubic1(__global const float *img, int w, int h, float x, float y)
     return mix(b, a, ty.z);
 }
 
+/* 2D interpolation of a level: bilinear (INTERP 0) or bicubic B-spline (INTERP 1, 2). */
+inline float4 fetch4(__global const float4 *img, int w, int h, float x, float y)
+{
+#if INTERP == 0
+    return bilinear4(img, w, h, x, y);
+#else
+    return bicubic4(img, w, h, x, y);
+#endif
+}
+
+inline float fetch1(__global const float *img, int w, int h, float x, float y)
+{
+#if INTERP == 0
+    return bilinear1(img, w, h, x, y);
+#else
+    return bicubic1(img, w, h, x, y);
+#endif
+}
+
+/* Source collapse of one pixel (x, y) of level k: the part of I^[k] that eq. 7 masks out
+ * of level k+1 stays at level k's blur; the collapsed level above is added.
+ * v = I^[k] with W^[k] in .w; `up` is level k+1 (uw x uh), already collapsed. */
+inline float3 collapse_px(float4 v, float thresh, float eps, __global const float4 *up,
+                          int uw, int uh, int x, int y)
+{
+    float m = smoothstep_(thresh, (1.0f + eps) * thresh, v.w);
+    float4 u = fetch4(up, uw, uh, (x + 0.5f) * 0.5f - 0.5f, (y + 0.5f) * 0.5f - 0.5f);
+    return (1.0f - m) * v.xyz + u.xyz;
+}
+
 /* Even-length separable pyramid filter: tap t of FILTER_TAPS reads source index
  * 2x - FILTER_TAPS/2 + 1 + t. FILTER_WEIGHTS is set by the host (-D). */
 __constant float filter_w[FILTER_TAPS] = { FILTER_WEIGHTS };

@@ -2,17 +2,13 @@
  * 4.4.5). Level geometry comes from the plan: lv[k] = (offset, width, height, 0). */
 #include "common.h"
 
-/* One integer level, 2D interpolated (INTERP 0: bilinear, else bicubic B-spline). */
+/* One integer level, 2D interpolated at the level-0 pixel centre p0. */
 inline float4 level_fetch4(__global const float4 *chain, __global const int4 *lv, int k,
                            float2 p0)
 {
     int4 l = lv[k];
     float2 q = level_coord(p0, k);
-#if INTERP == 0
-    return bilinear4(chain + l.x, l.y, l.z, q.x, q.y);
-#else
-    return bicubic4(chain + l.x, l.y, l.z, q.x, q.y);
-#endif
+    return fetch4(chain + l.x, l.y, l.z, q.x, q.y);
 }
 
 inline float level_fetch1(__global const float *chain, __global const int4 *lv, int k,
@@ -20,11 +16,7 @@ inline float level_fetch1(__global const float *chain, __global const int4 *lv, 
 {
     int4 l = lv[k];
     float2 q = level_coord(p0, k);
-#if INTERP == 0
-    return bilinear1(chain + l.x, l.y, l.z, q.x, q.y);
-#else
-    return bicubic1(chain + l.x, l.y, l.z, q.x, q.y);
-#endif
+    return fetch1(chain + l.x, l.y, l.z, q.x, q.y);
 }
 
 /* Across levels: linear (INTERP 0, 1) or Catmull-Rom over four levels (INTERP 2). */
@@ -85,5 +77,27 @@ __kernel void composite(__global const float4 *direct, __global const float4 *me
     if (want_aov) {
         level_aov[idx] = level;
         scattered_aov[idx] = (float4)(sc.xyz, 0.0f);
+    }
+}
+
+/* `fetch: source`: the last collapse step (level 0) fused with the final sum. */
+__kernel void composite_source(__global const float4 *direct, __global const float4 *medium_term,
+                               __global const float4 *chain, __global const int4 *lv,
+                               const int kmax, const float thresh, const float eps,
+                               __global float4 *out, const int want_aov,
+                               __global float *level_aov, __global float4 *scattered_aov)
+{
+    int i = get_global_id(0), j = get_global_id(1);
+    int width = lv[0].y, height = lv[0].z;
+    if (i >= width || j >= height) return;
+    int idx = j * width + i;
+    float4 v = chain[idx];
+    float3 sc = kmax > 0 ? collapse_px(v, thresh, eps, chain + lv[1].x, lv[1].y, lv[1].z, i, j)
+                         : v.xyz;
+    float4 d = direct[idx];
+    out[idx] = (float4)(d.xyz + medium_term[idx].xyz + sc, d.w);
+    if (want_aov) {
+        level_aov[idx] = -1.0f;   /* every level contributes: no single level */
+        scattered_aov[idx] = (float4)(sc, 0.0f);
     }
 }

@@ -7,7 +7,8 @@
 __kernel void reduce_level(__global float4 *chain, __global float *spread_chain,
                            const int src_off, const int sw, const int sh,
                            const int dst_off, const int dw, const int dh,
-                           const float thresh, const float eps, const int masked)
+                           const float thresh, const float eps, const int masked,
+                           const int source_weights)
 {
     int x = get_global_id(0), y = get_global_id(1);
     if (x >= dw || y >= dh) return;
@@ -34,9 +35,12 @@ __kernel void reduce_level(__global float4 *chain, __global float *spread_chain,
             acc_c += wg * m * v.xyz;
             acc_g += wg;
             acc_s += wg * ssrc[s];
-            /* Eq. 8-9: box average of W weighted by the luminance of level k-1. */
-            float yl = luminance(v.xyz);
-            acc_yw += yl * v.w;
+            /* Eq. 8-9: box average of W weighted by the luminance of level k-1 (Elek).
+             * For the source collapse: a geometric mean (levels are log-spaced) weighted by
+             * the luminance that actually moves up (masked), so that a small bright source
+             * next to a large dim one (a far lamp against the sky) keeps its own spread. */
+            float yl = luminance(source_weights ? m * v.xyz : v.xyz);
+            acc_yw += yl * (source_weights ? log(fmax(v.w, 1e-6f)) : v.w);
             acc_y += yl;
             acc_w += v.w;
             ++n;
@@ -45,14 +49,14 @@ __kernel void reduce_level(__global float4 *chain, __global float *spread_chain,
     /* Border taps that fall outside are dropped and the rest renormalised, so a
      * constant image stays constant and no energy leaves through the edge. */
     float wk = acc_y > 1e-30f ? acc_yw / acc_y : acc_w / (float)n;
+    if (source_weights && acc_y > 1e-30f) wk = exp(wk);
     int d = dst_off + y * dw + x;
     chain[d] = (float4)(acc_c / acc_g, wk);
     spread_chain[d] = acc_s / acc_g;
 }
 
-/* Source-driven collapse (fogcli's alternative to Elek eq. 10-12, `render.fetch: source`):
- * level k keeps the part of I^[k] that eq. 7 masks out of level k+1, at level k's blur,
- * and adds the collapsed levels above: E_k = (1 - M^[k+1]) I^[k] + up(E_{k+1}), in place. */
+/* Source collapse (`render.fetch: source`, docs/method.md), levels K-1 .. 1, in place:
+ * E_k = (1 - M^[k+1]) I^[k] + up(E_{k+1}). Level 0 is done by composite_source. */
 __kernel void collapse_level(__global float4 *chain, const int off, const int w, const int h,
                              const int up_off, const int uw, const int uh,
                              const float thresh, const float eps)
@@ -61,12 +65,5 @@ __kernel void collapse_level(__global float4 *chain, const int off, const int w,
     if (x >= w || y >= h) return;
     int d = off + y * w + x;
     float4 v = chain[d];
-    float m = smoothstep_(thresh, (1.0f + eps) * thresh, v.w);
-    float ux = (x + 0.5f) * 0.5f - 0.5f, uy = (y + 0.5f) * 0.5f - 0.5f;
-#if INTERP == 0
-    float4 up = bilinear4(chain + up_off, uw, uh, ux, uy);
-#else
-    float4 up = bicubic4(chain + up_off, uw, uh, ux, uy);
-#endif
-    chain[d] = (float4)((1.0f - m) * v.xyz + up.xyz, v.w);
+    chain[d] = (float4)(collapse_px(v, thresh, eps, chain + up_off, uw, uh, x, y), v.w);
 }

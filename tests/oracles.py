@@ -47,8 +47,10 @@ def smoothstep(e0, e1, x):
     return t * t * (3 - 2 * t)
 
 
-def reduce_level(src, spread, taps, thresh, eps, masked=True):
-    """One pyramid level: src (h, w, 4) with W in [..., 3], spread (h, w)."""
+def reduce_level(src, spread, taps, thresh, eps, masked=True, source_weights=False):
+    """One pyramid level: src (h, w, 4) with W in [..., 3], spread (h, w). Elek eq. 8
+    weights W by the luminance of level k-1; source weights take the geometric mean
+    weighted by the masked luminance."""
     h, w = spread.shape
     n = len(taps)
     dh, dw = (h + 1) // 2, (w + 1) // 2
@@ -73,13 +75,15 @@ def reduce_level(src, spread, taps, thresh, eps, masked=True):
                     c += wg * m * v[:3]
                     gsum += wg
                     ssum += wg * spread[sy, sx]
-                    lum = LUM @ v[:3]
-                    yw += lum * v[3]
+                    lum = LUM @ (m * v[:3] if source_weights else v[:3])
+                    yw += lum * (math.log(max(v[3], 1e-6)) if source_weights else v[3])
                     ysum += lum
                     wsum += v[3]
                     cnt += 1
             out[y, x, :3] = c / gsum
             out[y, x, 3] = yw / ysum if ysum > 1e-30 else wsum / cnt
+            if source_weights and ysum > 1e-30:
+                out[y, x, 3] = math.exp(out[y, x, 3])
             sout[y, x] = ssum / gsum
     return out, sout
 

@@ -77,8 +77,8 @@ def test_spread_w_stable_limits(rt):
 
 
 @pytest.mark.parametrize("taps", [2, 4, 6])
-@pytest.mark.parametrize("masked", [True, False])
-def test_reduce_level_matches_oracle(rt, rng, taps, masked):
+@pytest.mark.parametrize("masked,fetch", [(True, "source"), (True, "receiver"), (False, "receiver")])
+def test_reduce_level_matches_oracle(rt, rng, taps, masked, fetch):
     w, h = 29, 17
     src = rng.uniform(0, 3, (h, w, 4)).astype(np.float32)
     src[:, :, 3] = rng.uniform(0, 6, (h, w))
@@ -86,31 +86,41 @@ def test_reduce_level_matches_oracle(rt, rng, taps, masked):
     src[8:10, 2:6, :3] = 0.0        # a black patch: unweighted mean fallback
     spread = rng.uniform(0, 6, (h, w)).astype(np.float32)
     plan, cfg = plan_for(rt, w, h, f"render.kernel={taps}", "render.c=0.9", "render.epsilon=1.5",
-                         "render.threshold=1.2", "render.levels=2")
+                         "render.threshold=1.2", "render.levels=2", f"render.fetch={fetch}")
     write_level0(plan, src, spread)
     plan.pyramid(Timings(), masked=masked)
     chains, spreads = read_chain(plan)
     lvl, slvl = src.astype(np.float64), spread.astype(np.float64)
     for k in (1, 2):
-        lvl, slvl = oracles.reduce_level(lvl, slvl, FILTERS[taps], 1.2 * 0.9 * 2 ** (k - 1), 1.5, masked)
+        lvl, slvl = oracles.reduce_level(lvl, slvl, FILTERS[taps], 1.2 * 0.9 * 2 ** (k - 1), 1.5, masked,
+                                         source_weights=(fetch == "source"))
         np.testing.assert_allclose(chains[k], lvl, rtol=1e-4, atol=1e-6)
         np.testing.assert_allclose(spreads[k], slvl, rtol=1e-4, atol=1e-6)
 
 
 @pytest.mark.parametrize("interp", ["linear-bilinear", "linear-bicubic"])
-def test_collapse_matches_oracle(rt, rng, interp):
-    w, h = 23, 13
+@pytest.mark.parametrize("size", [(23, 13), (1, 1), (2, 1)])
+def test_source_collapse_matches_oracle(rt, rng, interp, size):
+    """Levels K-1..1 collapse in place, level 0 fused with the final sum."""
+    w, h = size
     src = rng.uniform(0, 2, (h, w, 4)).astype(np.float32)
     src[:, :, 3] = rng.uniform(0, 8, (h, w))
     plan, cfg = plan_for(rt, w, h, f"render.interpolation={interp}", "render.c=0.8", "render.epsilon=1",
-                         "render.threshold=1", "render.fetch=source")
+                         "render.threshold=1.1", "render.fetch=source", aovs=("scattered",))
+    t = Timings()
+    plan.upload(np.zeros((h, w, 4), np.float32), np.ones((h, w), np.float32), t)
+    plan.preprocess(t)
     write_level0(plan, src, src[:, :, 3])
-    plan.pyramid(Timings(), masked=True)
+    plan.pyramid(t, masked=True)
     before, _ = read_chain(plan)
-    plan.collapse(Timings())
-    after, _ = read_chain(plan)
-    expect = oracles.collapse(before, 0.8, 1.0, cubic=(interp != "linear-bilinear"))
-    np.testing.assert_allclose(after[0][:, :, :3], expect[:, :, :3], rtol=1e-4, atol=1e-5)
+    plan.collapse(t)
+    plan.composite_source(t)
+    out = _download(plan, plan.out, 4)
+    expect = oracles.collapse(before, 0.8, 1.0, cubic=(interp != "linear-bilinear"), thr=1.1)
+    np.testing.assert_allclose(out[:, :, :3], expect[:, :, :3], rtol=1e-4, atol=1e-5)
+    # the masks partition the energy: nothing is created or lost (up to border interpolation)
+    if w > 2:
+        assert abs(out[:, :, :3].sum() / src[:, :, :3].sum() - 1) < 0.05
 
 
 @pytest.mark.parametrize("interp", ["linear-bilinear", "linear-bicubic", "cubic-bicubic"])

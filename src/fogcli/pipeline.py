@@ -115,6 +115,7 @@ class Plan:
         self.k_reduce = rt.program("pyramid", **d).reduce_level
         self.k_comp = rt.program("composite", **d).composite
         self.k_collapse = rt.program("pyramid", **d).collapse_level
+        self.k_comp_src = rt.program("composite", **d).composite_source
 
     # -- stages --------------------------------------------------------------------
     def upload(self, rgba: np.ndarray, depth: np.ndarray, t: Timings) -> None:
@@ -137,21 +138,28 @@ class Plan:
             t.add("pyramid", self.k_reduce(
                 q, (int(dw), int(dh)), None, self.chain, self.spread,
                 np.int32(so), np.int32(sw), np.int32(sh), np.int32(do), np.int32(dw), np.int32(dh),
-                np.float32(thr * c * 2.0 ** (k - 1)), np.float32(eps), np.int32(masked)))
+                np.float32(thr * c * 2.0 ** (k - 1)), np.float32(eps), np.int32(masked),
+                np.int32(masked and self.cfg.render.fetch == "source")))
 
     def collapse(self, t: Timings) -> None:
+        """Source collapse of levels K-1 .. 1 (level 0 is fused into composite_source)."""
         c, eps, thr = self.cfg.render.resolved()
         q = self.rt.queue
-        for k in range(len(self.sizes) - 2, -1, -1):
+        for k in range(len(self.sizes) - 2, 0, -1):
             (o, w, h, _), (uo, uw, uh, _) = self.lv[k], self.lv[k + 1]
             t.add("composite", self.k_collapse(
                 q, (int(w), int(h)), None, self.chain, np.int32(o), np.int32(w), np.int32(h),
                 np.int32(uo), np.int32(uw), np.int32(uh), np.float32(thr * c * 2.0 ** k), np.float32(eps)))
 
-    def composite(self, t: Timings, depth_blur: bool, level0: bool = False) -> None:
+    def composite_source(self, t: Timings) -> None:
+        c, eps, thr = self.cfg.render.resolved()
+        t.add("composite", self.k_comp_src(
+            self.rt.queue, (self.w, self.h), None, self.direct, self.medium, self.chain, self.lv_buf,
+            np.int32(len(self.sizes) - 1), np.float32(thr * c), np.float32(eps), self.out, np.int32(bool(self.aovs)),
+            self.level_aov, self.scat_aov))
+
+    def composite(self, t: Timings, depth_blur: bool) -> None:
         c, _, _ = self.cfg.render.resolved()
-        if level0:
-            c = 1e30  # every pixel maps to level 0
         t.add("composite", self.k_comp(
             self.rt.queue, (self.w, self.h), None, self.direct, self.medium, self.chain,
             self.spread, self.lv_buf, np.int32(len(self.sizes) - 1), np.float32(c),
@@ -229,8 +237,7 @@ def run(rgb: np.ndarray, depth: np.ndarray, cfg: Config, alpha=None, aovs=(), de
         plan.pyramid(t, masked=(method == "pyramid"))
         if method == "pyramid" and cfg.render.fetch == "source":
             plan.collapse(t)
-            # level 0 of the chain now holds the blurred L_sc: fetch it at level 0
-            plan.composite(t, depth_blur=False, level0=True)
+            plan.composite_source(t)
         else:
             plan.composite(t, depth_blur=(method == "pyramid"))
     out = plan.download(plan.out, 4, t)
