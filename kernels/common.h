@@ -132,15 +132,24 @@ inline float fetch1(__global const float *img, int w, int h, float x, float y)
 #endif
 }
 
+/* What a pixel of level k passes to level k+1 in the source collapse: its colour masked
+ * by eq. 7 (M^[k+1] from its spread W and the threshold of level k+1) and log W, which the
+ * next level averages geometrically. Stored once per pixel ("prep" chain) so the filter
+ * taps that read it do no transcendental work. */
+inline float4 prep_px(float3 rgb, float w, float thresh_next, float eps)
+{
+    float m = smoothstep_(thresh_next, (1.0f + eps) * thresh_next, w);
+    return (float4)(m * rgb, log(fmax(w, 1e-6f)));
+}
+
 /* Source collapse of one pixel (x, y) of level k: the part of I^[k] that eq. 7 masks out
- * of level k+1 stays at level k's blur; the collapsed level above is added.
- * v = I^[k] with W^[k] in .w; `up` is level k+1 (uw x uh), already collapsed. */
-inline float3 collapse_px(float4 v, float thresh, float eps, __global const float4 *up,
+ * of level k+1, I - M I, stays at level k's blur; the collapsed level above is added.
+ * `up` is level k+1 (uw x uh), already collapsed. */
+inline float3 collapse_px(float3 rgb, float3 passed, __global const float4 *up,
                           int uw, int uh, int x, int y)
 {
-    float m = smoothstep_(thresh, (1.0f + eps) * thresh, v.w);
     float4 u = fetch4(up, uw, uh, (x + 0.5f) * 0.5f - 0.5f, (y + 0.5f) * 0.5f - 0.5f);
-    return (1.0f - m) * v.xyz + u.xyz;
+    return rgb - passed + u.xyz;
 }
 
 /* Even-length separable pyramid filter: tap t of FILTER_TAPS reads source index

@@ -23,7 +23,9 @@ __kernel void preprocess(__global const float4 *image, __global const float *dep
                          __global float4 *direct, __global float4 *scat0,
                          __global float *spread0, __global float4 *medium_term,
                          __global float4 *transmittance, const int want_transmittance,
-                         const int width, const int height, const medium_t m)
+                         const int width, const int height, const medium_t m,
+                         __global float4 *prep0, const int source, const float thresh1,
+                         const float eps)
 {
     int i = get_global_id(0), j = get_global_id(1);
     if (i >= width || j >= height) return;
@@ -67,4 +69,5 @@ __kernel void preprocess(__global const float4 *image, __global const float *dep
     spread0[idx] = sigma;
     medium_term[idx] = (float4)(l_med, P);
     if (want_transmittance) transmittance[idx] = (float4)(t_all, 1.0f);
+    if (source) prep0[idx] = prep_px(l_sc, sigma, thresh1, eps);
 }

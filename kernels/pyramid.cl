@@ -7,8 +7,7 @@
 __kernel void reduce_level(__global float4 *chain, __global float *spread_chain,
                            const int src_off, const int sw, const int sh,
                            const int dst_off, const int dw, const int dh,
-                           const float thresh, const float eps, const int masked,
-                           const int source_weights)
+                           const float thresh, const float eps, const int masked)
 {
     int x = get_global_id(0), y = get_global_id(1);
     if (x >= dw || y >= dh) return;
@@ -35,12 +34,9 @@ __kernel void reduce_level(__global float4 *chain, __global float *spread_chain,
             acc_c += wg * m * v.xyz;
             acc_g += wg;
             acc_s += wg * ssrc[s];
-            /* Eq. 8-9: box average of W weighted by the luminance of level k-1 (Elek).
-             * For the source collapse: a geometric mean (levels are log-spaced) weighted by
-             * the luminance that actually moves up (masked), so that a small bright source
-             * next to a large dim one (a far lamp against the sky) keeps its own spread. */
-            float yl = luminance(source_weights ? m * v.xyz : v.xyz);
-            acc_yw += yl * (source_weights ? log(fmax(v.w, 1e-6f)) : v.w);
+            /* Eq. 8-9: box average of W weighted by the luminance of level k-1. */
+            float yl = luminance(v.xyz);
+            acc_yw += yl * v.w;
             acc_y += yl;
             acc_w += v.w;
             ++n;
@@ -49,21 +45,74 @@ __kernel void reduce_level(__global float4 *chain, __global float *spread_chain,
     /* Border taps that fall outside are dropped and the rest renormalised, so a
      * constant image stays constant and no energy leaves through the edge. */
     float wk = acc_y > 1e-30f ? acc_yw / acc_y : acc_w / (float)n;
-    if (source_weights && acc_y > 1e-30f) wk = exp(wk);
     int d = dst_off + y * dw + x;
     chain[d] = (float4)(acc_c / acc_g, wk);
     spread_chain[d] = acc_s / acc_g;
 }
 
+/* The same level for the source collapse (`render.fetch: source`). Taps read the prep
+ * chain (masked colour, log W; see prep_px): the colour of level k is the filtered masked
+ * colour (eq. 6), W^[k] the geometric mean of W weighted by the luminance that actually
+ * moves up, so that a small bright source next to a large dim one (a far lamp against the
+ * sky) keeps its own spread. Writes I^[k], W^[k] and level k's own prep. */
+__kernel void reduce_level_source(__global float4 *chain, __global float4 *prep,
+                                  const int src_off, const int sw, const int sh,
+                                  const int dst_off, const int dw, const int dh,
+                                  const float thresh_next, const float eps)
+{
+    int x = get_global_id(0), y = get_global_id(1);
+    if (x >= dw || y >= dh) return;
+
+    __global const float4 *src = prep + src_off;
+    int x0 = 2 * x - FILTER_TAPS / 2 + 1, y0 = 2 * y - FILTER_TAPS / 2 + 1;
+
+    float3 acc_c = (float3)(0.0f);
+    float acc_g = 0.0f, acc_yw = 0.0f, acc_y = 0.0f, acc_lw = 0.0f;
+    int n = 0;
+    for (int ty = 0; ty < FILTER_TAPS; ++ty) {
+        int sy = y0 + ty;
+        if (sy < 0 || sy >= sh) continue;
+        for (int tx = 0; tx < FILTER_TAPS; ++tx) {
+            int sx = x0 + tx;
+            if (sx < 0 || sx >= sw) continue;
+            float4 p = src[sy * sw + sx];
+            float wg = filter_w[tx] * filter_w[ty];
+            acc_c += wg * p.xyz;
+            acc_g += wg;
+            float yl = luminance(p.xyz);
+            acc_yw += yl * p.w;
+            acc_y += yl;
+            acc_lw += p.w;
+            ++n;
+        }
+    }
+    float3 c = acc_c / acc_g;
+    float wk = exp(acc_y > 1e-30f ? acc_yw / acc_y : acc_lw / (float)n);
+    int d = dst_off + y * dw + x;
+    chain[d] = (float4)(c, wk);
+    prep[d] = prep_px(c, wk, thresh_next, eps);
+}
+
 /* Source collapse (`render.fetch: source`, docs/method.md), levels K-1 .. 1, in place:
  * E_k = (1 - M^[k+1]) I^[k] + up(E_{k+1}). Level 0 is done by composite_source. */
-__kernel void collapse_level(__global float4 *chain, const int off, const int w, const int h,
-                             const int up_off, const int uw, const int uh,
-                             const float thresh, const float eps)
+__kernel void collapse_level(__global float4 *chain, __global const float4 *prep,
+                             const int off, const int w, const int h,
+                             const int up_off, const int uw, const int uh)
 {
     int x = get_global_id(0), y = get_global_id(1);
     if (x >= w || y >= h) return;
     int d = off + y * w + x;
     float4 v = chain[d];
-    chain[d] = (float4)(collapse_px(v, thresh, eps, chain + up_off, uw, uh, x, y), v.w);
+    chain[d] = (float4)(collapse_px(v.xyz, prep[d].xyz, chain + up_off, uw, uh, x, y), v.w);
+}
+
+/* Level 0 of the prep chain from level 0 of the colour chain (tests set level 0 directly;
+ * the pipeline gets it from the preprocess kernel). */
+__kernel void prep_level0(__global const float4 *chain, __global float4 *prep, const int n,
+                          const float thresh1, const float eps)
+{
+    int i = get_global_id(0);
+    if (i >= n) return;
+    float4 v = chain[i];
+    prep[i] = prep_px(v.xyz, v.w, thresh1, eps);
 }

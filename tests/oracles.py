@@ -78,12 +78,12 @@ def reduce_level(src, spread, taps, thresh, eps, masked=True, source_weights=Fal
                     lum = LUM @ (m * v[:3] if source_weights else v[:3])
                     yw += lum * (math.log(max(v[3], 1e-6)) if source_weights else v[3])
                     ysum += lum
-                    wsum += v[3]
+                    wsum += math.log(max(v[3], 1e-6)) if source_weights else v[3]
                     cnt += 1
             out[y, x, :3] = c / gsum
             out[y, x, 3] = yw / ysum if ysum > 1e-30 else wsum / cnt
-            if source_weights and ysum > 1e-30:
-                out[y, x, 3] = math.exp(out[y, x, 3])
+            if source_weights:
+                out[y, x, 3] = math.exp(out[y, x, 3])   # geometric mean, weighted or not
             sout[y, x] = ssum / gsum
     return out, sout
 

@@ -90,7 +90,9 @@ class Plan:
         total = int(offs[-1])
         n = width * height
         mf = cl.mem_flags
+        self.source = cfg.render.method == "pyramid" and cfg.render.fetch == "source"
         need = 4 * (4 * n * 4 + n + 4 * total + total) + (4 * 4 * n * 2 + 4 * n if aovs else 0)
+        need += 16 * total if self.source else 0
         if need > rt.device.global_mem_size:
             raise ProcessingError(f"image of {width}x{height} needs {need / 2**20:.0f} MiB, "
                                   f"device {rt.info.name} has {rt.device.global_mem_size / 2**20:.0f} MiB")
@@ -102,6 +104,7 @@ class Plan:
             self.medium = B(16 * n)
             self.chain = B(16 * total)
             self.spread = B(4 * total)
+            self.prep = B(16 * total if self.source else 16)
             self.out = B(16 * n)
             want = bool(aovs)
             self.trans = B(16 * n if "transmittance" in self.aovs else 16)
@@ -112,9 +115,10 @@ class Plan:
             raise ProcessingError(f"cannot allocate device buffers for {width}x{height}: {exc}") from exc
         d = defines(cfg)
         self.k_pre = rt.program("preprocess", **d).preprocess
-        self.k_reduce = rt.program("pyramid", **d).reduce_level
+        pyr = rt.program("pyramid", **d)
+        self.k_reduce, self.k_reduce_src = pyr.reduce_level, pyr.reduce_level_source
+        self.k_collapse, self.k_prep0 = pyr.collapse_level, pyr.prep_level0
         self.k_comp = rt.program("composite", **d).composite
-        self.k_collapse = rt.program("pyramid", **d).collapse_level
         self.k_comp_src = rt.program("composite", **d).composite_source
 
     # -- stages --------------------------------------------------------------------
@@ -123,39 +127,51 @@ class Plan:
         t.add("upload", cl.enqueue_copy(self.rt.queue, self.image, np.ascontiguousarray(rgba, np.float32)))
         t.add("upload", cl.enqueue_copy(self.rt.queue, self.depth, np.ascontiguousarray(depth, np.float32)))
 
+    def threshold(self, k: int) -> float:
+        """Masking threshold of level k (Elek eq. 7, scaled): threshold * c * 2^(k-1)."""
+        c, _, thr = self.cfg.render.resolved()
+        return thr * c * 2.0 ** (k - 1)
+
     def preprocess(self, t: Timings) -> None:
         q, gs = self.rt.queue, (self.w, self.h)
+        eps = self.cfg.render.resolved()[1]
         t.add("preprocess", self.k_pre(
             q, gs, None, self.image, self.depth, self.direct, self.chain, self.spread,
             self.medium, self.trans, np.int32("transmittance" in self.aovs),
-            np.int32(self.w), np.int32(self.h), medium_struct(self.cfg, self.w)))
+            np.int32(self.w), np.int32(self.h), medium_struct(self.cfg, self.w),
+            self.prep, np.int32(self.source), np.float32(self.threshold(1)), np.float32(eps)))
 
     def pyramid(self, t: Timings, masked: bool) -> None:
         c, eps, thr = self.cfg.render.resolved()
         q = self.rt.queue
+        if self.source:
+            for k in range(1, len(self.sizes)):
+                (so, sw, sh, _), (do, dw, dh, _) = self.lv[k - 1], self.lv[k]
+                t.add("pyramid", self.k_reduce_src(
+                    q, (int(dw), int(dh)), None, self.chain, self.prep,
+                    np.int32(so), np.int32(sw), np.int32(sh), np.int32(do), np.int32(dw), np.int32(dh),
+                    np.float32(self.threshold(k + 1)), np.float32(eps)))
+            return
         for k in range(1, len(self.sizes)):
             (so, sw, sh, _), (do, dw, dh, _) = self.lv[k - 1], self.lv[k]
             t.add("pyramid", self.k_reduce(
                 q, (int(dw), int(dh)), None, self.chain, self.spread,
                 np.int32(so), np.int32(sw), np.int32(sh), np.int32(do), np.int32(dw), np.int32(dh),
-                np.float32(thr * c * 2.0 ** (k - 1)), np.float32(eps), np.int32(masked),
-                np.int32(masked and self.cfg.render.fetch == "source")))
+                np.float32(self.threshold(k)), np.float32(eps), np.int32(masked)))
 
     def collapse(self, t: Timings) -> None:
         """Source collapse of levels K-1 .. 1 (level 0 is fused into composite_source)."""
-        c, eps, thr = self.cfg.render.resolved()
         q = self.rt.queue
         for k in range(len(self.sizes) - 2, 0, -1):
             (o, w, h, _), (uo, uw, uh, _) = self.lv[k], self.lv[k + 1]
             t.add("composite", self.k_collapse(
-                q, (int(w), int(h)), None, self.chain, np.int32(o), np.int32(w), np.int32(h),
-                np.int32(uo), np.int32(uw), np.int32(uh), np.float32(thr * c * 2.0 ** k), np.float32(eps)))
+                q, (int(w), int(h)), None, self.chain, self.prep, np.int32(o), np.int32(w), np.int32(h),
+                np.int32(uo), np.int32(uw), np.int32(uh)))
 
     def composite_source(self, t: Timings) -> None:
-        c, eps, thr = self.cfg.render.resolved()
         t.add("composite", self.k_comp_src(
-            self.rt.queue, (self.w, self.h), None, self.direct, self.medium, self.chain, self.lv_buf,
-            np.int32(len(self.sizes) - 1), np.float32(thr * c), np.float32(eps), self.out, np.int32(bool(self.aovs)),
+            self.rt.queue, (self.w, self.h), None, self.direct, self.medium, self.chain, self.prep,
+            self.lv_buf, np.int32(len(self.sizes) - 1), self.out, np.int32(bool(self.aovs)),
             self.level_aov, self.scat_aov))
 
     def composite(self, t: Timings, depth_blur: bool) -> None:
@@ -200,7 +216,8 @@ _PLANS: dict = {}
 
 def get_plan(rt: Runtime, width: int, height: int, cfg: Config, aovs=()) -> Plan:
     """Reuse buffers across images of one size and one compile-time configuration."""
-    key = (id(rt), width, height, tuple(sorted(defines(cfg).items())), cfg.render.levels, tuple(aovs))
+    key = (id(rt), width, height, tuple(sorted(defines(cfg).items())), cfg.render.levels, tuple(aovs),
+           cfg.render.method == "pyramid" and cfg.render.fetch == "source")
     plan = _PLANS.get(key)
     if plan is None:
         if len(_PLANS) > 4:
@@ -273,4 +290,8 @@ def write_level0(plan: Plan, scat: np.ndarray, spread: np.ndarray) -> None:
     cl, q = plan.rt.cl, plan.rt.queue
     cl.enqueue_copy(q, plan.chain, np.ascontiguousarray(scat, np.float32))
     cl.enqueue_copy(q, plan.spread, np.ascontiguousarray(spread, np.float32))
+    if plan.source:
+        eps = plan.cfg.render.resolved()[1]
+        plan.k_prep0(q, (plan.w * plan.h,), None, plan.chain, plan.prep, np.int32(plan.w * plan.h),
+                     np.float32(plan.threshold(1)), np.float32(eps))
     q.finish()
