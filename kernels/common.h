@@ -132,6 +132,20 @@ inline float fetch1(__global const float *img, int w, int h, float x, float y)
 #endif
 }
 
+/* Natural log for positive normal floats, to ~1e-7 absolute: the exponent from the bits,
+ * the mantissa reduced to [sqrt(1/2), sqrt(2)) and the atanh series to t^7. PoCL's log()
+ * is a scalar library call that cost half of the preprocess stage. */
+inline float log_pos(float x)
+{
+    int bits = as_int(x);
+    int e = ((bits >> 23) & 0xff) - 127;
+    float mant = as_float((bits & 0x007fffff) | 0x3f800000);   /* [1, 2) */
+    if (mant > 1.41421356f) { mant *= 0.5f; e += 1; }
+    float t = (mant - 1.0f) / (mant + 1.0f), t2 = t * t;
+    float series = t * (2.0f + t2 * (0.66666667f + t2 * (0.4f + t2 * 0.28571429f)));
+    return series + (float)e * 0.69314718f;
+}
+
 /* What a pixel of level k passes to level k+1 in the source collapse: its colour masked
  * by eq. 7 (M^[k+1] from its spread W and the threshold of level k+1) and log W, which the
  * next level averages geometrically. Stored once per pixel ("prep" chain) so the filter
@@ -139,7 +153,39 @@ inline float fetch1(__global const float *img, int w, int h, float x, float y)
 inline float4 prep_px(float3 rgb, float w, float thresh_next, float eps)
 {
     float m = smoothstep_(thresh_next, (1.0f + eps) * thresh_next, w);
-    return (float4)(m * rgb, log(fmax(w, 1e-6f)));
+    return (float4)(m * rgb, log_pos(fmax(w, 1e-6f)));
+}
+
+/* Level k+1 read at the centre of level-k pixel (x, y): (x + 0.5) / 2 - 0.5 has the
+ * fractional part 0.75 (even x) or 0.25 (odd x), so the B-spline (or tent) weights are
+ * two constant sets and the 4x4 (2x2) taps are read directly: the same values as
+ * fetch4() at that point, without the per-fetch floor and clamp work. */
+inline float4 up2_fetch4(__global const float4 *img, int w, int h, int x, int y)
+{
+#if INTERP == 0
+    int x0 = (x >> 1) - 1 + (x & 1), y0 = (y >> 1) - 1 + (y & 1);
+    float fx = (x & 1) ? 0.25f : 0.75f, fy = (y & 1) ? 0.25f : 0.75f;
+    int xa = clamp(x0, 0, w - 1), xb = clamp(x0 + 1, 0, w - 1);
+    int ya = clamp(y0, 0, h - 1), yb = clamp(y0 + 1, 0, h - 1);
+    float4 a = mix(img[ya * w + xa], img[ya * w + xb], fx);
+    float4 b = mix(img[yb * w + xa], img[yb * w + xb], fx);
+    return mix(a, b, fy);
+#else
+    /* cubic B-spline weights at f = 0.25 (odd) and f = 0.75 (even) */
+    const float wo[4] = {0.0703125f, 0.61197917f, 0.31510417f, 0.00260417f};
+    const float we[4] = {0.00260417f, 0.31510417f, 0.61197917f, 0.0703125f};
+    int x0 = (x >> 1) - 2 + (x & 1), y0 = (y >> 1) - 2 + (y & 1);
+    int xi[4];
+    for (int t = 0; t < 4; ++t) xi[t] = clamp(x0 + t, 0, w - 1);
+    float4 acc = (float4)(0.0f);
+    for (int r = 0; r < 4; ++r) {
+        __global const float4 *row = img + clamp(y0 + r, 0, h - 1) * w;
+        float4 racc = (float4)(0.0f);
+        for (int t = 0; t < 4; ++t) racc += ((x & 1) ? wo[t] : we[t]) * row[xi[t]];
+        acc += ((y & 1) ? wo[r] : we[r]) * racc;
+    }
+    return acc;
+#endif
 }
 
 /* Source collapse of one pixel (x, y) of level k: the part of I^[k] that eq. 7 masks out
@@ -148,8 +194,7 @@ inline float4 prep_px(float3 rgb, float w, float thresh_next, float eps)
 inline float3 collapse_px(float3 rgb, float3 passed, __global const float4 *up,
                           int uw, int uh, int x, int y)
 {
-    float4 u = fetch4(up, uw, uh, (x + 0.5f) * 0.5f - 0.5f, (y + 0.5f) * 0.5f - 0.5f);
-    return rgb - passed + u.xyz;
+    return rgb - passed + up2_fetch4(up, uw, uh, x, y).xyz;
 }
 
 /* Even-length separable pyramid filter: tap t of FILTER_TAPS reads source index

@@ -16,7 +16,7 @@ typedef struct {
     float focal_px;
     float spread_scale;
     int depth_is_z;
-    int pad;
+    int has_medium_light;   /* emission or ambient non-zero */
 } medium_t;
 
 __kernel void preprocess(__global const float4 *image, __global const float *depth,
@@ -51,15 +51,16 @@ __kernel void preprocess(__global const float4 *image, __global const float *dep
     /* exp(-sa P)(1 - exp(-ss P)) = exp(-sa P) - exp(-st P); the thesis form (SPEC 4.2). */
     float3 l_sc = (exp(-sa * P) - t_all) * L;
 
-    /* Emission and ambient share 1 - exp(-st P); st -> 0 limits are P and 0. */
-    float3 one_minus = -expm1(-st * P);
-    float3 em_w = (float3)(st.x > 0.0f ? one_minus.x / st.x : P,
-                           st.y > 0.0f ? one_minus.y / st.y : P,
-                           st.z > 0.0f ? one_minus.z / st.z : P);
-    float3 amb_w = (float3)(st.x > 0.0f ? ss.x / st.x * one_minus.x : 0.0f,
-                            st.y > 0.0f ? ss.y / st.y * one_minus.y : 0.0f,
-                            st.z > 0.0f ? ss.z / st.z * one_minus.z : 0.0f);
-    float3 l_med = m.emission.xyz * em_w + m.ambient.xyz * amb_w;
+    float3 l_med = (float3)(0.0f);
+    if (m.has_medium_light) {
+        /* expm1 keeps 1 - exp(-st P) exact in thin media; st -> 0 limits: emission grows
+         * as P, ambient vanishes */
+        float3 one_minus = -expm1(-st * P);
+        float3 safe_st = fmax(st, (float3)(1e-30f));
+        float3 em_w = select(one_minus / safe_st, (float3)(P), st <= 0.0f);
+        float3 amb_w = select(ss / safe_st * one_minus, (float3)(0.0f), st <= 0.0f);
+        l_med = m.emission.xyz * em_w + m.ambient.xyz * amb_w;
+    }
 
     float sigma = spread_px(P, dist, m.sa.w, m.ss.w, m.g, m.spread_scale, m.focal_px,
                             (float)width);

@@ -16,7 +16,7 @@ MEDIUM_T = np.dtype([
     ("sa", np.float32, 4), ("ss", np.float32, 4), ("emission", np.float32, 4),
     ("ambient", np.float32, 4), ("g", np.float32), ("density", np.float32),
     ("depth_scale", np.float32), ("max_depth", np.float32), ("focal_px", np.float32),
-    ("spread_scale", np.float32), ("depth_is_z", np.int32), ("pad", np.int32),
+    ("spread_scale", np.float32), ("depth_is_z", np.int32), ("has_medium_light", np.int32),
 ])
 AOV_NAMES = ("optical_depth", "transmittance", "spread", "level", "direct", "scattered", "emission")
 
@@ -74,6 +74,7 @@ def medium_struct(cfg: Config, width: int) -> np.ndarray:
     s["focal_px"] = cam.focal(width)
     s["spread_scale"] = cfg.render.spread_scale
     s["depth_is_z"] = 1 if cam.depth == "z" else 0
+    s["has_medium_light"] = int(any(m.emission) or any(m.ambient))
     return s
 
 
