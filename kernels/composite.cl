@@ -83,7 +83,7 @@ __kernel void composite(__global const float4 *direct, __global const float4 *me
 /* `fetch: source`: the last collapse step (level 0) fused with the final sum. */
 __kernel void composite_source(__global const float4 *direct, __global const float4 *medium_term,
                                __global const float4 *chain, __global const float4 *prep,
-                               __global const int4 *lv, const int kmax,
+                               __global const int4 *lv, const int kmax, const float c,
                                __global float4 *out, const int want_aov,
                                __global float *level_aov, __global float4 *scattered_aov)
 {
@@ -97,7 +97,8 @@ __kernel void composite_source(__global const float4 *direct, __global const flo
     float4 d = direct[idx];
     out[idx] = (float4)(d.xyz + medium_term[idx].xyz + sc, d.w);
     if (want_aov) {
-        level_aov[idx] = -1.0f;   /* every level contributes: no single level */
+        /* the level this pixel's own scattered light is deposited at */
+        level_aov[idx] = level_of(v.w, c, (float)kmax);
         scattered_aov[idx] = (float4)(sc, 0.0f);
     }
 }

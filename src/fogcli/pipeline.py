@@ -172,7 +172,7 @@ class Plan:
     def composite_source(self, t: Timings) -> None:
         t.add("composite", self.k_comp_src(
             self.rt.queue, (self.w, self.h), None, self.direct, self.medium, self.chain, self.prep,
-            self.lv_buf, np.int32(len(self.sizes) - 1), self.out, np.int32(bool(self.aovs)),
+            self.lv_buf, np.int32(len(self.sizes) - 1), np.float32(self.cfg.render.resolved()[0]), self.out, np.int32(bool(self.aovs)),
             self.level_aov, self.scat_aov))
 
     def composite(self, t: Timings, depth_blur: bool) -> None:
