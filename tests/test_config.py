@@ -78,3 +78,18 @@ def test_set_errors_and_unknown_preset():
         assemble("fog", None, ("render.kernl=4",))
     with pytest.raises(UserError, match="no such preset"):
         assemble("fogg")
+
+
+def test_derived_c_and_calibrated_defaults():
+    from fogcli.config import c_theory
+
+    # 4 taps (1,3,3,1)/8 have variance 3/4; a bicubic B-spline fetch adds 1/3
+    assert c_theory(4, "linear-bicubic", "receiver") == pytest.approx((0.75 / 3 + 1 / 3) ** 0.5)
+    assert c_theory(4, "linear-bicubic", "source") == pytest.approx((0.75 / 3 + 4 / 9) ** 0.5)
+    assert c_theory(6, "linear-bilinear", "receiver") == pytest.approx((1.25 / 3 + 1 / 6) ** 0.5)
+    cfg = make_config("fog")
+    c, eps, thr = cfg.render.resolved()
+    assert c == pytest.approx(c_theory(4, "linear-bicubic", "source"))
+    naive = make_config("fog", sets=["render.method=naive"]).render.resolved()
+    assert naive[0] == pytest.approx(c_theory(4, "linear-bicubic", "receiver"))
+    assert make_config("fog", sets=["render.c=0.5", "render.epsilon=0"]).render.resolved()[:2] == (0.5, 0.0)

@@ -228,8 +228,9 @@ class Render:
     def resolved(self) -> tuple[float, float, float]:
         """(c, epsilon, threshold) with `auto` replaced by the derived c and the calibrated
         epsilon and threshold."""
-        e0, t0 = CALIBRATED[self.fetch][self.kernel]
-        c0 = c_theory(self.kernel, self.interpolation, self.fetch)
+        fetch = self.fetch if self.method == "pyramid" else "receiver"   # naive fetches too
+        e0, t0 = CALIBRATED[fetch][self.kernel]
+        c0 = c_theory(self.kernel, self.interpolation, fetch)
         pick = lambda v, d: d if v == "auto" else float(v)  # noqa: E731
         return pick(self.c, c0), pick(self.epsilon, e0), pick(self.threshold, t0)
 
