@@ -231,6 +231,9 @@ def test_output_replaced_atomically_and_input_untouched(rgbz, tmp_path):
     assert p.read_bytes() == before
     assert read(out)[1].shape == (45, 61, 3)
     assert not [f for f in tmp_path.iterdir() if ".tmp" in f.name]
+    mask = os.umask(0)
+    os.umask(mask)
+    assert out.stat().st_mode & 0o777 == 0o666 & ~mask     # not mkstemp's 0600
 
 
 def test_devices_media_check(tmp_path):
