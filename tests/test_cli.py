@@ -276,3 +276,15 @@ def test_real_subprocess_on_the_sample(tmp_path):
     r = subprocess.run([sys.executable, "-m", "fogcli", "apply", str(tmp_path / "missing.exr")],
                        capture_output=True, text=True, timeout=300)
     assert r.returncode == 2 and "Traceback" not in r.stderr and len(r.stderr.strip().splitlines()) == 1
+
+
+def test_device_choice(rgbz, tmp_path, monkeypatch):
+    p, rgb, z = rgbz
+    code, text, _ = run("apply", p, "-o", tmp_path / "o.exr", "--device", "no-such-thing")
+    assert_one_line_error(code, text, "--device 'no-such-thing': no such OpenCL device")
+    assert run("apply", p, "-o", tmp_path / "o.exr", "--device", "0:0")[0] == 0
+    from fogcli import runtime
+
+    monkeypatch.setenv("FOGCLI_DEVICE", "nope")
+    with pytest.raises(runtime.UserError, match="FOGCLI_DEVICE 'nope'"):
+        runtime.Runtime(None)

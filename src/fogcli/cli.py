@@ -111,7 +111,7 @@ def devices():
 
     devs = list_devices()
     env = os.environ.get("FOGCLI_DEVICE")
-    default, _ = choose(devs, env)
+    default, _ = choose(devs, env, "FOGCLI_DEVICE")
     for info, dev in devs:
         mark = "*" if info == default else " "
         mem = dev.global_mem_size / 2**30

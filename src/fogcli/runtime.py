@@ -78,7 +78,7 @@ def list_devices() -> list[tuple[DeviceInfo, object]]:
     return out
 
 
-def choose(devices, spec: str | None):
+def choose(devices, spec: str | None, origin: str = "--device"):
     if spec:
         s = spec.strip().lower()
         for info, dev in devices:
@@ -88,7 +88,7 @@ def choose(devices, spec: str | None):
             if s in info.name.lower() or s in info.platform.lower():
                 return info, dev
         known = ", ".join(i.spec + " " + i.name for i, _ in devices)
-        raise UserError(f"--device {spec!r}: no such OpenCL device (have: {known})")
+        raise UserError(f"{origin} {spec!r}: no such OpenCL device (have: {known})")
     for info, dev in devices:
         if "gpu" in info.kind or "accelerator" in info.kind:
             return info, dev
@@ -114,7 +114,8 @@ class Runtime:
     def __init__(self, spec: str | None = None):
         cl = _cl()
         self.cl = cl
-        self.info, device = choose(list_devices(), spec or os.environ.get("FOGCLI_DEVICE"))
+        env = os.environ.get("FOGCLI_DEVICE")
+        self.info, device = choose(list_devices(), spec or env, "--device" if spec or not env else "FOGCLI_DEVICE")
         self.device = device
         self.ctx = cl.Context([device])
         self.queue = cl.CommandQueue(self.ctx, properties=cl.command_queue_properties.PROFILING_ENABLE)
