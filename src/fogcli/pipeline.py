@@ -134,10 +134,10 @@ class Plan:
         return thr * c * 2.0 ** (k - 1)
 
     def preprocess(self, t: Timings) -> None:
-        q, gs = self.rt.queue, (self.w, self.h)
+        q = self.rt.queue
         eps = self.cfg.render.resolved()[1]
         t.add("preprocess", self.k_pre(
-            q, gs, None, self.image, self.depth, self.direct, self.chain, self.spread,
+            q, *self.rt.nd(self.w, self.h), self.image, self.depth, self.direct, self.chain, self.spread,
             self.medium, self.trans, np.int32("transmittance" in self.aovs),
             np.int32(self.w), np.int32(self.h), medium_struct(self.cfg, self.w),
             self.prep, np.int32(self.source), np.float32(self.threshold(1)), np.float32(eps)))
@@ -149,14 +149,14 @@ class Plan:
             for k in range(1, len(self.sizes)):
                 (so, sw, sh, _), (do, dw, dh, _) = self.lv[k - 1], self.lv[k]
                 t.add("pyramid", self.k_reduce_src(
-                    q, (int(dw), int(dh)), None, self.chain, self.prep,
+                    q, *self.rt.nd(dw, dh), self.chain, self.prep,
                     np.int32(so), np.int32(sw), np.int32(sh), np.int32(do), np.int32(dw), np.int32(dh),
                     np.float32(self.threshold(k + 1)), np.float32(eps)))
             return
         for k in range(1, len(self.sizes)):
             (so, sw, sh, _), (do, dw, dh, _) = self.lv[k - 1], self.lv[k]
             t.add("pyramid", self.k_reduce(
-                q, (int(dw), int(dh)), None, self.chain, self.spread,
+                q, *self.rt.nd(dw, dh), self.chain, self.spread,
                 np.int32(so), np.int32(sw), np.int32(sh), np.int32(do), np.int32(dw), np.int32(dh),
                 np.float32(self.threshold(k)), np.float32(eps), np.int32(masked)))
 
@@ -166,19 +166,19 @@ class Plan:
         for k in range(len(self.sizes) - 2, 0, -1):
             (o, w, h, _), (uo, uw, uh, _) = self.lv[k], self.lv[k + 1]
             t.add("composite", self.k_collapse(
-                q, (int(w), int(h)), None, self.chain, self.prep, np.int32(o), np.int32(w), np.int32(h),
+                q, *self.rt.nd(w, h), self.chain, self.prep, np.int32(o), np.int32(w), np.int32(h),
                 np.int32(uo), np.int32(uw), np.int32(uh)))
 
     def composite_source(self, t: Timings) -> None:
         t.add("composite", self.k_comp_src(
-            self.rt.queue, (self.w, self.h), None, self.direct, self.medium, self.chain, self.prep,
+            self.rt.queue, *self.rt.nd(self.w, self.h), self.direct, self.medium, self.chain, self.prep,
             self.lv_buf, np.int32(len(self.sizes) - 1), np.float32(self.cfg.render.resolved()[0]), self.out, np.int32(bool(self.aovs)),
             self.level_aov, self.scat_aov))
 
     def composite(self, t: Timings, depth_blur: bool) -> None:
         c, _, _ = self.cfg.render.resolved()
         t.add("composite", self.k_comp(
-            self.rt.queue, (self.w, self.h), None, self.direct, self.medium, self.chain,
+            self.rt.queue, *self.rt.nd(self.w, self.h), self.direct, self.medium, self.chain,
             self.spread, self.lv_buf, np.int32(len(self.sizes) - 1), np.float32(c),
             np.int32(depth_blur), self.out, np.int32(bool(self.aovs)), self.level_aov, self.scat_aov))
 
@@ -293,6 +293,6 @@ def write_level0(plan: Plan, scat: np.ndarray, spread: np.ndarray) -> None:
     cl.enqueue_copy(q, plan.spread, np.ascontiguousarray(spread, np.float32))
     if plan.source:
         eps = plan.cfg.render.resolved()[1]
-        plan.k_prep0(q, (plan.w * plan.h,), None, plan.chain, plan.prep, np.int32(plan.w * plan.h),
+        plan.k_prep0(q, *plan.rt.nd(plan.w * plan.h), plan.chain, plan.prep, np.int32(plan.w * plan.h),
                      np.float32(plan.threshold(1)), np.float32(eps))
     q.finish()

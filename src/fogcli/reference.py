@@ -37,15 +37,15 @@ def reference_into(plan, t) -> None:
     for b in _bins_needed(sigma):
         sb = S0 * RATIO ** b
         R = int(math.ceil(4.0 * sb))
-        t.add("reference", prog.ref_taps(q, (R + 1,), None, taps, np.float32(sb), np.int32(R)))
-        t.add("reference", prog.ref_norm1d(q, (w,), None, taps, np.int32(R), np.int32(w), nx))
-        t.add("reference", prog.ref_norm1d(q, (h,), None, taps, np.int32(R), np.int32(h), ny))
-        t.add("reference", prog.ref_bin_source(q, (w, h), None, plan.chain, plan.spread, np.int32(w),
+        t.add("reference", prog.ref_taps(q, *rt.nd(R + 1), taps, np.float32(sb), np.int32(R)))
+        t.add("reference", prog.ref_norm1d(q, *rt.nd(w), taps, np.int32(R), np.int32(w), nx))
+        t.add("reference", prog.ref_norm1d(q, *rt.nd(h), taps, np.int32(R), np.int32(h), ny))
+        t.add("reference", prog.ref_bin_source(q, *rt.nd(w, h), plan.chain, plan.spread, np.int32(w),
                                                np.int32(h), np.float32(S0), np.float32(math.log(RATIO)),
                                                np.int32(b), nx, ny, src))
-        t.add("reference", prog.ref_rows(q, (w, h), None, src, np.int32(w), np.int32(h), taps, np.int32(R), tmp))
-        t.add("reference", prog.ref_cols_acc(q, (w, h), None, tmp, np.int32(w), np.int32(h), taps, np.int32(R), acc))
-    t.add("reference", prog.ref_finish(q, (n,), None, plan.direct, plan.medium, acc, np.int32(n), plan.out,
+        t.add("reference", prog.ref_rows(q, *rt.nd(w, h), src, np.int32(w), np.int32(h), taps, np.int32(R), tmp))
+        t.add("reference", prog.ref_cols_acc(q, *rt.nd(w, h), tmp, np.int32(w), np.int32(h), taps, np.int32(R), acc))
+    t.add("reference", prog.ref_finish(q, *rt.nd(n), plan.direct, plan.medium, acc, np.int32(n), plan.out,
                                        np.int32(bool(plan.aovs)), plan.level_aov, plan.scat_aov))
 
 
@@ -56,8 +56,8 @@ def brute_force(plan, t) -> np.ndarray:
     prog = rt.program("reference", **_defines(plan))
     norm = cl.Buffer(rt.ctx, cl.mem_flags.READ_WRITE, 4 * n)
     out = cl.Buffer(rt.ctx, cl.mem_flags.READ_WRITE, 16 * n)
-    t.add("reference", prog.ref_brute_norm(q, (w, h), None, plan.spread, np.int32(w), np.int32(h), norm))
-    t.add("reference", prog.ref_brute(q, (w, h), None, plan.chain, plan.spread, norm, np.int32(w), np.int32(h), out))
+    t.add("reference", prog.ref_brute_norm(q, *rt.nd(w, h), plan.spread, np.int32(w), np.int32(h), norm))
+    t.add("reference", prog.ref_brute(q, *rt.nd(w, h), plan.chain, plan.spread, norm, np.int32(w), np.int32(h), out))
     return plan.download(out, 4, t)[:, :, :3]
 
 
