@@ -64,7 +64,7 @@ def main():
     if args.quick:
         grid_e, grid_t = (1.5,), (0.8, 1.0)
     else:
-        grid_e, grid_t = (1.0, 1.5, 2.0, 3.0), (0.6, 0.7, 0.8, 0.9, 1.0, 1.2)
+        grid_e, grid_t = (0.7, 1.0, 1.5, 2.0), (0.8, 0.9, 1.0, 1.1, 1.2, 1.4)
     best = {}
     lines = []
     for kernel in (2, 4, 6):

@@ -82,8 +82,9 @@ __kernel void composite(__global const float4 *direct, __global const float4 *me
 
 /* `fetch: source`: the last collapse step (level 0) fused with the final sum. */
 __kernel void composite_source(__global const float4 *direct, __global const float4 *medium_term,
-                               __global const float4 *chain, __global const float4 *prep,
+                               __global const float4 *chain, __global const float4 *half_img,
                                __global const int4 *lv, const int kmax, const float c,
+                               const float a,
                                __global float4 *out, const int want_aov,
                                __global float *level_aov, __global float4 *scattered_aov)
 {
@@ -92,8 +93,10 @@ __kernel void composite_source(__global const float4 *direct, __global const flo
     if (i >= width || j >= height) return;
     int idx = j * width + i;
     float4 v = chain[idx];
-    float3 sc = kmax > 0 ? collapse_px(v.xyz, prep[idx].xyz, chain + lv[1].x, lv[1].y, lv[1].z, i, j)
-                         : v.xyz;
+    float3 sc = v.xyz;
+    if (kmax > 0)
+        sc = keep_px(v.xyz, half_img, width, height, i, j, a)
+           + up2_fetch4(chain + lv[1].x, lv[1].y, lv[1].z, i, j).xyz;
     float4 d = direct[idx];
     out[idx] = (float4)(d.xyz + medium_term[idx].xyz + sc, d.w);
     if (want_aov) {

@@ -93,17 +93,28 @@ __kernel void reduce_level_source(__global float4 *chain, __global float4 *prep,
     prep[d] = prep_px(c, wk, thresh_next, eps);
 }
 
-/* Source collapse (`render.fetch: source`, docs/method.md), levels K-1 .. 1, in place:
- * E_k = (1 - M^[k+1]) I^[k] + up(E_{k+1}). Level 0 is done by composite_source. */
-__kernel void collapse_level(__global float4 *chain, __global const float4 *prep,
-                             const int off, const int w, const int h,
-                             const int up_off, const int uw, const int uh)
+/* Source collapse (`render.fetch: source`, docs/method.md), levels K-1 .. 0:
+ * E_k = keep_k(I^[k]) + up(E_{k+1}), E_K = I^[K]. First split_level writes each pixel's
+ * half-octave share to `half_img`, then collapse_level writes E_k over I^[k] in place (it
+ * reads only its own pixel of the colour chain). Level 0 is composite_source. */
+__kernel void split_level(__global const float4 *chain, const int off, const int n,
+                          __global float4 *half_img, const float thresh, const float eps)
+{
+    int i = get_global_id(0);
+    if (i >= n) return;
+    half_img[i] = split_px(chain[off + i], thresh, eps);
+}
+
+__kernel void collapse_level(__global float4 *chain, const int off, const int w, const int h,
+                             __global const float4 *half_img, const int up_off, const int uw,
+                             const int uh, const float a)
 {
     int x = get_global_id(0), y = get_global_id(1);
     if (x >= w || y >= h) return;
     int d = off + y * w + x;
     float4 v = chain[d];
-    chain[d] = (float4)(collapse_px(v.xyz, prep[d].xyz, chain + up_off, uw, uh, x, y), v.w);
+    float3 e = keep_px(v.xyz, half_img, w, h, x, y, a) + up2_fetch4(chain + up_off, uw, uh, x, y).xyz;
+    chain[d] = (float4)(e, v.w);
 }
 
 /* Level 0 of the prep chain from level 0 of the colour chain (tests set level 0 directly;

@@ -114,18 +114,38 @@ def sample(img, x, y, cubic):
     return acc
 
 
-def collapse(levels, taps_c, eps, cubic, thr=1.0):
-    """E_k = (1 - M^[k+1]) I^[k] + up(E_{k+1}) over a list of (h, w, 4) levels."""
-    E = [lv.astype(np.float64).copy() for lv in levels]
-    for k in range(len(E) - 2, -1, -1):
+def keep(I, x, y, T, eps, a):
+    """What level k keeps at (x, y): below T / sqrt(2) as is, between T / sqrt(2) and T
+    blurred by (a, 1 - 2a, a) in both axes (clamp-to-edge), above T passed on."""
+    h, w = I.shape[:2]
+    th = T / math.sqrt(2)
+    g = {-1: a, 0: 1 - 2 * a, 1: a}
+    acc = np.zeros(3)
+    for dy in (-1, 0, 1):
+        for dx in (-1, 0, 1):
+            v = I[min(max(y + dy, 0), h - 1), min(max(x + dx, 0), w - 1)]
+            m = smoothstep(T, (1 + eps) * T, v[3])
+            mh = max(m, smoothstep(th, (1 + eps) * th, v[3]))
+            acc += g[dx] * g[dy] * (mh - m) * v[:3]
+            if dx == 0 and dy == 0:
+                acc += (1 - mh) * v[:3]
+    return acc
+
+
+def collapse(levels, taps_c, eps, cubic, thr=1.0, a=0.0):
+    """E_K = I^[K], E_k = keep_k(I^[k]) + up(E_{k+1}), over a list of (h, w, 4) levels."""
+    I = [lv.astype(np.float64) for lv in levels]
+    E = I[-1].copy()
+    for k in range(len(I) - 2, -1, -1):
         T = thr * taps_c * 2.0 ** k
-        h, w = E[k].shape[:2]
+        h, w = I[k].shape[:2]
+        Ek = np.zeros((h, w, 4))
         for y in range(h):
             for x in range(w):
-                m = smoothstep(T, (1 + eps) * T, E[k][y, x, 3])
-                up = sample(E[k + 1], (x + 0.5) * 0.5 - 0.5, (y + 0.5) * 0.5 - 0.5, cubic)
-                E[k][y, x, :3] = (1 - m) * E[k][y, x, :3] + up[:3]
-    return E[0]
+                up = sample(E, (x + 0.5) * 0.5 - 0.5, (y + 0.5) * 0.5 - 0.5, cubic)
+                Ek[y, x, :3] = keep(I[k], x, y, T, eps, a) + up[:3]
+        E = Ek
+    return E
 
 
 def reference(sc, sigma):

@@ -117,9 +117,11 @@ def test_source_collapse_matches_oracle(rt, rng, interp, size):
     plan.collapse(t)
     plan.composite_source(t)
     out = _download(plan, plan.out, 4)
-    expect = oracles.collapse(before, 0.8, 1.0, cubic=(interp != "linear-bilinear"), thr=1.1)
+    expect = oracles.collapse(before, 0.8, 1.0, cubic=(interp != "linear-bilinear"), thr=1.1, a=plan.half_step())
+    assert plan.half_step() > 0.3
     np.testing.assert_allclose(out[:, :, :3], expect[:, :, :3], rtol=1e-4, atol=1e-5)
-    # the masks partition the energy: nothing is created or lost (up to border interpolation)
+    # the masks partition the energy and the half-octave blur conserves it; only the
+    # interpolated up-sampling at the border moves a little
     if w > 2:
         assert abs(out[:, :, :3].sum() / src[:, :, :3].sum() - 1) < 0.05
 

@@ -25,7 +25,7 @@ FILTERS = {
 # Calibrated against the reference per filter size: (epsilon, threshold factor); the
 # threshold of level k is threshold * c * 2^(k-1) (Elek eq. 7 has 1). docs/calibration.md.
 CALIBRATED = {
-    "source": {2: (1.5, 0.8), 4: (1.5, 0.8), 6: (1.0, 1.0)},
+    "source": {2: (1.5, 1.0), 4: (1.5, 1.0), 6: (1.0, 1.1)},
     "receiver": {2: (2.0, 1.0), 4: (2.0, 1.0), 6: (2.0, 1.0)},
 }
 _INTERP_VAR = {"linear-bilinear": 1.0 / 6.0, "linear-bicubic": 1.0 / 3.0, "cubic-bicubic": 1.0 / 3.0}

@@ -118,7 +118,7 @@ class Plan:
         self.k_pre = rt.program("preprocess", **d).preprocess
         pyr = rt.program("pyramid", **d)
         self.k_reduce, self.k_reduce_src = pyr.reduce_level, pyr.reduce_level_source
-        self.k_collapse, self.k_prep0 = pyr.collapse_level, pyr.prep_level0
+        self.k_collapse, self.k_prep0, self.k_split = pyr.collapse_level, pyr.prep_level0, pyr.split_level
         self.k_comp = rt.program("composite", **d).composite
         self.k_comp_src = rt.program("composite", **d).composite_source
 
@@ -160,20 +160,38 @@ class Plan:
                 np.int32(so), np.int32(sw), np.int32(sh), np.int32(do), np.int32(dw), np.int32(dh),
                 np.float32(self.threshold(k)), np.float32(eps), np.int32(masked)))
 
+    def half_step(self) -> float:
+        """a of the (a, 1 - 2a, a) half-octave blur: variance 2a = c^2 level-k pixels
+        (at most 2/3: beyond, the middle weight would vanish)."""
+        c = self.cfg.render.resolved()[0]
+        return min(c * c / 2.0, 1.0 / 3.0)
+
+    def split(self, t: Timings, k: int) -> None:
+        """Half-octave shares of level k into the input buffer (free after preprocess)."""
+        o, w, h, _ = (int(v) for v in self.lv[k])
+        t.add("composite", self.k_split(
+            self.rt.queue, *self.rt.nd(w * h), self.chain, np.int32(o), np.int32(w * h), self.image,
+            np.float32(self.threshold(k + 1)), np.float32(self.cfg.render.resolved()[1])))
+
     def collapse(self, t: Timings) -> None:
-        """Source collapse of levels K-1 .. 1 (level 0 is fused into composite_source)."""
-        q = self.rt.queue
+        """Source collapse of levels K-1 .. 1, in place over the colour chain (level 0 is
+        fused into composite_source)."""
+        q, a = self.rt.queue, self.half_step()
         for k in range(len(self.sizes) - 2, 0, -1):
             (o, w, h, _), (uo, uw, uh, _) = self.lv[k], self.lv[k + 1]
+            self.split(t, k)
             t.add("composite", self.k_collapse(
-                q, *self.rt.nd(w, h), self.chain, self.prep, np.int32(o), np.int32(w), np.int32(h),
-                np.int32(uo), np.int32(uw), np.int32(uh)))
+                q, *self.rt.nd(w, h), self.chain, np.int32(o), np.int32(w), np.int32(h), self.image,
+                np.int32(uo), np.int32(uw), np.int32(uh), np.float32(a)))
 
     def composite_source(self, t: Timings) -> None:
+        top = len(self.sizes) - 1
+        if top > 0:
+            self.split(t, 0)
         t.add("composite", self.k_comp_src(
-            self.rt.queue, *self.rt.nd(self.w, self.h), self.direct, self.medium, self.chain, self.prep,
-            self.lv_buf, np.int32(len(self.sizes) - 1), np.float32(self.cfg.render.resolved()[0]), self.out, np.int32(bool(self.aovs)),
-            self.level_aov, self.scat_aov))
+            self.rt.queue, *self.rt.nd(self.w, self.h), self.direct, self.medium, self.chain, self.image,
+            self.lv_buf, np.int32(top), np.float32(self.cfg.render.resolved()[0]),
+            np.float32(self.half_step()), self.out, np.int32(bool(self.aovs)), self.level_aov, self.scat_aov))
 
     def composite(self, t: Timings, depth_blur: bool) -> None:
         c, _, _ = self.cfg.render.resolved()
