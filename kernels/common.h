@@ -53,31 +53,6 @@ inline float2 level_coord(float2 p0, int k)
     return p0 * s - 0.5f;
 }
 
-/* Bilinear read of a float4 level with clamp-to-edge; (x, y) in pixel-index space. */
-inline float4 bilinear4(__global const float4 *img, int w, int h, float x, float y)
-{
-    x = clamp(x, 0.0f, (float)(w - 1));
-    y = clamp(y, 0.0f, (float)(h - 1));
-    int x0 = (int)floor(x), y0 = (int)floor(y);
-    int x1 = min(x0 + 1, w - 1), y1 = min(y0 + 1, h - 1);
-    float fx = x - x0, fy = y - y0;
-    float4 a = mix(img[y0 * w + x0], img[y0 * w + x1], fx);
-    float4 b = mix(img[y1 * w + x0], img[y1 * w + x1], fx);
-    return mix(a, b, fy);
-}
-
-inline float bilinear1(__global const float *img, int w, int h, float x, float y)
-{
-    x = clamp(x, 0.0f, (float)(w - 1));
-    y = clamp(y, 0.0f, (float)(h - 1));
-    int x0 = (int)floor(x), y0 = (int)floor(y);
-    int x1 = min(x0 + 1, w - 1), y1 = min(y0 + 1, h - 1);
-    float fx = x - x0, fy = y - y0;
-    float a = mix(img[y0 * w + x0], img[y0 * w + x1], fx);
-    float b = mix(img[y1 * w + x0], img[y1 * w + x1], fx);
-    return mix(a, b, fy);
-}
-
 /* Cubic B-spline weights folded into two bilinear taps per axis (Sigg & Hadwiger 2005,
  * GPU Gems 2 ch. 20): returns (h0, h1, g0) with tap offsets -h0, +h1 and weight g0 on
  * the first tap. */
@@ -92,45 +67,37 @@ inline float3 bspline_taps(float f)
     return (float3)(1.0f - w1 / g0 + f, 1.0f + w3 / (w2 + w3) - f, g0);
 }
 
-/* Bicubic B-spline fetch from 4 bilinear fetches. */
-inline float4 bicubic4(__global const float4 *img, int w, int h, float x, float y)
-{
-    float ix = floor(x), iy = floor(y);
-    float3 tx = bspline_taps(x - ix), ty = bspline_taps(y - iy);
-    float x0 = x - tx.x, x1 = x + tx.y, y0 = y - ty.x, y1 = y + ty.y;
-    float4 a = mix(bilinear4(img, w, h, x1, y0), bilinear4(img, w, h, x0, y0), tx.z);
-    float4 b = mix(bilinear4(img, w, h, x1, y1), bilinear4(img, w, h, x0, y1), tx.z);
-    return mix(b, a, ty.z);
+/* Samplers of a level, for float4 (colour) and float (spread) images, clamp-to-edge,
+ * (x, y) in pixel-index space: bilinear; bicubic B-spline from 4 bilinear fetches (Sigg &
+ * Hadwiger); fetch = the one INTERP selects (0: bilinear, else bicubic). */
+#define DEFINE_SAMPLERS(T, S)                                                               \
+inline T bilinear##S(__global const T *img, int w, int h, float x, float y)                  \
+{                                                                                           \
+    x = clamp(x, 0.0f, (float)(w - 1));                                                     \
+    y = clamp(y, 0.0f, (float)(h - 1));                                                     \
+    int x0 = (int)floor(x), y0 = (int)floor(y);                                             \
+    int x1 = min(x0 + 1, w - 1), y1 = min(y0 + 1, h - 1);                                   \
+    float fx = x - x0, fy = y - y0;                                                         \
+    T a = mix(img[y0 * w + x0], img[y0 * w + x1], fx);                                      \
+    T b = mix(img[y1 * w + x0], img[y1 * w + x1], fx);                                      \
+    return mix(a, b, fy);                                                                   \
+}                                                                                           \
+inline T bicubic##S(__global const T *img, int w, int h, float x, float y)                   \
+{                                                                                           \
+    float ix = floor(x), iy = floor(y);                                                     \
+    float3 tx = bspline_taps(x - ix), ty = bspline_taps(y - iy);                            \
+    float x0 = x - tx.x, x1 = x + tx.y, y0 = y - ty.x, y1 = y + ty.y;                       \
+    T a = mix(bilinear##S(img, w, h, x1, y0), bilinear##S(img, w, h, x0, y0), tx.z);        \
+    T b = mix(bilinear##S(img, w, h, x1, y1), bilinear##S(img, w, h, x0, y1), tx.z);        \
+    return mix(b, a, ty.z);                                                                 \
+}                                                                                           \
+inline T fetch##S(__global const T *img, int w, int h, float x, float y)                     \
+{                                                                                           \
+    return INTERP == 0 ? bilinear##S(img, w, h, x, y) : bicubic##S(img, w, h, x, y);        \
 }
 
-inline float bicubic1(__global const float *img, int w, int h, float x, float y)
-{
-    float ix = floor(x), iy = floor(y);
-    float3 tx = bspline_taps(x - ix), ty = bspline_taps(y - iy);
-    float x0 = x - tx.x, x1 = x + tx.y, y0 = y - ty.x, y1 = y + ty.y;
-    float a = mix(bilinear1(img, w, h, x1, y0), bilinear1(img, w, h, x0, y0), tx.z);
-    float b = mix(bilinear1(img, w, h, x1, y1), bilinear1(img, w, h, x0, y1), tx.z);
-    return mix(b, a, ty.z);
-}
-
-/* 2D interpolation of a level: bilinear (INTERP 0) or bicubic B-spline (INTERP 1, 2). */
-inline float4 fetch4(__global const float4 *img, int w, int h, float x, float y)
-{
-#if INTERP == 0
-    return bilinear4(img, w, h, x, y);
-#else
-    return bicubic4(img, w, h, x, y);
-#endif
-}
-
-inline float fetch1(__global const float *img, int w, int h, float x, float y)
-{
-#if INTERP == 0
-    return bilinear1(img, w, h, x, y);
-#else
-    return bicubic1(img, w, h, x, y);
-#endif
-}
+DEFINE_SAMPLERS(float4, 4)
+DEFINE_SAMPLERS(float, 1)
 
 /* Natural log for positive normal floats, to ~1e-7 absolute: the exponent from the bits,
  * the mantissa reduced to [sqrt(1/2), sqrt(2)) and the atanh series to t^7. PoCL's log()

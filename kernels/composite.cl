@@ -2,31 +2,35 @@
  * 4.4.5). Level geometry comes from the plan: lv[k] = (offset, width, height, 0). */
 #include "common.h"
 
-/* One integer level, 2D interpolated at the level-0 pixel centre p0. */
-inline float4 level_fetch4(__global const float4 *chain, __global const int4 *lv, int k,
-                           float2 p0)
-{
-    int4 l = lv[k];
-    float2 q = level_coord(p0, k);
-    return fetch4(chain + l.x, l.y, l.z, q.x, q.y);
+/* level_fetch: one integer level, 2D interpolated at the level-0 pixel centre p0;
+ * chain_linear: linear across the two levels around `level` (clamped to kmax). */
+#define DEFINE_LEVEL_FETCH(T, S)                                                             \
+inline T level_fetch##S(__global const T *chain, __global const int4 *lv, int k, float2 p0)  \
+{                                                                                            \
+    int4 l = lv[k];                                                                          \
+    float2 q = level_coord(p0, k);                                                           \
+    return fetch##S(chain + l.x, l.y, l.z, q.x, q.y);                                        \
+}                                                                                            \
+inline T chain_linear##S(__global const T *chain, __global const int4 *lv, int kmax,          \
+                         float level, float2 p0)                                             \
+{                                                                                            \
+    int k = (int)floor(level);                                                               \
+    float f = level - k;                                                                     \
+    T a = level_fetch##S(chain, lv, min(k, kmax), p0);                                       \
+    if (f <= 0.0f || k >= kmax) return a;                                                    \
+    return mix(a, level_fetch##S(chain, lv, k + 1, p0), f);                                  \
 }
 
-inline float level_fetch1(__global const float *chain, __global const int4 *lv, int k,
-                          float2 p0)
-{
-    int4 l = lv[k];
-    float2 q = level_coord(p0, k);
-    return fetch1(chain + l.x, l.y, l.z, q.x, q.y);
-}
+DEFINE_LEVEL_FETCH(float4, 4)
+DEFINE_LEVEL_FETCH(float, 1)
 
-/* Across levels: linear (INTERP 0, 1) or Catmull-Rom over four levels (INTERP 2). */
+/* The colour across levels: linear (INTERP 0, 1) or Catmull-Rom over four (INTERP 2). */
 inline float4 chain_fetch4(__global const float4 *chain, __global const int4 *lv, int kmax,
                            float level, float2 p0)
 {
-    int k = (int)floor(level);
-    float f = level - k;
 #if INTERP == 2
-    float f2 = f * f, f3 = f2 * f;
+    int k = (int)floor(level);
+    float f = level - k, f2 = f * f, f3 = f2 * f;
     float w0 = 0.5f * (-f3 + 2.0f * f2 - f), w1 = 0.5f * (3.0f * f3 - 5.0f * f2 + 2.0f);
     float w2 = 0.5f * (-3.0f * f3 + 4.0f * f2 + f), w3 = 0.5f * (f3 - f2);
     float4 r = w0 * level_fetch4(chain, lv, clamp(k - 1, 0, kmax), p0)
@@ -35,20 +39,8 @@ inline float4 chain_fetch4(__global const float4 *chain, __global const int4 *lv
              + w3 * level_fetch4(chain, lv, clamp(k + 2, 0, kmax), p0);
     return fmax(r, (float4)(0.0f));   /* Catmull-Rom overshoots; radiance cannot */
 #else
-    float4 a = level_fetch4(chain, lv, min(k, kmax), p0);
-    if (f <= 0.0f || k >= kmax) return a;
-    return mix(a, level_fetch4(chain, lv, k + 1, p0), f);
+    return chain_linear4(chain, lv, kmax, level, p0);
 #endif
-}
-
-inline float chain_fetch1(__global const float *chain, __global const int4 *lv, int kmax,
-                          float level, float2 p0)
-{
-    int k = (int)floor(level);
-    float f = level - k;
-    float a = level_fetch1(chain, lv, min(k, kmax), p0);
-    if (f <= 0.0f || k >= kmax) return a;
-    return mix(a, level_fetch1(chain, lv, k + 1, p0), f);
 }
 
 __kernel void composite(__global const float4 *direct, __global const float4 *medium_term,
@@ -68,7 +60,7 @@ __kernel void composite(__global const float4 *direct, __global const float4 *me
     if (depth_blur) {
         /* Eq. 11: read the spread blurred as much as this pixel's own blur, then map the
          * blurred spread to the level, so level changes at depth edges are gradual. */
-        float s1 = chain_fetch1(spread_chain, lv, kmax, level, p0);
+        float s1 = chain_linear1(spread_chain, lv, kmax, level, p0);
         level = level_of(s1, c, (float)kmax);
     }
     float4 sc = chain_fetch4(chain, lv, kmax, level, p0);
