@@ -3,20 +3,23 @@
  * Depth arrives raw (as stored in the file, holes already filled); the camera model
  * turns it into a ray length here so that a z-buffer never reaches the physics. */
 #include "common.h"
+#include "density.h"
 
 typedef struct {
     float4 sa;          /* absorption per RGB, 1/m; .w = mean over RGB */
     float4 ss;          /* scattering per RGB; .w = mean */
     float4 emission;    /* L_e */
     float4 ambient;     /* L_a */
+    float4 cam_pos;     /* camera position, world */
+    float4 rot0, rot1, rot2;   /* rows of R = Ry(yaw) Rx(pitch) Rz(roll) (SPEC 4.1) */
     float g;            /* phase asymmetry */
-    float density;      /* sum of homogeneous factors: P = density * D */
     float depth_scale;
     float max_depth;
     float focal_px;
     float spread_scale;
     int depth_is_z;
     int has_medium_light;   /* emission or ambient non-zero */
+    int n_density;
 } medium_t;
 
 __kernel void preprocess(__global const float4 *image, __global const float *depth,
@@ -24,6 +27,7 @@ __kernel void preprocess(__global const float4 *image, __global const float *dep
                          __global float *spread0, __global float4 *medium_term,
                          __global float4 *transmittance, const int want_transmittance,
                          const int width, const int height, const medium_t m,
+                         __constant const density_t *dens,
                          __global float4 *prep0, const int source, const float thresh1,
                          const float eps)
 {
@@ -31,18 +35,19 @@ __kernel void preprocess(__global const float4 *image, __global const float *dep
     if (i >= width || j >= height) return;
     int idx = j * width + i;
 
+    /* camera-space ray of the pixel centre (SPEC 4.1), its length for z-depth */
+    float3 dc = (float3)((i + 0.5f - 0.5f * width) / m.focal_px,
+                         -(j + 0.5f - 0.5f * height) / m.focal_px, -1.0f);
+    float dlen = length(dc);
     float raw = depth[idx] * m.depth_scale;
-    float dist = raw;
-    if (m.depth_is_z) {
-        float dx = (i + 0.5f - 0.5f * width) / m.focal_px;
-        float dy = (j + 0.5f - 0.5f * height) / m.focal_px;
-        dist = raw * sqrt(dx * dx + dy * dy + 1.0f);
-    }
+    float dist = m.depth_is_z ? raw * dlen : raw;
     /* +inf (sky) and anything beyond max_depth is clamped there; comparisons with inf
      * are well defined, so fmin does the job. */
     dist = fmin(dist, m.max_depth);
 
-    float P = m.density * dist;
+    float3 wc = dc / dlen;
+    float3 w = (float3)(dot(m.rot0.xyz, wc), dot(m.rot1.xyz, wc), dot(m.rot2.xyz, wc));
+    float P = optical_depth(dens, m.n_density, m.cam_pos.xyz, w, dist);
     float3 L = image[idx].xyz;
     float3 sa = m.sa.xyz, ss = m.ss.xyz, st = sa + ss;
 

@@ -14,10 +14,14 @@ from .runtime import Runtime, get_runtime
 INTERP = {"linear-bilinear": 0, "linear-bicubic": 1, "cubic-bicubic": 2}
 MEDIUM_T = np.dtype([
     ("sa", np.float32, 4), ("ss", np.float32, 4), ("emission", np.float32, 4),
-    ("ambient", np.float32, 4), ("g", np.float32), ("density", np.float32),
-    ("depth_scale", np.float32), ("max_depth", np.float32), ("focal_px", np.float32),
-    ("spread_scale", np.float32), ("depth_is_z", np.int32), ("has_medium_light", np.int32),
+    ("ambient", np.float32, 4), ("cam_pos", np.float32, 4), ("rot", np.float32, (3, 4)),
+    ("g", np.float32), ("depth_scale", np.float32), ("max_depth", np.float32),
+    ("focal_px", np.float32), ("spread_scale", np.float32), ("depth_is_z", np.int32),
+    ("has_medium_light", np.int32), ("n_density", np.int32),
 ])
+DENSITY_T = np.dtype([("type", np.int32), ("factor", np.float32), ("falloff", np.float32),
+                      ("radius", np.float32), ("n", np.float32, 4), ("o", np.float32, 4)])
+DENSITY_TYPES = {"homogeneous": 0, "exponential": 1, "sphere": 2}
 AOV_NAMES = ("optical_depth", "transmittance", "spread", "level", "direct", "scattered", "emission")
 
 
@@ -53,29 +57,47 @@ def defines(cfg: Config) -> dict:
     return d
 
 
+def rotation(yaw: float, pitch: float, roll: float) -> np.ndarray:
+    """R = Ry(yaw) Rx(pitch) Rz(roll), right-handed, degrees (SPEC 4.1)."""
+    y, p, r = np.radians([yaw, pitch, roll])
+    ry = np.array([[np.cos(y), 0, np.sin(y)], [0, 1, 0], [-np.sin(y), 0, np.cos(y)]])
+    rx = np.array([[1, 0, 0], [0, np.cos(p), -np.sin(p)], [0, np.sin(p), np.cos(p)]])
+    rz = np.array([[np.cos(r), -np.sin(r), 0], [np.sin(r), np.cos(r), 0], [0, 0, 1]])
+    return ry @ rx @ rz
+
+
 def medium_struct(cfg: Config, width: int) -> np.ndarray:
     m, cam = cfg.medium, cfg.camera
-    non_homog = [d.type for d in m.density if d.type != "homogeneous"]
-    if non_homog:
-        from .errors import UserError
-
-        raise UserError(f"medium.density: {non_homog[0]} densities are not implemented yet; "
-                        "only homogeneous primitives are supported in this version")
     s = np.zeros((), MEDIUM_T)
     sa, ss = np.array(m.absorption, np.float32), np.array(m.scattering, np.float32)
     s["sa"] = [*sa, sa.mean()]
     s["ss"] = [*ss, ss.mean()]
     s["emission"] = [*m.emission, 0.0]
     s["ambient"] = [*m.ambient, 0.0]
+    s["cam_pos"] = [*cam.position, 0.0]
+    s["rot"][:, :3] = rotation(cam.yaw, cam.pitch, cam.roll)
     s["g"] = m.asymmetry
-    s["density"] = sum(d.factor for d in m.density)
     s["depth_scale"] = cam.depth_scale
     s["max_depth"] = cam.max_depth
     s["focal_px"] = cam.focal(width)
     s["spread_scale"] = cfg.render.spread_scale
     s["depth_is_z"] = 1 if cam.depth == "z" else 0
     s["has_medium_light"] = int(any(m.emission) or any(m.ambient))
+    s["n_density"] = len(m.density)
     return s
+
+
+def density_array(cfg: Config) -> np.ndarray:
+    out = np.zeros(max(1, len(cfg.medium.density)), DENSITY_T)
+    for rec, d in zip(out, cfg.medium.density):
+        rec["type"] = DENSITY_TYPES[d.type]
+        rec["factor"] = d.factor
+        rec["falloff"] = d.falloff
+        rec["radius"] = d.radius
+        n = np.array(d.direction, np.float64)
+        rec["n"][:3] = n / np.linalg.norm(n)
+        rec["o"][:3] = d.center if d.type == "sphere" else d.offset
+    return out
 
 
 class Plan:
@@ -128,6 +150,11 @@ class Plan:
         t.add("upload", cl.enqueue_copy(self.rt.queue, self.image, np.ascontiguousarray(rgba, np.float32)))
         t.add("upload", cl.enqueue_copy(self.rt.queue, self.depth, np.ascontiguousarray(depth, np.float32)))
 
+    def density_buffer(self):
+        cl = self.rt.cl
+        return cl.Buffer(self.rt.ctx, cl.mem_flags.READ_ONLY | cl.mem_flags.COPY_HOST_PTR,
+                         hostbuf=density_array(self.cfg))
+
     def threshold(self, k: int) -> float:
         """Masking threshold of level k (Elek eq. 7, scaled): threshold * c * 2^(k-1)."""
         c, _, thr = self.cfg.render.resolved()
@@ -139,7 +166,7 @@ class Plan:
         t.add("preprocess", self.k_pre(
             q, *self.rt.nd(self.w, self.h), self.image, self.depth, self.direct, self.chain, self.spread,
             self.medium, self.trans, np.int32("transmittance" in self.aovs),
-            np.int32(self.w), np.int32(self.h), medium_struct(self.cfg, self.w),
+            np.int32(self.w), np.int32(self.h), medium_struct(self.cfg, self.w), self.density_buffer(),
             self.prep, np.int32(self.source), np.float32(self.threshold(1)), np.float32(eps)))
 
     def pyramid(self, t: Timings, masked: bool) -> None:
