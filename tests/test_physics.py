@@ -104,3 +104,25 @@ def test_pyramid_is_close_to_reference_on_a_night_scene():
     assert ssim(pyr, ref) > 0.93
     assert rel_l1(pyr, ref) < 0.12
     assert rel_l1(pyr, ref) < rel_l1(naive, ref)
+
+
+def test_ambient_auto_is_the_far_radiance():
+    """ambient: auto takes the median sky colour; at the sky, where P is huge, the medium
+    term tends to (ss / st) L_a (Delalandre eq. 7)."""
+    from fogcli.ambient import estimate
+
+    rgb, z, fov = scene(96, 64, seed=1, night=False)
+    sky = ~np.isfinite(z)
+    want = np.median(rgb[sky], axis=0)
+    la = estimate(rgb, z, 1.0, 1000.0)
+    np.testing.assert_allclose(la, want, rtol=1e-6)
+    cfg = make_config("fog", sets=["medium.ambient=auto", "camera.max_depth=1e5", f"camera.fov={fov}"])
+    out, aov = apply(rgb, z, cfg, aovs=("emission",), return_aovs=True)
+    em = np.stack([aov[f"emission.{c}"] for c in "RGB"], axis=2)
+    cm = cfg.medium
+    st = np.add(cm.absorption, cm.scattering)
+    np.testing.assert_allclose(em[sky].mean(axis=0), np.array(cm.scattering) / st * want, rtol=1e-3)
+    # no sky: the farthest 2 % stand in
+    z2 = np.where(sky, 900.0, z).astype(np.float32)
+    far = z2 >= np.quantile(z2, 0.98)
+    np.testing.assert_allclose(estimate(rgb, z2, 1.0, 1000.0), np.median(rgb[far], axis=0), rtol=1e-6)

@@ -179,7 +179,7 @@ class Medium:
     scattering: tuple = (0.0, 0.0, 0.0)
     asymmetry: float = 0.9
     emission: tuple = (0.0, 0.0, 0.0)
-    ambient: tuple = (0.0, 0.0, 0.0)
+    ambient: tuple | str = (0.0, 0.0, 0.0)   # or "auto": estimated from the image (ambient.py)
     density: list = field(default_factory=lambda: [Density("homogeneous")])
 
 
@@ -382,8 +382,10 @@ def _medium(ck: _Checker, sec: dict) -> Medium:
     if "asymmetry" in sec:
         g = ck.number(sec["asymmetry"], "medium.asymmetry", lo=0.0, hi=1.0, hi_open=True)
         m.asymmetry = g if g is not None else m.asymmetry
+    if sec.get("ambient") == "auto":
+        m.ambient = "auto"
     for key in ("emission", "ambient"):
-        if key in sec:
+        if key in sec and not (key == "ambient" and sec[key] == "auto"):
             v = ck.rgb(sec[key], f"medium.{key}")
             if v:
                 setattr(m, key, v)

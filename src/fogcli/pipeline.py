@@ -283,6 +283,13 @@ def run(rgb: np.ndarray, depth: np.ndarray, cfg: Config, alpha=None, aovs=(), de
         from .errors import UserError
 
         raise UserError("render.separation.enabled: pixel separation is not implemented in this version")
+    if cfg.medium.ambient == "auto":
+        import dataclasses
+
+        from .ambient import estimate
+
+        la = estimate(rgb, depth, cfg.camera.depth_scale, cfg.camera.max_depth)
+        cfg = dataclasses.replace(cfg, medium=dataclasses.replace(cfg.medium, ambient=la))
     t = timings if timings is not None else Timings()
     rt = get_runtime(device)
     plan = get_plan(rt, w, h, cfg, aovs)
