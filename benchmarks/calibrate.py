@@ -143,6 +143,8 @@ def write(path, best, lines, table, held, per_case, n_train, secs):
     l1, ss = per_case
     for (label, *_), a, b in zip(held, l1, ss):
         out.append(f"| {label} | {b:.3f} | {a:.3f} |")
+    out += ["", "Pixel separation is calibrated separately: `docs/calibration-separation.md` "
+            "(`python benchmarks/calibrate_separation.py`)."]
     Path(path).write_text("\n".join(out) + "\n")
     print("wrote", path)
 

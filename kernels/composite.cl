@@ -72,11 +72,13 @@ __kernel void composite(__global const float4 *direct, __global const float4 *me
     }
 }
 
-/* `fetch: source`: the last collapse step (level 0) fused with the final sum. */
+/* `fetch: source`: the last collapse step (level 0) fused with the final sum. With pixel
+ * separation it runs again for the separated chain with `accumulate` set, adding its
+ * light to the output (and to the scattered AOV). */
 __kernel void composite_source(__global const float4 *direct, __global const float4 *medium_term,
                                __global const float4 *chain, __global const float4 *half_img,
                                __global const int4 *lv, const int kmax, const float c,
-                               const float a,
+                               const float a, const int accumulate,
                                __global float4 *out, const int want_aov,
                                __global float *level_aov, __global float4 *scattered_aov)
 {
@@ -89,6 +91,11 @@ __kernel void composite_source(__global const float4 *direct, __global const flo
     if (kmax > 0)
         sc = keep_px(v.xyz, half_img, width, height, i, j, a)
            + up2_fetch4(chain + lv[1].x, lv[1].y, lv[1].z, i, j).xyz;
+    if (accumulate) {
+        out[idx].xyz += sc;
+        if (want_aov) scattered_aov[idx].xyz += sc;
+        return;
+    }
     float4 d = direct[idx];
     out[idx] = (float4)(d.xyz + medium_term[idx].xyz + sc, d.w);
     if (want_aov) {
@@ -96,4 +103,23 @@ __kernel void composite_source(__global const float4 *direct, __global const flo
         level_aov[idx] = level_of(v.w, c, (float)kmax);
         scattered_aov[idx] = (float4)(sc, 0.0f);
     }
+}
+
+/* Iser eq. 4.28 for the receiver fetch: the separated chain (a plain Gaussian chain of the
+ * bright near pixels, eq. 4.27, with their luminance-weighted spread in .w, eq. 4.26) is
+ * read at the level that its spread at level k_ssc asks for, and added (eq. 4.30). */
+__kernel void composite_separated(__global const float4 *chain2, __global const int4 *lv,
+                                  const int kmax, const float c, const float k_ssc,
+                                  __global float4 *out, const int want_aov,
+                                  __global float4 *scattered_aov)
+{
+    int i = get_global_id(0), j = get_global_id(1);
+    int width = lv[0].y, height = lv[0].z;
+    if (i >= width || j >= height) return;
+    int idx = j * width + i;
+    float2 p0 = (float2)(i + 0.5f, j + 0.5f);
+    float w_ssc = chain_linear4(chain2, lv, kmax, k_ssc, p0).w;
+    float3 sc = chain_fetch4(chain2, lv, kmax, level_of(w_ssc, c, (float)kmax), p0).xyz;
+    out[idx].xyz += sc;
+    if (want_aov) scattered_aov[idx].xyz += sc;
 }

@@ -29,7 +29,8 @@ __kernel void preprocess(__global const float4 *image, __global const float *dep
                          const int width, const int height, const medium_t m,
                          __constant const density_t *dens,
                          __global float4 *prep0, const int source, const float thresh1,
-                         const float eps)
+                         const float eps, __global float4 *sep_chain0, __global float4 *sep_prep0,
+                         const int sep, const float4 sep_par)
 {
     int i = get_global_id(0), j = get_global_id(1);
     if (i >= width || j >= height) return;
@@ -71,6 +72,16 @@ __kernel void preprocess(__global const float4 *image, __global const float *dep
                             (float)width);
 
     direct[idx] = (float4)(l_at, image[idx].w);
+    if (sep) {
+        /* Iser eq. 4.25: bright (luminance of L above sep_par.x, width .y) and near (D' = P
+         * below .z, width .w) pixels get a chain of their own */
+        float ms = smoothstep_(sep_par.x, sep_par.x + sep_par.y, luminance(L))
+                 * (1.0f - smoothstep_(sep_par.z - sep_par.w, sep_par.z, P));
+        float3 l_sep = ms * l_sc;
+        l_sc -= l_sep;
+        sep_chain0[idx] = (float4)(l_sep, sigma);
+        sep_prep0[idx] = prep_px(l_sep, sigma, thresh1, eps);
+    }
     scat0[idx] = (float4)(l_sc, sigma);
     spread0[idx] = sigma;
     medium_term[idx] = (float4)(l_med, P);

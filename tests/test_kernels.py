@@ -201,3 +201,31 @@ def test_reference_kernels_match_brute_force_oracle(rt, rng):
     assert rel < 0.01, rel
     # scattered energy is conserved
     assert abs(binned.sum() / sc[:, :, :3].sum() - 1) < 1e-4
+
+
+def test_separation_mask_matches_oracle(rt, rng):
+    """Iser eq. 4.25: bright (input luminance) and near (D' = P) pixels go to the second
+    chain; the two chains add up to L_sc."""
+    w, h = 31, 19
+    img = rng.uniform(0, 8, (h, w, 4)).astype(np.float32)
+    depth = rng.uniform(1, 400, (h, w)).astype(np.float32)
+    plan, cfg = plan_for(rt, w, h, "render.separation.enabled=true", "render.separation.luminance=2",
+                         "render.separation.luminance_width=3", "render.separation.depth=150",
+                         "render.separation.depth_width=100", "camera.depth=distance")
+    t = Timings()
+    plan.upload(img, depth, t)
+    plan.preprocess(t)
+    chains, _ = read_chain(plan)
+    sep = np.empty((w * h, 4), np.float32)
+    plan.rt.cl.enqueue_copy(plan.rt.queue, sep, plan.chain2)
+    plan.rt.queue.finish()
+    sep = sep[: w * h].reshape(h, w, 4)
+    m = cfg.medium
+    _, sc, sigma, _, P = oracles.preprocess(img, depth, m.absorption, m.scattering, m.asymmetry,
+                                            cfg.camera.focal(w), z=False)
+    y = img[:, :, :3] @ oracles.LUM
+    ms = oracles.smoothstep(2, 5, y) * (1 - oracles.smoothstep(50, 150, P))
+    assert 0.1 < ms.mean() < 0.9
+    np.testing.assert_allclose(sep[:, :, :3], ms[..., None] * sc, rtol=2e-4, atol=1e-6)
+    np.testing.assert_allclose(chains[0][:, :, :3], (1 - ms[..., None]) * sc, rtol=2e-4, atol=1e-6)
+    np.testing.assert_allclose(sep[:, :, 3], sigma, rtol=1e-4, atol=1e-6)

@@ -203,12 +203,14 @@ class Camera:
 
 @dataclass
 class Separation:
+    """Defaults calibrated on night scenes for the receiver fetch (Iser's demo values were
+    3 / 3 / 200 / 200 / 0.7); docs/calibration-separation.md."""
     enabled: bool = False
-    luminance: float = 3.0
-    luminance_width: float = 3.0
-    depth: float = 200.0
-    depth_width: float = 200.0
-    level: float = 0.7
+    luminance: float = 0.3
+    luminance_width: float = 0.3
+    depth: float = 1000.0
+    depth_width: float = 1000.0
+    level: float = 0.9
 
 
 @dataclass

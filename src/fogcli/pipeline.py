@@ -115,7 +115,9 @@ class Plan:
         mf = cl.mem_flags
         self.source = cfg.render.method == "pyramid" and cfg.render.fetch == "source"
         need = 4 * (4 * n * 4 + n + 4 * total + total) + (4 * 4 * n * 2 + 4 * n if aovs else 0)
+        self.sep = cfg.render.method == "pyramid" and cfg.render.separation.enabled
         need += 16 * total if self.source else 0
+        need += (36 * total + 16 * n) if self.sep else 0
         if need > rt.device.global_mem_size:
             raise ProcessingError(f"image of {width}x{height} needs {need / 2**20:.0f} MiB, "
                                   f"device {rt.info.name} has {rt.device.global_mem_size / 2**20:.0f} MiB")
@@ -128,6 +130,10 @@ class Plan:
             self.chain = B(16 * total)
             self.spread = B(4 * total)
             self.prep = B(16 * total if self.source else 16)
+            self.chain2 = B(16 * total if self.sep else 16)   # pixel separation (Iser 4.4.4)
+            self.prep2 = B(16 * total if self.sep else 16)
+            self.half2 = B(16 * n if self.sep else 16)
+            self.spread2 = B(4 * total if self.sep else 16)    # unused output of reduce_level
             self.out = B(16 * n)
             want = bool(aovs)
             self.trans = B(16 * n if "transmittance" in self.aovs else 16)
@@ -143,6 +149,7 @@ class Plan:
         self.k_collapse, self.k_prep0, self.k_split = pyr.collapse_level, pyr.prep_level0, pyr.split_level
         self.k_comp = rt.program("composite", **d).composite
         self.k_comp_src = rt.program("composite", **d).composite_source
+        self.k_comp_sep = rt.program("composite", **d).composite_separated
 
     # -- stages --------------------------------------------------------------------
     def upload(self, rgba: np.ndarray, depth: np.ndarray, t: Timings) -> None:
@@ -167,23 +174,30 @@ class Plan:
             q, *self.rt.nd(self.w, self.h), self.image, self.depth, self.direct, self.chain, self.spread,
             self.medium, self.trans, np.int32("transmittance" in self.aovs),
             np.int32(self.w), np.int32(self.h), medium_struct(self.cfg, self.w), self.density_buffer(),
-            self.prep, np.int32(self.source), np.float32(self.threshold(1)), np.float32(eps)))
+            self.prep, np.int32(self.source), np.float32(self.threshold(1)), np.float32(eps),
+            self.chain2, self.prep2, np.int32(self.sep), self.sep_params()))
 
-    def pyramid(self, t: Timings, masked: bool) -> None:
+    def sep_params(self) -> np.ndarray:
+        s = self.cfg.render.separation
+        return np.array([s.luminance, s.luminance_width, s.depth, s.depth_width], np.float32)
+
+    def pyramid(self, t: Timings, masked: bool, second: bool = False) -> None:
         c, eps, thr = self.cfg.render.resolved()
         q = self.rt.queue
+        chain, prep = (self.chain2, self.prep2) if second else (self.chain, self.prep)
         if self.source:
             for k in range(1, len(self.sizes)):
                 (so, sw, sh, _), (do, dw, dh, _) = self.lv[k - 1], self.lv[k]
                 t.add("pyramid", self.k_reduce_src(
-                    q, *self.rt.nd(dw, dh), self.chain, self.prep,
+                    q, *self.rt.nd(dw, dh), chain, prep,
                     np.int32(so), np.int32(sw), np.int32(sh), np.int32(do), np.int32(dw), np.int32(dh),
                     np.float32(self.threshold(k + 1)), np.float32(eps)))
             return
+        spread = self.spread2 if second else self.spread
         for k in range(1, len(self.sizes)):
             (so, sw, sh, _), (do, dw, dh, _) = self.lv[k - 1], self.lv[k]
             t.add("pyramid", self.k_reduce(
-                q, *self.rt.nd(dw, dh), self.chain, self.spread,
+                q, *self.rt.nd(dw, dh), chain, spread,
                 np.int32(so), np.int32(sw), np.int32(sh), np.int32(do), np.int32(dw), np.int32(dh),
                 np.float32(self.threshold(k)), np.float32(eps), np.int32(masked)))
 
@@ -193,32 +207,44 @@ class Plan:
         c = self.cfg.render.resolved()[0]
         return min(c * c / 2.0, 1.0 / 3.0)
 
-    def split(self, t: Timings, k: int) -> None:
-        """Half-octave shares of level k into the input buffer (free after preprocess)."""
+    def split(self, t: Timings, k: int, chain, out) -> None:
+        """Half-octave shares of level k of `chain` into `out` (level-0 sized scratch)."""
         o, w, h, _ = (int(v) for v in self.lv[k])
         t.add("composite", self.k_split(
-            self.rt.queue, *self.rt.nd(w * h), self.chain, np.int32(o), np.int32(w * h), self.image,
+            self.rt.queue, *self.rt.nd(w * h), chain, np.int32(o), np.int32(w * h), out,
             np.float32(self.threshold(k + 1)), np.float32(self.cfg.render.resolved()[1])))
 
-    def collapse(self, t: Timings) -> None:
+    def collapse(self, t: Timings, second: bool = False) -> None:
         """Source collapse of levels K-1 .. 1, in place over the colour chain (level 0 is
-        fused into composite_source)."""
+        fused into composite_source). The input buffer, free after preprocess, is the
+        scratch for the half-octave shares."""
         q, a = self.rt.queue, self.half_step()
+        chain, half = (self.chain2, self.half2) if second else (self.chain, self.image)
         for k in range(len(self.sizes) - 2, 0, -1):
             (o, w, h, _), (uo, uw, uh, _) = self.lv[k], self.lv[k + 1]
-            self.split(t, k)
+            self.split(t, k, chain, half)
             t.add("composite", self.k_collapse(
-                q, *self.rt.nd(w, h), self.chain, np.int32(o), np.int32(w), np.int32(h), self.image,
+                q, *self.rt.nd(w, h), chain, np.int32(o), np.int32(w), np.int32(h), half,
                 np.int32(uo), np.int32(uw), np.int32(uh), np.float32(a)))
 
-    def composite_source(self, t: Timings) -> None:
+    def composite_source(self, t: Timings, second: bool = False) -> None:
         top = len(self.sizes) - 1
+        chain, half = (self.chain2, self.half2) if second else (self.chain, self.image)
         if top > 0:
-            self.split(t, 0)
+            self.split(t, 0, chain, half)
         t.add("composite", self.k_comp_src(
-            self.rt.queue, *self.rt.nd(self.w, self.h), self.direct, self.medium, self.chain, self.image,
+            self.rt.queue, *self.rt.nd(self.w, self.h), self.direct, self.medium, chain, half,
             self.lv_buf, np.int32(top), np.float32(self.cfg.render.resolved()[0]),
-            np.float32(self.half_step()), self.out, np.int32(bool(self.aovs)), self.level_aov, self.scat_aov))
+            np.float32(self.half_step()), np.int32(second), self.out, np.int32(bool(self.aovs)),
+            self.level_aov, self.scat_aov))
+
+    def composite_separated(self, t: Timings) -> None:
+        """Iser eq. 4.26-4.28 on the receiver fetch: level k_ssc = separation.level * K."""
+        kmax = len(self.sizes) - 1
+        t.add("composite", self.k_comp_sep(
+            self.rt.queue, *self.rt.nd(self.w, self.h), self.chain2, self.lv_buf, np.int32(kmax),
+            np.float32(self.cfg.render.resolved()[0]), np.float32(self.cfg.render.separation.level * kmax),
+            self.out, np.int32(bool(self.aovs)), self.scat_aov))
 
     def composite(self, t: Timings, depth_blur: bool) -> None:
         c, _, _ = self.cfg.render.resolved()
@@ -263,7 +289,7 @@ _PLANS: dict = {}
 def get_plan(rt: Runtime, width: int, height: int, cfg: Config, aovs=()) -> Plan:
     """Reuse buffers across images of one size and one compile-time configuration."""
     key = (id(rt), width, height, tuple(sorted(defines(cfg).items())), cfg.render.levels, tuple(aovs),
-           cfg.render.method == "pyramid" and cfg.render.fetch == "source")
+           cfg.render.method == "pyramid" and cfg.render.fetch == "source", cfg.render.separation.enabled)
     plan = _PLANS.get(key)
     if plan is None:
         if len(_PLANS) > 4:
@@ -279,10 +305,10 @@ def run(rgb: np.ndarray, depth: np.ndarray, cfg: Config, alpha=None, aovs=(), de
     h, w = depth.shape
     if rgb.shape[:2] != (h, w):
         raise ValueError(f"image {rgb.shape[:2]} and depth {depth.shape} differ in size")
-    if cfg.render.separation.enabled:
+    if cfg.render.separation.enabled and cfg.render.method != "pyramid":
         from .errors import UserError
 
-        raise UserError("render.separation.enabled: pixel separation is not implemented in this version")
+        raise UserError("render.separation.enabled: pixel separation needs render.method: pyramid")
     if cfg.medium.ambient == "auto":
         import dataclasses
 
@@ -308,8 +334,15 @@ def run(rgb: np.ndarray, depth: np.ndarray, cfg: Config, alpha=None, aovs=(), de
         if method == "pyramid" and cfg.render.fetch == "source":
             plan.collapse(t)
             plan.composite_source(t)
+            if plan.sep:
+                plan.pyramid(t, masked=True, second=True)
+                plan.collapse(t, second=True)
+                plan.composite_source(t, second=True)
         else:
             plan.composite(t, depth_blur=(method == "pyramid"))
+            if plan.sep:
+                plan.pyramid(t, masked=False, second=True)   # eq. 4.27: no masking
+                plan.composite_separated(t)
     out = plan.download(plan.out, 4, t)
     planes = plan.aov_planes(t)
     rt.queue.finish()
