@@ -36,20 +36,21 @@ def fidelity():
           f"{a[:, 0].min():.3f}, rel L1 mean {a[:, 1].mean():.3f}, worst {a[:, 1].max():.3f} | SSIM >= 0.95, L1 <= 0.12 |")
 
 
-def cost():
+def cost(rounds=8):
+    """Both configurations run alternately, best of `rounds` each: the machine is noisy."""
     rgb, z, fov = harbour_sample(1888, 1062)
-    res = {}
-    for name, sets in (("homogeneous", []), ("exponential + sphere", [GROUND_AND_BALL])):
-        cfg = make_config("fog", sets=sets)
+    cfgs = {"homogeneous": make_config("fog"), "exponential + sphere": make_config("fog", sets=[GROUND_AND_BALL])}
+    best = {}
+    for cfg in cfgs.values():
         apply(rgb, z, cfg)
-        best = None
-        for _ in range(4):
+    for _ in range(rounds):
+        for name, cfg in cfgs.items():
             t = Timings()
             apply(rgb, z, cfg, timings=t)
             k = kernel_ms(t)
-            best = k if best is None or k[1] < best[1] else best
-        res[name] = best
-    h, e = res["homogeneous"], res["exponential + sphere"]
+            if name not in best or k[1] < best[name][1]:
+                best[name] = k
+    h, e = best["homogeneous"], best["exponential + sphere"]
     print(f"| kernel_ms at 2 MPx | homogeneous {h[1]:.0f} (preprocess {h[0]['preprocess']:.0f}), exponential + sphere "
           f"{e[1]:.0f} (preprocess {e[0]['preprocess']:.0f}): +{100 * (e[1] / h[1] - 1):.0f} % | <= +20 % |")
 

@@ -5,6 +5,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
+import math
+
 import numpy as np
 
 from .config import FILTERS, Config
@@ -88,15 +90,22 @@ def medium_struct(cfg: Config, width: int) -> np.ndarray:
 
 
 def density_array(cfg: Config) -> np.ndarray:
+    """The primitives for the kernel; for exponentials the per-image constant
+    factor * exp(-b <c - o, n>) (c the camera position) rides in n.w."""
     out = np.zeros(max(1, len(cfg.medium.density)), DENSITY_T)
+    cam = np.array(cfg.camera.position, np.float64)
     for rec, d in zip(out, cfg.medium.density):
         rec["type"] = DENSITY_TYPES[d.type]
         rec["factor"] = d.factor
         rec["falloff"] = d.falloff
         rec["radius"] = d.radius
         n = np.array(d.direction, np.float64)
-        rec["n"][:3] = n / np.linalg.norm(n)
+        n /= np.linalg.norm(n)
+        rec["n"][:3] = n
         rec["o"][:3] = d.center if d.type == "sphere" else d.offset
+        if d.type == "exponential":
+            e = -d.falloff * float((cam - np.array(d.offset)) @ n)
+            rec["n"][3] = d.factor * math.exp(min(e, 87.0))
     return out
 
 
