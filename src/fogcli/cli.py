@@ -123,8 +123,7 @@ def devices():
 @main.command()
 def media():
     """List the bundled medium presets."""
-    from .media import describe, presets
-    from .media import assemble
+    from .media import assemble, describe, presets
 
     for name, path in presets().items():
         m = assemble(name).medium

@@ -10,7 +10,6 @@ import math
 import re
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
 
 import yaml
 
@@ -259,18 +258,13 @@ class _Checker:
         self.problems: list[str] = []
 
     def fail(self, path: str, msg: str):
-        loc = self.locs.get(path)
-        while loc is None and "." in path:
-            path_up = path.rsplit(".", 1)[0]
-            loc = self.locs.get(path_up)
-            if loc is not None:
-                break
-            path = path_up
+        # the line of the key, else of the nearest enclosing key that has one
+        loc, up = self.locs.get(path), path
+        while loc is None and "." in up:
+            up = up.rsplit(".", 1)[0]
+            loc = self.locs.get(up)
         where = f"{loc}: " if loc else ""
-        self.problems.append(f"{where}{self._orig(path)}: {msg}")
-
-    def _orig(self, path):
-        return path
+        self.problems.append(f"{where}{path}: {msg}")
 
     def keys(self, data: dict, path: str, allowed: dict):
         for k in data:

@@ -107,7 +107,7 @@ def read_image(path: str | Path) -> Frame:
     depth_idx = next((i for i, n in enumerate(names) if _is_depth_name(n) and i not in rgb_idx), None)
     if rgb_idx:
         rgb = px[:, :, rgb_idx]
-    elif spec.nchannels in (1, 2) or (depth_idx is not None and spec.nchannels == 2):
+    elif spec.nchannels in (1, 2):
         grey = [i for i in range(spec.nchannels) if i != depth_idx][:1] or [0]
         rgb = np.repeat(px[:, :, grey], 3, axis=2)
         a_idx = 1 if spec.nchannels == 2 and depth_idx is None else None

@@ -191,7 +191,7 @@ class Plan:
         return np.array([s.luminance, s.luminance_width, s.depth, s.depth_width], np.float32)
 
     def pyramid(self, t: Timings, masked: bool, second: bool = False) -> None:
-        c, eps, thr = self.cfg.render.resolved()
+        eps = self.cfg.render.resolved()[1]
         q = self.rt.queue
         chain, prep = (self.chain2, self.prep2) if second else (self.chain, self.prep)
         if self.source:
@@ -271,22 +271,18 @@ class Plan:
         if not self.aovs:
             return {}
         out = {}
-        want = set(self.aovs)
-        direct = self.download(self.direct, 4, t) if "direct" in want else None
-        medium = self.download(self.medium, 4, t) if want & {"optical_depth", "emission"} else None
+        # optical_depth and emission share the medium buffer (P in .w): download it once
+        medium = self.download(self.medium, 4, t) if {"optical_depth", "emission"} & set(self.aovs) else None
+        rgb_bufs = {"transmittance": self.trans, "direct": self.direct, "scattered": self.scat_aov}
         for name in self.aovs:
             if name == "optical_depth":
-                out["optical_depth"] = medium[:, :, 3]
+                out[name] = medium[:, :, 3]
             elif name == "spread":
-                out["spread"] = self.download(self.spread, 1, t)   # level 0 of the chain
+                out[name] = self.download(self.spread, 1, t)   # level 0 of the spread chain
             elif name == "level":
-                out["level"] = self.download(self.level_aov, 1, t)
+                out[name] = self.download(self.level_aov, 1, t)
             else:
-                src = {"transmittance": None, "direct": direct, "emission": medium, "scattered": None}[name]
-                if name == "transmittance":
-                    src = self.download(self.trans, 4, t)
-                elif name == "scattered":
-                    src = self.download(self.scat_aov, 4, t)
+                src = medium if name == "emission" else self.download(rgb_bufs[name], 4, t)
                 for i, ch in enumerate("RGB"):
                     out[f"{name}.{ch}"] = src[:, :, i]
         return out
