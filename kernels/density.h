@@ -1,25 +1,31 @@
 /* Analytic optical depth P = integral of the density along a camera ray (Iser 4.3,
  * SPEC 4.1): a sum of primitives. Written for float32 accuracy (~1e-6 relative) in the
- * cases where the printed closed forms cancel: grazing exponential rays and far spheres. */
+ * cases where the printed closed forms cancel: grazing exponential rays and far spheres.
+ * Scalar arithmetic throughout: PoCL vectorises a kernel across work-items only when it
+ * calls no builtin and does no float3 arithmetic (benchmarks/pocl_vectorisation.py). */
 #ifndef FOGCLI_DENSITY_H
 #define FOGCLI_DENSITY_H
 
-#define DENSITY_HOMOGENEOUS 0
-#define DENSITY_EXPONENTIAL 1
-#define DENSITY_SPHERE 2
+/* sqrt() is an out-of-line library call in PoCL, and one call stops the vectoriser; the
+ * clang builtin becomes the instruction. */
+#ifdef __clang__
+#define SQRT_(x) __builtin_sqrtf(x)
+#else
+#define SQRT_(x) sqrt(x)
+#endif
 
+/* The camera of SPEC 4.1 as the ray kernels need it. */
 typedef struct {
-    int type;
-    float factor;
-    float falloff;      /* exponential: b */
-    float radius;       /* sphere: R */
-    float4 n;           /* exponential: unit direction; .w = factor exp(-b <c - o, n>) */
-    float4 o;           /* exponential: offset; sphere: centre */
-} density_t;
+    float4 pos;                 /* camera position, world */
+    float4 rot0, rot1, rot2;    /* rows of R = Ry(yaw) Rx(pitch) Rz(roll) */
+    float focal_px;
+    float depth_scale;
+    float max_depth;
+    int depth_is_z;
+} camera_t;
 
 /* e^y to ~2e-7 relative: 2^n from the exponent bits, 2^f (|f| <= 1/2) by its Taylor series
- * to degree 7; 0 below e^-87, inf above e^88. Straight arithmetic that PoCL vectorises,
- * where exp() is a per-lane library call (2 of them cost 70 % of this stage). */
+ * to degree 7; 0 below e^-87, inf above e^88. exp() is a per-lane library call in PoCL. */
 inline float exp_poly(float y)
 {
     /* ternaries and casts only: PoCL does not inline clamp / rint / fabs / dot either */
@@ -32,51 +38,52 @@ inline float exp_poly(float y)
     return z <= -127.0f ? 0.0f : p * as_float((ni + 127) << 23);
 }
 
-inline float dot3(float3 a, float3 b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
-
-/* rho' exp(-b <x - o, n>) from t = 0 to D along c + t w:
- * rho' exp(-b h0) D (e^x - 1) / x with h0 = <c - o, n>, x = -b D <w, n>. rho' exp(-b h0)
- * is the same for every pixel and comes from the host in n.w. The printed form divides
- * (1 - exp(..)) by b <w, n>, two tiny numbers for grazing rays; here |x| < 1e-2 takes the
- * series (error < 1e-10) and otherwise (e^x - 1) / x loses at most 2e-7 / 1e-2 relative. */
-inline float exponential_p(density_t d, float3 w, float D)
+/* Unit world-space ray (wx, wy, wz) of pixel (i, j) and its length D (SPEC 4.1): z-depth is
+ * converted to distance, +inf (sky) and anything beyond max_depth clamp to max_depth. */
+inline float pixel_ray(const camera_t *c, int i, int j, int width, int height, float raw,
+                       float *wx, float *wy, float *wz)
 {
-    float x = -d.falloff * D * dot3(w, d.n.xyz);
+    float dx = (i + 0.5f - 0.5f * width) / c->focal_px;
+    float dy = -(j + 0.5f - 0.5f * height) / c->focal_px;
+    float dlen = SQRT_(dx * dx + dy * dy + 1.0f);
+    float r = 1.0f / dlen;
+    *wx = (c->rot0.x * dx + c->rot0.y * dy - c->rot0.z) * r;
+    *wy = (c->rot1.x * dx + c->rot1.y * dy - c->rot1.z) * r;
+    *wz = (c->rot2.x * dx + c->rot2.y * dy - c->rot2.z) * r;
+    float dist = raw * c->depth_scale * (c->depth_is_z ? dlen : 1.0f);
+    return dist < c->max_depth ? dist : c->max_depth;   /* inf compares fine; NaN is filled upstream */
+}
+
+/* pre exp(-b <x - o, n>) from t = 0 to D along c + t w, with pre = rho' exp(-b <c - o, n>)
+ * from the host (the same for every pixel): pre D (e^x - 1) / x, x = -b D <w, n>. The
+ * printed form divides (1 - exp(..)) by b <w, n>, two tiny numbers for grazing rays; here
+ * |x| < 1e-2 takes the series (error < 1e-10), elsewhere (e^x - 1) / x loses at most
+ * 2e-7 / 1e-2 relative. */
+inline float exponential_p(float pre, float b, float wn, float D)
+{
+    float x = -b * D * wn;
     float series = 1.0f + x * (0.5f + x * (1.0f / 6.0f + x * (1.0f / 24.0f)));
     float direct = (exp_poly(x) - 1.0f) / x;
-    return d.n.w * D * ((x < 1e-2f && x > -1e-2f) ? series : direct);
+    return pre * D * ((x < 1e-2f && x > -1e-2f) ? series : direct);
 }
 
 /* rho' (1 - |x - o|^2 / R^2) inside the sphere. With u = t + <w, c - o> (the ray parameter
  * from the point closest to the centre), |x - o|^2 = u^2 + p^2, p the distance of the line
  * from the centre, so the integrand is (s^2 - u^2) / R^2, s^2 = R^2 - p^2, over
  * [u1, u2] = the chord clipped to [0, D]. p^2 comes from the perpendicular component, not
- * from B^2 - C, which cancels for spheres far from the camera. */
-inline float sphere_p(density_t d, float3 c, float3 w, float D)
+ * from B^2 - C, which cancels for spheres far from the camera. co = c - o. */
+inline float sphere_p(float factor, float R, float cox, float coy, float coz,
+                      float wx, float wy, float wz, float D)
 {
-    float3 co = c - d.o.xyz;
-    float B = dot3(w, co);
-    float3 perp = co - B * w;
-    float R2 = d.radius * d.radius;
-    float s2 = R2 - dot3(perp, perp);
-    if (s2 <= 0.0f) return 0.0f;
-    float s = sqrt(s2);
+    float B = wx * cox + wy * coy + wz * coz;
+    float px = cox - B * wx, py = coy - B * wy, pz = coz - B * wz;
+    float R2 = R * R;
+    float s2 = R2 - (px * px + py * py + pz * pz);
+    float s = SQRT_(s2 > 0.0f ? s2 : 0.0f);
     float u1 = B > -s ? B : -s, u2 = D + B < s ? D + B : s;   /* t in [0, D] <=> u in [B, D + B] */
-    if (u2 <= u1) return 0.0f;
     float du = u2 - u1;
-    return d.factor / R2 * du * (s2 - (u2 * u2 + u1 * u2 + u1 * u1) / 3.0f);
-}
-
-inline float optical_depth(__constant const density_t *dens, int n, float3 c, float3 w, float D)
-{
-    float P = 0.0f;
-    for (int k = 0; k < n; ++k) {
-        density_t d = dens[k];
-        if (d.type == DENSITY_HOMOGENEOUS) P += d.factor * D;
-        else if (d.type == DENSITY_EXPONENTIAL) P += exponential_p(d, w, D);
-        else P += sphere_p(d, c, w, D);
-    }
-    return P;
+    float p = factor / R2 * du * (s2 - (u2 * u2 + u1 * u2 + u1 * u1) / 3.0f);
+    return du > 0.0f ? p : 0.0f;   /* a miss (s2 <= 0) gives du <= 0 */
 }
 
 #endif

@@ -10,16 +10,12 @@ typedef struct {
     float4 ss;          /* scattering per RGB; .w = mean */
     float4 emission;    /* L_e */
     float4 ambient;     /* L_a */
-    float4 cam_pos;     /* camera position, world */
-    float4 rot0, rot1, rot2;   /* rows of R = Ry(yaw) Rx(pitch) Rz(roll) (SPEC 4.1) */
+    camera_t cam;
     float g;            /* phase asymmetry */
-    float depth_scale;
-    float max_depth;
-    float focal_px;
     float spread_scale;
-    int depth_is_z;
+    float homogeneous;  /* sum of the homogeneous density factors: their P is this times D */
     int has_medium_light;   /* emission or ambient non-zero */
-    int n_density;
+    int has_p;          /* the density stage left the other primitives' P in spread0 */
 } medium_t;
 
 __kernel void preprocess(__global const float4 *image, __global const float *depth,
@@ -27,7 +23,6 @@ __kernel void preprocess(__global const float4 *image, __global const float *dep
                          __global float *spread0, __global float4 *medium_term,
                          __global float4 *transmittance, const int want_transmittance,
                          const int width, const int height, const medium_t m,
-                         __constant const density_t *dens,
                          __global float4 *prep0, const int source, const float thresh1,
                          const float eps, __global float4 *sep_chain0, __global float4 *sep_prep0,
                          const int sep, const float4 sep_par)
@@ -36,19 +31,10 @@ __kernel void preprocess(__global const float4 *image, __global const float *dep
     if (i >= width || j >= height) return;
     int idx = j * width + i;
 
-    /* camera-space ray of the pixel centre (SPEC 4.1), its length for z-depth */
-    float3 dc = (float3)((i + 0.5f - 0.5f * width) / m.focal_px,
-                         -(j + 0.5f - 0.5f * height) / m.focal_px, -1.0f);
-    float dlen = length(dc);
-    float raw = depth[idx] * m.depth_scale;
-    float dist = m.depth_is_z ? raw * dlen : raw;
-    /* +inf (sky) and anything beyond max_depth is clamped there; comparisons with inf
-     * are well defined, so fmin does the job. */
-    dist = fmin(dist, m.max_depth);
-
-    float3 wc = dc / dlen;
-    float3 w = (float3)(dot(m.rot0.xyz, wc), dot(m.rot1.xyz, wc), dot(m.rot2.xyz, wc));
-    float P = optical_depth(dens, m.n_density, m.cam_pos.xyz, w, dist);
+    float wx, wy, wz;
+    float dist = pixel_ray(&m.cam, i, j, width, height, depth[idx], &wx, &wy, &wz);
+    /* spread0 is read before it is overwritten below, by this work-item only */
+    float P = m.homogeneous * dist + (m.has_p ? spread0[idx] : 0.0f);
     float3 L = image[idx].xyz;
     float3 sa = m.sa.xyz, ss = m.ss.xyz, st = sa + ss;
 
@@ -68,7 +54,7 @@ __kernel void preprocess(__global const float4 *image, __global const float *dep
         l_med = m.emission.xyz * em_w + m.ambient.xyz * amb_w;
     }
 
-    float sigma = spread_px(P, dist, m.sa.w, m.ss.w, m.g, m.spread_scale, m.focal_px,
+    float sigma = spread_px(P, dist, m.sa.w, m.ss.w, m.g, m.spread_scale, m.cam.focal_px,
                             (float)width);
 
     direct[idx] = (float4)(l_at, image[idx].w);

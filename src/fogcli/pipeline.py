@@ -14,16 +14,16 @@ from .errors import ProcessingError
 from .runtime import Runtime, get_runtime
 
 INTERP = {"linear-bilinear": 0, "linear-bicubic": 1, "cubic-bicubic": 2}
+CAMERA_T = np.dtype([
+    ("pos", np.float32, 4), ("rot", np.float32, (3, 4)), ("focal_px", np.float32),
+    ("depth_scale", np.float32), ("max_depth", np.float32), ("depth_is_z", np.int32),
+], align=True)
 MEDIUM_T = np.dtype([
     ("sa", np.float32, 4), ("ss", np.float32, 4), ("emission", np.float32, 4),
-    ("ambient", np.float32, 4), ("cam_pos", np.float32, 4), ("rot", np.float32, (3, 4)),
-    ("g", np.float32), ("depth_scale", np.float32), ("max_depth", np.float32),
-    ("focal_px", np.float32), ("spread_scale", np.float32), ("depth_is_z", np.int32),
-    ("has_medium_light", np.int32), ("n_density", np.int32),
-])
-DENSITY_T = np.dtype([("type", np.int32), ("factor", np.float32), ("falloff", np.float32),
-                      ("radius", np.float32), ("n", np.float32, 4), ("o", np.float32, 4)])
-DENSITY_TYPES = {"homogeneous": 0, "exponential": 1, "sphere": 2}
+    ("ambient", np.float32, 4), ("cam", CAMERA_T), ("g", np.float32), ("spread_scale", np.float32),
+    ("homogeneous", np.float32), ("has_medium_light", np.int32), ("has_p", np.int32),
+    ("_pad", np.int32, 3),   # OpenCL rounds the struct up to its float4 alignment
+], align=True)
 AOV_NAMES = ("optical_depth", "transmittance", "spread", "level", "direct", "scattered", "emission")
 
 
@@ -68,44 +68,51 @@ def rotation(yaw: float, pitch: float, roll: float) -> np.ndarray:
     return ry @ rx @ rz
 
 
+def camera_struct(cfg: Config, width: int) -> np.ndarray:
+    cam = cfg.camera
+    s = np.zeros((), CAMERA_T)
+    s["pos"] = [*cam.position, 0.0]
+    s["rot"][:, :3] = rotation(cam.yaw, cam.pitch, cam.roll)
+    s["focal_px"] = cam.focal(width)
+    s["depth_scale"] = cam.depth_scale
+    s["max_depth"] = cam.max_depth
+    s["depth_is_z"] = 1 if cam.depth == "z" else 0
+    return s
+
+
 def medium_struct(cfg: Config, width: int) -> np.ndarray:
-    m, cam = cfg.medium, cfg.camera
+    m = cfg.medium
     s = np.zeros((), MEDIUM_T)
     sa, ss = np.array(m.absorption, np.float32), np.array(m.scattering, np.float32)
     s["sa"] = [*sa, sa.mean()]
     s["ss"] = [*ss, ss.mean()]
     s["emission"] = [*m.emission, 0.0]
     s["ambient"] = [*m.ambient, 0.0]
-    s["cam_pos"] = [*cam.position, 0.0]
-    s["rot"][:, :3] = rotation(cam.yaw, cam.pitch, cam.roll)
+    s["cam"] = camera_struct(cfg, width)
     s["g"] = m.asymmetry
-    s["depth_scale"] = cam.depth_scale
-    s["max_depth"] = cam.max_depth
-    s["focal_px"] = cam.focal(width)
     s["spread_scale"] = cfg.render.spread_scale
-    s["depth_is_z"] = 1 if cam.depth == "z" else 0
+    s["homogeneous"] = sum(d.factor for d in m.density if d.type == "homogeneous")
     s["has_medium_light"] = int(any(m.emission) or any(m.ambient))
-    s["n_density"] = len(m.density)
+    s["has_p"] = int(any(d.type != "homogeneous" for d in m.density))
     return s
 
 
-def density_array(cfg: Config) -> np.ndarray:
-    """The primitives for the kernel; for exponentials the per-image constant
-    factor * exp(-b <c - o, n>) (c the camera position) rides in n.w."""
-    out = np.zeros(max(1, len(cfg.medium.density)), DENSITY_T)
+def primitive_launches(cfg: Config) -> list[tuple[str, tuple]]:
+    """(kernel, its primitive arguments) per non-homogeneous density primitive. For an
+    exponential, factor * exp(-b <c - o, n>) (c the camera position) is the same for every
+    pixel and is computed here in float64."""
+    out = []
     cam = np.array(cfg.camera.position, np.float64)
-    for rec, d in zip(out, cfg.medium.density):
-        rec["type"] = DENSITY_TYPES[d.type]
-        rec["factor"] = d.factor
-        rec["falloff"] = d.falloff
-        rec["radius"] = d.radius
-        n = np.array(d.direction, np.float64)
-        n /= np.linalg.norm(n)
-        rec["n"][:3] = n
-        rec["o"][:3] = d.center if d.type == "sphere" else d.offset
+    for d in cfg.medium.density:
         if d.type == "exponential":
-            e = -d.falloff * float((cam - np.array(d.offset)) @ n)
-            rec["n"][3] = d.factor * math.exp(min(e, 87.0))
+            n = np.array(d.direction, np.float64)
+            n /= np.linalg.norm(n)
+            pre = d.factor * math.exp(min(-d.falloff * float((cam - np.array(d.offset)) @ n), 87.0))
+            out.append(("p_exponential", (np.float32(pre), np.float32(d.falloff),
+                                          np.array([*n, 0.0], np.float32))))
+        elif d.type == "sphere":
+            out.append(("p_sphere", (np.float32(d.factor), np.float32(d.radius),
+                                     np.array([*d.center, 0.0], np.float32))))
     return out
 
 
@@ -153,6 +160,7 @@ class Plan:
             raise ProcessingError(f"cannot allocate device buffers for {width}x{height}: {exc}") from exc
         d = defines(cfg)
         self.k_pre = rt.program("preprocess", **d).preprocess
+        self.k_density = rt.program("density")
         pyr = rt.program("pyramid", **d)
         self.k_reduce, self.k_reduce_src = pyr.reduce_level, pyr.reduce_level_source
         self.k_collapse, self.k_prep0, self.k_split = pyr.collapse_level, pyr.prep_level0, pyr.split_level
@@ -166,10 +174,14 @@ class Plan:
         t.add("upload", cl.enqueue_copy(self.rt.queue, self.image, np.ascontiguousarray(rgba, np.float32)))
         t.add("upload", cl.enqueue_copy(self.rt.queue, self.depth, np.ascontiguousarray(depth, np.float32)))
 
-    def density_buffer(self):
-        cl = self.rt.cl
-        return cl.Buffer(self.rt.ctx, cl.mem_flags.READ_ONLY | cl.mem_flags.COPY_HOST_PTR,
-                         hostbuf=density_array(self.cfg))
+    def optical_depth(self, t: Timings) -> None:
+        """P of the non-homogeneous primitives, summed into the spread buffer (level 0),
+        which preprocess reads before it writes the spread there."""
+        cam = camera_struct(self.cfg, self.w)
+        for k, (name, args) in enumerate(primitive_launches(self.cfg)):
+            t.add("preprocess", getattr(self.k_density, name)(
+                self.rt.queue, *self.rt.nd(self.w, self.h), self.depth, self.spread,
+                np.int32(self.w), np.int32(self.h), cam, *args, np.int32(k > 0)))
 
     def threshold(self, k: int) -> float:
         """Masking threshold of level k (Elek eq. 7, scaled): threshold * c * 2^(k-1)."""
@@ -179,10 +191,11 @@ class Plan:
     def preprocess(self, t: Timings) -> None:
         q = self.rt.queue
         eps = self.cfg.render.resolved()[1]
+        self.optical_depth(t)
         t.add("preprocess", self.k_pre(
             q, *self.rt.nd(self.w, self.h), self.image, self.depth, self.direct, self.chain, self.spread,
             self.medium, self.trans, np.int32("transmittance" in self.aovs),
-            np.int32(self.w), np.int32(self.h), medium_struct(self.cfg, self.w), self.density_buffer(),
+            np.int32(self.w), np.int32(self.h), medium_struct(self.cfg, self.w),
             self.prep, np.int32(self.source), np.float32(self.threshold(1)), np.float32(eps),
             self.chain2, self.prep2, np.int32(self.sep), self.sep_params()))
 
