@@ -13,7 +13,7 @@ __kernel void p_exponential(__global const float *depth, __global float *P,
     if (i >= width || j >= height) return;
     int idx = j * width + i;
     float wx, wy, wz;
-    float D = pixel_ray(&cam, i, j, width, height, depth[idx], &wx, &wy, &wz);
+    float D = pixel_ray(&cam, i, j, depth[idx], &wx, &wy, &wz);
     float p = exponential_p(pre, b, wx * n.x + wy * n.y + wz * n.z, D);
     P[idx] = accumulate ? P[idx] + p : p;
 }
@@ -27,7 +27,7 @@ __kernel void p_sphere(__global const float *depth, __global float *P,
     if (i >= width || j >= height) return;
     int idx = j * width + i;
     float wx, wy, wz;
-    float D = pixel_ray(&cam, i, j, width, height, depth[idx], &wx, &wy, &wz);
+    float D = pixel_ray(&cam, i, j, depth[idx], &wx, &wy, &wz);
     float p = sphere_p(factor, radius, cam.pos.x - centre.x, cam.pos.y - centre.y,
                        cam.pos.z - centre.z, wx, wy, wz, D);
     P[idx] = accumulate ? P[idx] + p : p;

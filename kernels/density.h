@@ -18,8 +18,9 @@
 typedef struct {
     float4 pos;                 /* camera position, world */
     float4 rot0, rot1, rot2;    /* rows of R = Ry(yaw) Rx(pitch) Rz(roll) */
-    float focal_px;
-    float depth_scale;
+    float focal_px;             /* horizontal focal length, pixels */
+    float focal_y;              /* vertical */
+    float cx, cy;               /* principal point, pixels from the top-left corner */
     float max_depth;
     int depth_is_z;
 } camera_t;
@@ -38,19 +39,20 @@ inline float exp_poly(float y)
     return z <= -127.0f ? 0.0f : p * as_float((ni + 127) << 23);
 }
 
-/* Unit world-space ray (wx, wy, wz) of pixel (i, j) and its length D (SPEC 4.1): z-depth is
- * converted to distance, +inf (sky) and anything beyond max_depth clamp to max_depth. */
-inline float pixel_ray(const camera_t *c, int i, int j, int width, int height, float raw,
+/* Unit world-space ray (wx, wy, wz) of pixel (i, j) and its length D (SPEC 4.1): metric
+ * z-depth is converted to distance, +inf (sky) and anything beyond max_depth clamp to
+ * max_depth. */
+inline float pixel_ray(const camera_t *c, int i, int j, float metric,
                        float *wx, float *wy, float *wz)
 {
-    float dx = (i + 0.5f - 0.5f * width) / c->focal_px;
-    float dy = -(j + 0.5f - 0.5f * height) / c->focal_px;
+    float dx = (i + 0.5f - c->cx) / c->focal_px;
+    float dy = -(j + 0.5f - c->cy) / c->focal_y;
     float dlen = SQRT_(dx * dx + dy * dy + 1.0f);
     float r = 1.0f / dlen;
     *wx = (c->rot0.x * dx + c->rot0.y * dy - c->rot0.z) * r;
     *wy = (c->rot1.x * dx + c->rot1.y * dy - c->rot1.z) * r;
     *wz = (c->rot2.x * dx + c->rot2.y * dy - c->rot2.z) * r;
-    float dist = raw * c->depth_scale * (c->depth_is_z ? dlen : 1.0f);
+    float dist = metric * (c->depth_is_z ? dlen : 1.0f);
     return dist < c->max_depth ? dist : c->max_depth;   /* inf compares fine; NaN is filled upstream */
 }
 

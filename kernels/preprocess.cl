@@ -32,7 +32,7 @@ __kernel void preprocess(__global const float4 *image, __global const float *dep
     int idx = j * width + i;
 
     float wx, wy, wz;
-    float dist = pixel_ray(&m.cam, i, j, width, height, depth[idx], &wx, &wy, &wz);
+    float dist = pixel_ray(&m.cam, i, j, depth[idx], &wx, &wy, &wz);
     /* spread0 is read before it is overwritten below, by this work-item only */
     float P = m.homogeneous * dist + (m.has_p ? spread0[idx] : 0.0f);
     float3 L = image[idx].xyz;

@@ -18,14 +18,17 @@ def spread_w(s, sa, ss, g):
 
 
 def preprocess(img, depth, sa, ss, g, focal, scale=1.0, density=1.0, depth_scale=1.0,
-               max_depth=1000.0, z=True, paper=False, emission=(0, 0, 0), ambient=(0, 0, 0)):
+               max_depth=1000.0, z=True, paper=False, emission=(0, 0, 0), ambient=(0, 0, 0),
+               focal_y=None, centre=None):
     h, w = depth.shape
+    cx, cy = centre if centre is not None else (w / 2, h / 2)
+    fy = focal_y or focal
     sa, ss = np.asarray(sa, float), np.asarray(ss, float)
     st = sa + ss
     jj, ii = np.mgrid[0:h, 0:w] + 0.5
     dist = depth.astype(np.float64) * depth_scale
     if z:
-        dist = dist * np.sqrt(((ii - w / 2) / focal) ** 2 + ((jj - h / 2) / focal) ** 2 + 1)
+        dist = dist * np.sqrt(((ii - cx) / focal) ** 2 + ((jj - cy) / fy) ** 2 + 1)
     dist = np.minimum(dist, max_depth)
     P = density * dist
     L = img[:, :, :3].astype(np.float64)

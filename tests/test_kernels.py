@@ -20,9 +20,14 @@ def _download(plan, buf, ch):
 
 
 @pytest.mark.parametrize("model", ["angular", "paper"])
-@pytest.mark.parametrize("depth_kind", ["z", "distance"])
+@pytest.mark.parametrize("depth_kind", ["z", "distance", "z-offcentre"])
 def test_preprocess_matches_oracle(rt, rng, model, depth_kind):
+    """The kernel takes metric depth (depth.decode applies depth_scale on the host); the
+    oracle starts from the raw values. z-offcentre: principal point and fy of their own."""
     w, h = 37, 23
+    offc = depth_kind == "z-offcentre"
+    depth_kind = "z" if offc else depth_kind
+    pp = ["camera.cx=11.5", "camera.cy=15.25", "camera.focal_px_y=31"] if offc else []
     img = rng.uniform(0, 50, (h, w, 4)).astype(np.float32)
     depth = rng.uniform(0.1, 900, (h, w)).astype(np.float32)
     depth[0, :5] = np.inf          # sky
@@ -32,10 +37,10 @@ def test_preprocess_matches_oracle(rt, rng, model, depth_kind):
                          f"medium.asymmetry={g}", f"render.spread_model={model}",
                          "render.spread_scale=1.7", "camera.fov=70", f"camera.depth={depth_kind}",
                          "camera.depth_scale=0.5", "camera.max_depth=300",
-                         "medium.emission=[0.1, 0.2, 0.3]", "medium.ambient=[1, 2, 0.5]",
+                         "medium.emission=[0.1, 0.2, 0.3]", "medium.ambient=[1, 2, 0.5]", *pp,
                          aovs=("transmittance",))
     t = Timings()
-    plan.upload(img, depth, t)
+    plan.upload(img, depth * np.float32(0.5), t)
     plan.preprocess(t)
     direct = _download(plan, plan.direct, 4)
     medium = _download(plan, plan.medium, 4)
@@ -43,7 +48,8 @@ def test_preprocess_matches_oracle(rt, rng, model, depth_kind):
     focal = (w / 2) / math.tan(math.radians(70) / 2)
     at, sc, sigma, med, P = oracles.preprocess(img, depth, sa, ss, g, focal, scale=1.7, depth_scale=0.5,
                                                max_depth=300, z=(depth_kind == "z"), paper=(model == "paper"),
-                                               emission=(0.1, 0.2, 0.3), ambient=(1, 2, 0.5))
+                                               emission=(0.1, 0.2, 0.3), ambient=(1, 2, 0.5),
+                                               focal_y=31 if offc else None, centre=(11.5, 15.25) if offc else None)
     np.testing.assert_allclose(direct[:, :, :3], at, rtol=1e-4, atol=1e-6)
     np.testing.assert_array_equal(direct[:, :, 3], img[:, :, 3])        # alpha untouched
     np.testing.assert_allclose(chains[0][:, :, :3], sc, rtol=1e-4, atol=1e-6)

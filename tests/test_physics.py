@@ -114,7 +114,7 @@ def test_ambient_auto_is_the_far_radiance():
     rgb, z, fov = scene(96, 64, seed=1, night=False)
     sky = ~np.isfinite(z)
     want = np.median(rgb[sky], axis=0)
-    la = estimate(rgb, z, 1.0, 1000.0)
+    la = estimate(rgb, z, 1000.0)
     np.testing.assert_allclose(la, want, rtol=1e-6)
     cfg = make_config("fog", sets=["medium.ambient=auto", "camera.max_depth=1e5", f"camera.fov={fov}"])
     out, aov = apply(rgb, z, cfg, aovs=("emission",), return_aovs=True)
@@ -125,7 +125,7 @@ def test_ambient_auto_is_the_far_radiance():
     # no sky: the farthest 2 % stand in
     z2 = np.where(sky, 900.0, z).astype(np.float32)
     far = z2 >= np.quantile(z2, 0.98)
-    np.testing.assert_allclose(estimate(rgb, z2, 1.0, 1000.0), np.median(rgb[far], axis=0), rtol=1e-6)
+    np.testing.assert_allclose(estimate(rgb, z2, 1000.0), np.median(rgb[far], axis=0), rtol=1e-6)
 
 
 @pytest.mark.parametrize("fetch", ["source", "receiver"])

@@ -20,8 +20,10 @@ def apply(image: np.ndarray, depth: np.ndarray, config: Config | str | None = No
           timings: Timings | None = None, return_aovs: bool = False):
     """Add the medium to a scene-linear image.
 
-    image: (h, w, 3) float, scene-linear; depth: (h, w) raw depth values (converted by the
-    config's camera section; +inf is sky; NaN and <= 0 are holes, filled from neighbours).
+    image: (h, w, 3) float, scene-linear; depth: raw depth values as stored (decoded by the
+    config's camera section: depth_scale, encoding, z / distance / disparity / inverse; +inf
+    is sky; NaN, <= 0 and zero disparity are holes), at the image's size or a smaller one of
+    the same aspect; holes are filled and the size matched edge-aware (depth.prepare).
     config: a Config, a preset name or None (the default preset). Returns (h, w, 3) float32,
     or (image, aov planes) with return_aovs.
     """
@@ -29,6 +31,8 @@ def apply(image: np.ndarray, depth: np.ndarray, config: Config | str | None = No
     img = np.ascontiguousarray(image, dtype=np.float32)
     if img.ndim != 3 or img.shape[2] != 3:
         raise ValueError(f"image must be (h, w, 3), got {img.shape}")
-    d, _ = depth_mod.clean(np.asarray(depth, np.float32), "depth")
+    metric = depth_mod.decode(np.asarray(depth), cfg.camera, "depth",
+                              img.shape[1] if cfg.camera.calibrated_size is None else cfg.camera.calibrated_size[0])
+    d, _ = depth_mod.prepare(metric, img, "depth")
     out, planes = run(img, d, cfg, alpha=alpha, aovs=aovs, device=device, timings=timings)
     return (out, planes) if return_aovs else out

@@ -43,64 +43,93 @@ def main():
     """Add fog, haze, sea water or smoke to images that carry a depth map."""
 
 
+def medium_options(fn):
+    """Options shared by apply and batch: where the config comes from, the camera file,
+    the EXR part to read, AOVs and the device."""
+    for opt in reversed([
+        click.option("--medium", metavar="NAME|FILE", help="Medium preset (see `fogcli media`) or YAML file. Default: fog."),
+        click.option("--config", "config_file", metavar="FILE", help="YAML config with any of medium/camera/render/output."),
+        click.option("--camera", "camera_file", metavar="FILE",
+                     help="Pinhole intrinsics JSON (Open3D intrinsic_matrix, Cityscapes camera, or fx/fy/cx/cy)."),
+        click.option("--set", "sets", multiple=True, metavar="KEY=VALUE", help="Override one dotted key, e.g. render.kernel=6."),
+        click.option("--layer", metavar="NAME", help="EXR part or channel layer to read (e.g. ViewLayer.Combined)."),
+        click.option("--view", metavar="NAME", help="EXR view to read (multi-view files; default: the first)."),
+        click.option("--aov", "aovs", multiple=True, type=click.Choice(AOV_NAMES), help="Extra EXR channels."),
+        click.option("--device", metavar="SPEC", help="OpenCL device (P:D, cpu, gpu or a name); env FOGCLI_DEVICE."),
+    ]):
+        fn = opt(fn)
+    return fn
+
+
 @main.command()
 @click.argument("input", metavar="INPUT")
 @click.option("--depth", "depth_path", metavar="DEPTH", help="Depth file (EXR/TIFF/PNG16/NPY); default: the input's Z channel.")
-@click.option("--medium", metavar="NAME|FILE", help="Medium preset (see `fogcli media`) or YAML file. Default: fog.")
-@click.option("--config", "config_file", metavar="FILE", help="YAML config with any of medium/camera/render/output.")
-@click.option("--set", "sets", multiple=True, metavar="KEY=VALUE", help="Override one dotted key, e.g. render.kernel=6.")
+@medium_options
 @click.option("-o", "--output", metavar="OUTPUT", help="Output file; format from the extension. Default: INPUT.fog.<ext>.")
-@click.option("--aov", "aovs", multiple=True, type=click.Choice(AOV_NAMES), help="Extra EXR channels.")
-@click.option("--device", metavar="SPEC", help="OpenCL device (P:D, cpu, gpu or a name); env FOGCLI_DEVICE.")
+@click.option("--save-depth", metavar="PATH", help="Also write the cleaned metric depth used (EXR/TIFF channel Z, or NPY).")
 @click.option("--timings", is_flag=True, help="Print a JSON line of stage times on stderr.")
 @guarded
-def apply(input, depth_path, medium, config_file, sets, output, aovs, device, timings):
+def apply(input, depth_path, medium, config_file, camera_file, sets, layer, view, aovs, device, output,
+          save_depth, timings):
     """Apply a medium to INPUT."""
-    from . import depth as depth_mod
-    from . import inputs, outputs
+    from . import outputs
+    from .job import Job, run_job
     from .media import assemble
-    from .pipeline import Timings, kernel_ms, run
+    from .pipeline import Timings, kernel_ms
 
     start = time.perf_counter()
-    cfg = assemble(medium, config_file, sets)
+    cfg = assemble(medium, config_file, sets, camera_file)
     src = Path(input)
-    out_path = Path(output) if output else src.with_name(f"{src.stem}.fog{src.suffix if src.suffix.lower() in outputs.LINEAR_EXT | outputs.DISPLAY_EXT else '.exr'}")
-    outputs.check_target(out_path, src, Path(depth_path) if depth_path else None)
-    aovs = tuple(dict.fromkeys(aovs))
-    if aovs and out_path.suffix.lower() != ".exr":
-        raise UserError(f"--aov needs an .exr output, got {out_path.name}")
-
-    io_s = time.perf_counter()
-    frame = inputs.read_image(src)
-    if depth_path:
-        raw_depth = inputs.read_depth(depth_path)
-        dsrc = depth_path
-    elif frame.depth is not None:
-        raw_depth, dsrc = frame.depth, f"{src} (Z channel)"
-    else:
-        raise UserError(f"{src}: no depth channel (Z, *.Z or *depth); pass --depth FILE")
-    io_ms = (time.perf_counter() - io_s) * 1e3
-    h, w = frame.rgb.shape[:2]
-    if raw_depth.shape != (h, w):
-        raise UserError(f"{dsrc}: depth is {raw_depth.shape[1]}x{raw_depth.shape[0]}, the image is {w}x{h}; they must match")
-    clean, n_bad = depth_mod.clean(raw_depth, str(dsrc))
-    if n_bad:
-        click.echo(f"fogcli: warning: {dsrc}: {n_bad} invalid depth pixel(s) (NaN or <= 0) filled from neighbours", err=True)
-
+    ext = src.suffix if src.suffix.lower() in outputs.LINEAR_EXT | outputs.DISPLAY_EXT else ".exr"
+    out_path = Path(output) if output else src.with_name(f"{src.stem}.fog{ext}")
     t = Timings()
-    rgb, planes = run(frame.rgb, clean, cfg, alpha=frame.alpha, aovs=aovs, device=device, timings=t)
-    io_s = time.perf_counter()
-    outputs.write(out_path, rgb, frame.alpha, planes, frame, cfg.output.half, cfg.output.exposure)
-    io_ms += (time.perf_counter() - io_s) * 1e3
-
+    res = run_job(Job(str(src), str(out_path), depth_path, layer, view, save_depth), cfg,
+                  aovs=tuple(dict.fromkeys(aovs)), device=device, timings=t)
+    for w in res.warnings:
+        click.echo(f"fogcli: warning: {w}", err=True)
     if timings:
         from .runtime import get_runtime
 
         stages, kms = kernel_ms(t)
         report = {"stages": {k: round(v, 3) for k, v in stages.items()}, "kernel_ms": round(kms, 3),
-                  "io_ms": round(io_ms, 3), "total_ms": round((time.perf_counter() - start) * 1e3, 3),
-                  "device": get_runtime(device).info.label(), "pixels": w * h}
+                  "io_ms": round(res.io_ms, 3), "total_ms": round((time.perf_counter() - start) * 1e3, 3),
+                  "device": get_runtime(device).info.label(), "pixels": res.pixels}
         click.echo(json.dumps(report), err=True)
+
+
+@main.command()
+@click.argument("input_dir", metavar="INPUT_DIR")
+@click.argument("output_dir", metavar="OUTPUT_DIR")
+@click.option("--depth-pattern", metavar="PATTERN",
+              help="Depth file per input, relative to INPUT_DIR: {stem} and #### (frame number), "
+                   "e.g. depth/{stem}.png, {stem}_depth.exr, depth.####.exr. Default: the embedded Z.")
+@medium_options
+@click.option("--format", "fmt", metavar="EXT", help="Output format: exr, png, tif, jpg, hdr. Default: the input's (RAW: exr).")
+@click.option("--recursive", is_flag=True, help="Also process sub-folders; outputs keep the folder structure.")
+@click.option("--jobs", type=click.IntRange(1, 256), default=1, show_default=True,
+              help="Worker processes (spawned; each builds its kernels once).")
+@click.option("--skip-existing", is_flag=True, help="Leave outputs that exist and read back whole.")
+@click.option("--scheduler", metavar="ADDRESS", help="Run on a Dask cluster: tcp://host:8786, or local:N for a LocalCluster.")
+@click.option("--report", metavar="PATH", help="Write the summary (done, skipped, failed with reasons) as JSON.")
+@click.option("-q", "--quiet", is_flag=True, help="No progress output.")
+@guarded
+def batch(input_dir, output_dir, depth_pattern, medium, config_file, camera_file, sets, layer, view, aovs,
+          device, fmt, recursive, jobs, skip_existing, scheduler, report, quiet):
+    """Apply a medium to every image of INPUT_DIR, writing OUTPUT_DIR/<stem>.<format>.
+    Exit 0 when all were written (or skipped), 3 when some failed."""
+    from .batch import run_batch
+    from .media import assemble
+
+    cfg = assemble(medium, config_file, sets, camera_file)
+    s = run_batch(Path(input_dir), Path(output_dir), cfg, depth_pattern=depth_pattern, recursive=recursive,
+                  fmt=fmt, jobs=jobs, skip_existing=skip_existing, layer=layer, view=view, scheduler=scheduler, aovs=aovs,
+                  device=device, quiet=quiet, report=Path(report) if report else None)
+    for f in s.failed:
+        click.echo(f"fogcli: failed: {f['input']}: {f['reason']}", err=True)
+    if not quiet:
+        click.echo(f"fogcli: {len(s.done)} done, {len(s.skipped)} skipped, {len(s.failed)} failed "
+                   f"in {s.seconds:.1f} s", err=True)
+    sys.exit(3 if s.failed else 0)
 
 
 @main.command()

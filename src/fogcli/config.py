@@ -190,14 +190,40 @@ class Camera:
     yaw: float = 0.0
     pitch: float = 0.0
     roll: float = 0.0
-    depth: str = "z"
+    depth: str = "z"            # z | distance | disparity | inverse
     depth_scale: float = 1.0
     max_depth: float = 1000.0
+    focal_px_y: float | None = None   # vertical focal length; default = the horizontal one
+    cx: float | None = None           # principal point in pixels; default the image centre
+    cy: float | None = None
+    baseline: float | None = None     # stereo baseline, m (depth: disparity)
+    near: float | None = None         # depth: inverse maps the largest value to near ...
+    far: float | None = None          # ... and the smallest to far (m)
+    encoding: str = "linear"          # linear (value * depth_scale) | cityscapes ((p - 1) / 256, 0 = none)
+    calibrated_size: tuple | None = None   # (w, h) the intrinsics are for; other sizes scale them
+
+    def for_size(self, width: int, height: int) -> "Camera":
+        """The intrinsics scaled to an image of width x height (calibrated_size)."""
+        if self.calibrated_size is None or tuple(self.calibrated_size) == (width, height):
+            return self
+        import dataclasses
+
+        sx, sy = width / self.calibrated_size[0], height / self.calibrated_size[1]
+        f = lambda v, s: None if v is None else v * s  # noqa: E731
+        return dataclasses.replace(self, focal_px=f(self.focal_px, sx), focal_px_y=f(self.focal_px_y, sy),
+                                   cx=f(self.cx, sx), cy=f(self.cy, sy), calibrated_size=None)
 
     def focal(self, width: int) -> float:
         if self.focal_px is not None:
             return float(self.focal_px)
         return (width / 2.0) / math.tan(math.radians(self.fov) / 2.0)
+
+    def focal_y(self, width: int) -> float:
+        return float(self.focal_px_y) if self.focal_px_y is not None else self.focal(width)
+
+    def centre(self, width: int, height: int) -> tuple[float, float]:
+        return (width / 2.0 if self.cx is None else float(self.cx),
+                height / 2.0 if self.cy is None else float(self.cy))
 
 
 @dataclass
@@ -336,7 +362,8 @@ _DENSITY_KEYS = {
     "sphere": ("type", "factor", "center", "radius"),
 }
 _CAMERA_KEYS = dict.fromkeys(["fov", "focal_px", "position", "yaw", "pitch", "roll", "depth",
-                              "depth_scale", "max_depth"])
+                              "depth_scale", "max_depth", "focal_px_y", "cx", "cy", "baseline",
+                              "near", "far", "encoding", "calibrated_size"])
 _RENDER_KEYS = dict.fromkeys(["method", "spread_model", "spread_scale", "kernel", "interpolation",
                               "c", "epsilon", "threshold", "levels", "fetch", "separation"])
 _SEP_KEYS = dict.fromkeys(["enabled", "luminance", "luminance_width", "depth", "depth_width", "level"])
@@ -440,11 +467,33 @@ def _camera(ck: _Checker, sec: dict) -> Camera:
             v = ck.number(sec[k], f"camera.{k}")
             setattr(c, k, v if v is not None else 0.0)
     if "depth" in sec:
-        c.depth = ck.choice(sec["depth"], "camera.depth", ["z", "distance"]) or c.depth
+        c.depth = ck.choice(sec["depth"], "camera.depth", ["z", "distance", "disparity", "inverse"]) or c.depth
     if "depth_scale" in sec:
         c.depth_scale = ck.number(sec["depth_scale"], "camera.depth_scale", lo=0.0, lo_open=True) or 1.0
     if "max_depth" in sec:
         c.max_depth = ck.number(sec["max_depth"], "camera.max_depth", lo=0.0, lo_open=True) or c.max_depth
+    for k in ("focal_px_y", "baseline", "near", "far"):
+        if k in sec:
+            setattr(c, k, ck.number(sec[k], f"camera.{k}", lo=0.0, lo_open=True))
+    for k in ("cx", "cy"):
+        if k in sec:
+            setattr(c, k, ck.number(sec[k], f"camera.{k}"))
+    if "calibrated_size" in sec:
+        v = sec["calibrated_size"]
+        if (not isinstance(v, list) or len(v) != 2
+                or not all(isinstance(x, int) and not isinstance(x, bool) and x > 0 for x in v)):
+            ck.fail("camera.calibrated_size", f"expected [width, height] in pixels, got {v!r}")
+        else:
+            c.calibrated_size = tuple(v)
+    if "encoding" in sec:
+        c.encoding = ck.choice(sec["encoding"], "camera.encoding", ["linear", "cityscapes"]) or c.encoding
+    if c.depth == "disparity" and c.baseline is None:
+        ck.fail("camera.baseline", "depth: disparity needs the stereo baseline in metres (depth = baseline * focal_px / disparity)")
+    if c.depth == "inverse":
+        if c.near is None or c.far is None:
+            ck.fail("camera.near" if c.near is None else "camera.far", "depth: inverse needs near and far in metres")
+        elif c.near >= c.far:
+            ck.fail("camera.near", f"expected near < far, got near {c.near:g}, far {c.far:g}")
     return c
 
 

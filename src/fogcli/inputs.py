@@ -47,10 +47,16 @@ def _open(path: Path):
     return inp
 
 
-def _read_pixels(inp, path: Path, fmt: str):
-    spec = inp.spec()
+RAW_EXT = {".dng", ".cr2", ".cr3", ".nef", ".arw", ".raf", ".orf", ".rw2", ".pef", ".srw", ".raw", ".3fr",
+           ".iiq", ".erf", ".kdc", ".mrw", ".nrw", ".x3f"}
+# the layer a compositor calls the beauty, before any other layer with R, G, B
+_BEAUTY = ("", "combined", "beauty", "rgba", "c", "main", "color", "colour")
+
+
+def _read_pixels(inp, path: Path, fmt: str, subimage: int = 0):
+    spec = inp.spec(subimage, 0) if subimage else inp.spec()
     try:
-        px = inp.read_image(0, 0, 0, spec.nchannels, fmt)
+        px = inp.read_image(subimage, 0, 0, spec.nchannels, fmt)
     except Exception as exc:  # OIIO raises on some truncations, returns None on others
         px = None
         err = str(exc)
@@ -67,19 +73,28 @@ def _read_pixels(inp, path: Path, fmt: str):
 
 
 def _is_depth_name(name: str) -> bool:
+    """Z, depth, distance, Pz, and a layer's Z / depth channel (Nuke depth.Z, Blender
+    ViewLayer.Depth.Z), but not the Z component of normals or positions (Normal.Z, P.Z)."""
     n = name.lower()
-    last = n.rsplit(".", 1)[-1]
-    return last in DEPTH_NAMES or n.endswith("depth")
+    parts = n.split(".")
+    last, layer = parts[-1], (parts[-2] if len(parts) > 1 else "")
+    if last in ("depth", "distance", "zdepth", "pz") or n.endswith("depth"):
+        return True
+    return last == "z" and layer in ("", "depth", "z", "zdepth", "distance")
 
 
 def _colour_channels(names: list[str]) -> tuple[list[int], int | None]:
-    """Indices of R, G, B (plain or of the first layer that has all three) and alpha."""
+    """Indices of R, G, B (plain, else the beauty layer, else the first layer that has all
+    three; full names like red/green/blue count) and alpha."""
     low = [n.lower() for n in names]
-    for prefix in [""] + sorted({n.rsplit(".", 1)[0] + "." for n in low if "." in n}):
-        idx = [low.index(prefix + c) if prefix + c in low else -1 for c in "rgb"]
-        if min(idx) >= 0:
-            a = low.index(prefix + "a") if prefix + "a" in low else None
-            return idx, a
+    prefixes = {n.rsplit(".", 1)[0] + "." for n in low if "." in n}
+    order = sorted(prefixes, key=lambda p: (p.rstrip(".").rsplit(".", 1)[-1] not in _BEAUTY, p))
+    for prefix in [""] + order:
+        for rgb, a in (("rgb", "a"), (("red", "green", "blue"), "alpha")):
+            idx = [low.index(prefix + c) if prefix + c in low else -1 for c in rgb]
+            if min(idx) >= 0:
+                ai = low.index(prefix + a) if prefix + a in low else None
+                return idx, ai
     return [], None
 
 
@@ -90,30 +105,106 @@ def _is_linear(spec, fmt_name: str) -> bool:
     return ("lin" in cs or cs in ("scene_linear", "acescg", "aces")) and "srgb" not in cs
 
 
-def read_image(path: str | Path) -> Frame:
+def _parts(inp) -> list:
+    """(index, spec, part name, view) of every subimage."""
+    out, i = [], 0
+    while inp.seek_subimage(i, 0):
+        spec = inp.spec()
+        name = str(spec.getattribute("oiio:subimagename") or spec.getattribute("name") or "")
+        out.append((i, spec, name, str(spec.getattribute("view") or "")))
+        i += 1
+    inp.seek_subimage(0, 0)
+    return out
+
+
+def _view_channels(names: list[str], spec, view: str | None, path: Path) -> list[int]:
+    """Channels of one view of a single-part multi-view EXR: the default (first) view's are
+    unprefixed, every other view's carry the view name as their first component."""
+    views = spec.getattribute("multiView")
+    views = [str(v) for v in views] if views is not None and not isinstance(views, str) else (
+        [views] if views else [])
+    if not views:
+        if view:
+            raise UserError(f"{path}: --view {view}: the file has no views")
+        return list(range(len(names)))
+    view = view or views[0]
+    if view not in views:
+        raise UserError(f"{path}: --view {view}: no such view (have: {', '.join(views)})")
+    others = [v for v in views if v != view]
+    if view == views[0]:
+        return [i for i, n in enumerate(names) if n.split(".", 1)[0] not in others]
+    return [i for i, n in enumerate(names) if n.startswith(view + ".")]
+
+
+def read_image(path: str | Path, layer: str | None = None, view: str | None = None) -> Frame:
     path = Path(path)
     if path.suffix.lower() in (".npy",):
-        raise UserError(f"{path}: an image is expected here (EXR, TIFF, PNG, JPEG, HDR), not NPY")
+        raise UserError(f"{path}: an image is expected here (EXR, TIFF, PNG, JPEG, HDR, RAW), not NPY")
+    if path.suffix.lower() in RAW_EXT:
+        if layer or view:
+            raise UserError(f"{path}: --layer / --view apply to EXR files, not camera RAW")
+        return read_raw(path)
     inp = _open(path)
-    spec = inp.spec()
-    fmt_name = str(spec.format)
-    px = _read_pixels(inp, path, "float")
-    names = list(spec.channelnames)
-    attributes = [(a.name, a.type, a.value) for a in spec.extra_attribs]
+    parts = _parts(inp)
     is_exr = inp.format_name() == "openexr"
-    inp.close()
+    if (layer or view) and not is_exr:
+        inp.close()
+        raise UserError(f"{path}: --layer / --view apply to EXR files")
+    # multi-part: the part named --layer (else the first) of the chosen view
+    chosen = [p for p in parts if not view or p[3] in ("", view)]
+    if view and len(parts) > 1 and not any(p[3] == view for p in parts):
+        have = sorted({p[3] for p in parts if p[3]})
+        if have:
+            inp.close()
+            raise UserError(f"{path}: --view {view}: no such view (have: {', '.join(have)})")
+    by_name = [p for p in chosen if layer and p[2] == layer]
+    colour_part = by_name[0] if by_name else chosen[0]
+    sub, spec = colour_part[0], colour_part[1]
+    px = _read_pixels(inp, path, "float", sub)
+    names = list(spec.channelnames)
+    keep = _view_channels(names, spec, view, path) if len(parts) == 1 else list(range(len(names)))
+    sel_names = [names[i] for i in keep]
+    if len(parts) == 1 and view:
+        sel_names = [n[len(view) + 1:] if n.startswith(view + ".") else n for n in sel_names]
+    px = px[:, :, keep]
+    if layer and not by_name:
+        # a channel layer (Blender ViewLayer.Combined, Nuke diffuse): its R, G, B, A
+        pre = [n for n in {n.rsplit(".", 1)[0] for n in sel_names if "." in n}
+               if n == layer or n.endswith("." + layer)]
+        if not pre:
+            layers = sorted({n.rsplit(".", 1)[0] for n in sel_names if "." in n} | {p[2] for p in parts if p[2]})
+            inp.close()
+            raise UserError(f"{path}: --layer {layer}: no such layer (have: {', '.join(layers) or 'none'})")
+        lay = [i for i, n in enumerate(sel_names) if n.rsplit(".", 1)[0] == pre[0]]
+        depth_cols = [i for i, n in enumerate(sel_names) if _is_depth_name(n)]
+        pick = lay + [i for i in depth_cols if i not in lay]
+        px = px[:, :, pick]
+        sel_names = [sel_names[i].rsplit(".", 1)[-1] if i in lay else sel_names[i] for i in pick]
+    attributes = [(a.name, a.type, a.value) for a in spec.extra_attribs]
+    fmt_name = str(spec.format)
 
-    rgb_idx, a_idx = _colour_channels(names)
-    depth_idx = next((i for i, n in enumerate(names) if _is_depth_name(n) and i not in rgb_idx), None)
+    rgb_idx, a_idx = _colour_channels(sel_names)
+    depth_idx = next((i for i, n in enumerate(sel_names) if _is_depth_name(n) and i not in rgb_idx), None)
+    depth = np.ascontiguousarray(px[:, :, depth_idx], dtype=np.float32) if depth_idx is not None else None
+    if depth is None and len(parts) > 1:
+        # Nuke and others write the depth layer as a part of its own
+        for i, ps, _, pv in chosen:
+            if i == sub or (ps.width, ps.height, ps.x, ps.y) != (spec.width, spec.height, spec.x, spec.y):
+                continue
+            cand = [k for k, n in enumerate(ps.channelnames) if _is_depth_name(n)]
+            if cand:
+                depth = np.ascontiguousarray(_read_pixels(inp, path, "float", i)[:, :, cand[0]], dtype=np.float32)
+                break
+    inp.close()
     if rgb_idx:
         rgb = px[:, :, rgb_idx]
-    elif spec.nchannels in (1, 2):
-        grey = [i for i in range(spec.nchannels) if i != depth_idx][:1] or [0]
+    elif len(sel_names) in (1, 2):
+        grey = [i for i in range(len(sel_names)) if i != depth_idx][:1] or [0]
         rgb = np.repeat(px[:, :, grey], 3, axis=2)
-        a_idx = 1 if spec.nchannels == 2 and depth_idx is None else None
-    elif spec.nchannels >= 3:
+        a_idx = 1 if len(sel_names) == 2 and depth_idx is None else None
+    elif len(sel_names) >= 3:
         rgb = px[:, :, :3]
-        a_idx = 3 if spec.nchannels >= 4 and 3 != depth_idx else None
+        a_idx = 3 if len(sel_names) >= 4 and 3 != depth_idx else None
     else:
         raise UserError(f"{path}: no colour channels (have: {', '.join(names)})")
     rgb = np.ascontiguousarray(rgb, dtype=np.float32)
@@ -123,9 +214,26 @@ def read_image(path: str | Path) -> Frame:
         bad = int((~np.isfinite(rgb)).any(axis=2).sum())
         raise UserError(f"{path}: {bad} pixel(s) hold NaN or infinite colour values")
     alpha = np.ascontiguousarray(px[:, :, a_idx], dtype=np.float32) if a_idx is not None else None
-    depth = np.ascontiguousarray(px[:, :, depth_idx], dtype=np.float32) if depth_idx is not None else None
     return Frame(path, rgb, alpha, depth, (spec.x, spec.y),
                  (spec.full_x, spec.full_y, spec.full_width, spec.full_height), attributes, is_exr)
+
+
+def read_raw(path: Path) -> Frame:
+    """Camera RAW through rawpy/LibRaw: linear demosaic (AHD), the camera's white balance,
+    no auto-brightening, 16 bit, gamma 1 -> scene-linear sRGB primaries in [0, 1]."""
+    import rawpy
+
+    if not path.is_file():
+        raise UserError(f"{path}: file not found")
+    try:
+        with rawpy.imread(str(path)) as raw:
+            px = raw.postprocess(use_camera_wb=True, no_auto_bright=True, gamma=(1, 1),
+                                 output_bps=16, output_color=rawpy.ColorSpace.sRGB)
+    except (rawpy.LibRawError, OSError, ValueError) as exc:
+        raise UserError(f"{path}: cannot read camera RAW ({exc.__class__.__name__}: {exc})") from None
+    rgb = np.ascontiguousarray(px.astype(np.float32) / 65535.0)
+    h, w = rgb.shape[:2]
+    return Frame(path, rgb, None, None, (0, 0), (0, 0, w, h), [], False)
 
 
 def read_depth(path: str | Path) -> np.ndarray:

@@ -36,13 +36,18 @@ def _medium_source(name: str) -> Path:
 
 
 def assemble(medium: str | None = None, config_file: str | None = None,
-             sets: tuple[str, ...] = ()) -> C.Config:
-    """Merge the sources in order and validate once."""
+             sets: tuple[str, ...] = (), camera_file: str | None = None) -> C.Config:
+    """Merge the sources in order (preset < --medium < --config < --camera < --set) and
+    validate once."""
     locs: dict = {}
     src = _medium_source(medium or DEFAULT_MEDIUM)
     data = C.load_yaml(src, locs)
     if config_file:
         data = C.merge(data, C.load_yaml(config_file, locs))
+    if camera_file:
+        from .intrinsics import load
+
+        data = C.merge(data, load(camera_file))
     for item in sets:
         data = C.merge(data, C.parse_set(item, locs))
     return C.build(data, locs)

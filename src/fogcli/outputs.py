@@ -31,7 +31,7 @@ def check_target(output: Path, *inputs: Path | None) -> None:
         raise UserError(f"-o {output}: folder {output.parent} does not exist")
 
 
-def _atomic_write(path: Path, write) -> None:
+def atomic_write(path: Path, write) -> None:
     fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}.", suffix=f".tmp{path.suffix}", dir=path.parent)
     os.close(fd)
     try:
@@ -47,6 +47,29 @@ def _atomic_write(path: Path, write) -> None:
         except OSError:
             pass
         raise
+
+
+def is_partial(name: str) -> bool:
+    """A temporary file of atomic_write (a killed run may leave one behind)."""
+    return name.startswith(".") and ".tmp" in name
+
+
+def write_plane(path: Path, plane: np.ndarray, channel: str) -> None:
+    """One float channel (EXR / TIFF), e.g. the cleaned depth."""
+    import OpenImageIO as oiio
+
+    h, w = plane.shape
+    spec = oiio.ImageSpec(w, h, 1, "float")
+    spec.channelnames = (channel,)
+    data = np.ascontiguousarray(plane, np.float32)[:, :, None]
+
+    def _write(tmp):
+        out = oiio.ImageOutput.create(tmp)
+        if out is None or not out.open(tmp, spec) or not out.write_image(data):
+            raise ProcessingError(f"{path}: cannot write ({oiio.geterror().strip() or 'write failed'})")
+        out.close()
+
+    atomic_write(path, _write)
 
 
 def write(path: Path, rgb: np.ndarray, alpha: np.ndarray | None, aovs: dict, frame, half: bool,
@@ -110,4 +133,4 @@ def write(path: Path, rgb: np.ndarray, alpha: np.ndarray | None, aovs: dict, fra
         if not ok:
             raise ProcessingError(f"{path}: cannot write ({err.strip() or 'write failed'})")
 
-    _atomic_write(path, _write)
+    atomic_write(path, _write)

@@ -16,7 +16,8 @@ from .runtime import Runtime, get_runtime
 INTERP = {"linear-bilinear": 0, "linear-bicubic": 1, "cubic-bicubic": 2}
 CAMERA_T = np.dtype([
     ("pos", np.float32, 4), ("rot", np.float32, (3, 4)), ("focal_px", np.float32),
-    ("depth_scale", np.float32), ("max_depth", np.float32), ("depth_is_z", np.int32),
+    ("focal_y", np.float32), ("cx", np.float32), ("cy", np.float32), ("max_depth", np.float32),
+    ("depth_is_z", np.int32), ("_pad", np.int32, 2),   # OpenCL rounds up to float4 alignment
 ], align=True)
 MEDIUM_T = np.dtype([
     ("sa", np.float32, 4), ("ss", np.float32, 4), ("emission", np.float32, 4),
@@ -68,19 +69,21 @@ def rotation(yaw: float, pitch: float, roll: float) -> np.ndarray:
     return ry @ rx @ rz
 
 
-def camera_struct(cfg: Config, width: int) -> np.ndarray:
+def camera_struct(cfg: Config, width: int, height: int) -> np.ndarray:
+    """The kernels take metric depth (depth.decode): z for z, disparity and inverse."""
     cam = cfg.camera
     s = np.zeros((), CAMERA_T)
     s["pos"] = [*cam.position, 0.0]
     s["rot"][:, :3] = rotation(cam.yaw, cam.pitch, cam.roll)
     s["focal_px"] = cam.focal(width)
-    s["depth_scale"] = cam.depth_scale
+    s["focal_y"] = cam.focal_y(width)
+    s["cx"], s["cy"] = cam.centre(width, height)
     s["max_depth"] = cam.max_depth
-    s["depth_is_z"] = 1 if cam.depth == "z" else 0
+    s["depth_is_z"] = 0 if cam.depth == "distance" else 1
     return s
 
 
-def medium_struct(cfg: Config, width: int) -> np.ndarray:
+def medium_struct(cfg: Config, width: int, height: int) -> np.ndarray:
     m = cfg.medium
     s = np.zeros((), MEDIUM_T)
     sa, ss = np.array(m.absorption, np.float32), np.array(m.scattering, np.float32)
@@ -88,7 +91,7 @@ def medium_struct(cfg: Config, width: int) -> np.ndarray:
     s["ss"] = [*ss, ss.mean()]
     s["emission"] = [*m.emission, 0.0]
     s["ambient"] = [*m.ambient, 0.0]
-    s["cam"] = camera_struct(cfg, width)
+    s["cam"] = camera_struct(cfg, width, height)
     s["g"] = m.asymmetry
     s["spread_scale"] = cfg.render.spread_scale
     s["homogeneous"] = sum(d.factor for d in m.density if d.type == "homogeneous")
@@ -177,7 +180,7 @@ class Plan:
     def optical_depth(self, t: Timings) -> None:
         """P of the non-homogeneous primitives, summed into the spread buffer (level 0),
         which preprocess reads before it writes the spread there."""
-        cam = camera_struct(self.cfg, self.w)
+        cam = camera_struct(self.cfg, self.w, self.h)
         for k, (name, args) in enumerate(primitive_launches(self.cfg)):
             t.add("preprocess", getattr(self.k_density, name)(
                 self.rt.queue, *self.rt.nd(self.w, self.h), self.depth, self.spread,
@@ -195,7 +198,7 @@ class Plan:
         t.add("preprocess", self.k_pre(
             q, *self.rt.nd(self.w, self.h), self.image, self.depth, self.direct, self.chain, self.spread,
             self.medium, self.trans, np.int32("transmittance" in self.aovs),
-            np.int32(self.w), np.int32(self.h), medium_struct(self.cfg, self.w),
+            np.int32(self.w), np.int32(self.h), medium_struct(self.cfg, self.w, self.h),
             self.prep, np.int32(self.source), np.float32(self.threshold(1)), np.float32(eps),
             self.chain2, self.prep2, np.int32(self.sep), self.sep_params()))
 
@@ -319,20 +322,22 @@ def get_plan(rt: Runtime, width: int, height: int, cfg: Config, aovs=()) -> Plan
 
 def run(rgb: np.ndarray, depth: np.ndarray, cfg: Config, alpha=None, aovs=(), device=None,
         timings: Timings | None = None) -> tuple[np.ndarray, dict]:
-    """Process one frame on the device. Returns (rgb out (h, w, 3), aov planes)."""
+    """Process one frame on the device. depth: metric (depth.decode / depth.prepare), at the
+    image's size, holes filled. Returns (rgb out (h, w, 3), aov planes)."""
+    import dataclasses
+
     h, w = depth.shape
     if rgb.shape[:2] != (h, w):
         raise ValueError(f"image {rgb.shape[:2]} and depth {depth.shape} differ in size")
+    cfg = dataclasses.replace(cfg, camera=cfg.camera.for_size(w, h))
     if cfg.render.separation.enabled and cfg.render.method != "pyramid":
         from .errors import UserError
 
         raise UserError("render.separation.enabled: pixel separation needs render.method: pyramid")
     if cfg.medium.ambient == "auto":
-        import dataclasses
-
         from .ambient import estimate
 
-        la = estimate(rgb, depth, cfg.camera.depth_scale, cfg.camera.max_depth)
+        la = estimate(rgb, depth, cfg.camera.max_depth)
         cfg = dataclasses.replace(cfg, medium=dataclasses.replace(cfg.medium, ambient=la))
     t = timings if timings is not None else Timings()
     rt = get_runtime(device)

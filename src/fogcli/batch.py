@@ -1,0 +1,326 @@
+"""`fogcli batch`: find the frames of a folder, run them here, in spawned worker processes
+or on a Dask cluster, and report. One bad file never stops the batch; outputs are atomic,
+so a killed run leaves only whole outputs (and stale temporary files, removed by the next
+run), and --skip-existing resumes it."""
+from __future__ import annotations
+
+import json
+import os
+import re
+import sys
+import time
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+
+from .errors import UserError
+from .job import Job
+from .outputs import DISPLAY_EXT, LINEAR_EXT, is_partial
+
+IMAGE_EXT = {".exr", ".hdr", ".tif", ".tiff", ".png", ".jpg", ".jpeg"}
+
+
+def _image_ext() -> set[str]:
+    from .inputs import RAW_EXT
+
+    return IMAGE_EXT | RAW_EXT
+
+
+def _frame_number(stem: str) -> str | None:
+    m = re.search(r"(\d+)(?!.*\d)", stem)
+    return m.group(1) if m else None
+
+
+def depth_for(rel: Path, pattern: str) -> Path:
+    """The depth path (relative to INPUT_DIR) of the input at `rel`: {stem} is the input's
+    stem, a run of # (or %0Nd) its frame number (the last digits of the stem), padded; a
+    pattern without a folder looks beside the input."""
+    stem = rel.stem
+    out = pattern.replace("{stem}", stem)
+    frame = _frame_number(stem)
+    if re.search(r"#+|%0?\d*d", out):
+        if frame is None:
+            raise UserError(f"{rel}: --depth-pattern {pattern} needs a frame number, the name has none")
+        out = re.sub(r"#+", lambda m: frame.zfill(len(m.group(0))), out)
+        out = re.sub(r"%0?(\d*)d", lambda m: frame.zfill(int(m.group(1) or 0)), out)
+    return rel.parent / out
+
+
+def _pattern_regex(pattern: str) -> re.Pattern:
+    """Matches the file names a depth pattern produces (to leave depth files out of the inputs)."""
+    parts = re.split(r"(\{stem\}|#+|%0?\d*d)", pattern)
+    rx = "".join(".+" if p == "{stem}" else r"\d+" if (p.startswith("#") or p.startswith("%")) else re.escape(p)
+                 for p in parts)
+    return re.compile(f"^(.*/)?{rx}$")
+
+
+@dataclass
+class Plan:
+    jobs: list = field(default_factory=list)          # Job
+    skipped: list = field(default_factory=list)       # (input, output)
+    failed: list = field(default_factory=list)        # (input, reason)
+
+
+def output_is_whole(path: Path) -> bool:
+    """An output of a previous run that can be read back entirely."""
+    import OpenImageIO as oiio
+
+    if not path.is_file() or path.stat().st_size == 0:
+        return False
+    inp = oiio.ImageInput.open(str(path))
+    if inp is None:
+        oiio.geterror()
+        return False
+    try:
+        spec = inp.spec()
+        px = inp.read_image(0, 0, 0, spec.nchannels, "float")
+        ok = px is not None and not (hasattr(inp, "has_error") and inp.has_error)
+    except Exception:
+        ok = False
+    inp.close()
+    return ok
+
+
+def discover(input_dir: Path, output_dir: Path, depth_pattern: str | None, recursive: bool,
+             fmt: str | None, skip_existing: bool, layer: str | None = None, view: str | None = None) -> Plan:
+    if not input_dir.is_dir():
+        raise UserError(f"{input_dir}: not a folder (INPUT_DIR)")
+    if output_dir.exists() and not output_dir.is_dir():
+        raise UserError(f"{output_dir}: exists and is not a folder (OUTPUT_DIR)")
+    if output_dir.resolve() == input_dir.resolve():
+        raise UserError(f"{output_dir}: OUTPUT_DIR must differ from INPUT_DIR (inputs are never overwritten)")
+    if fmt is not None:
+        fmt = fmt.lower().lstrip(".")
+        if f".{fmt}" not in DISPLAY_EXT | LINEAR_EXT:
+            raise UserError(f"--format {fmt}: expected one of exr, hdr, png, tif, jpg")
+    exts = _image_ext()
+    files = sorted(p for p in (input_dir.rglob("*") if recursive else input_dir.glob("*"))
+                   if p.is_file() and p.suffix.lower() in exts and not p.name.startswith("."))
+    out_res = output_dir.resolve()
+    files = [p for p in files if out_res not in p.resolve().parents]   # OUTPUT_DIR inside INPUT_DIR
+    rels = [p.relative_to(input_dir) for p in files]
+    depth_rx = _pattern_regex(depth_pattern) if depth_pattern else None
+    plan = Plan()
+    depths: dict[Path, Path | None] = {}
+    for rel in rels:
+        if depth_pattern:
+            try:
+                depths[rel] = depth_for(rel, depth_pattern)
+            except UserError as exc:
+                plan.failed.append((str(input_dir / rel), str(exc)))
+                continue
+        else:
+            depths[rel] = None
+    depth_files = {d for d in depths.values() if d is not None}
+    for rel, drel in depths.items():
+        if rel in depth_files or (depth_rx and depth_rx.match(rel.as_posix())):
+            continue                      # a depth map, not a frame
+        ext = f".{fmt}" if fmt else (rel.suffix.lower() if rel.suffix.lower() in DISPLAY_EXT | LINEAR_EXT else ".exr")
+        out = output_dir / rel.parent / f"{rel.stem}{ext}"
+        src = input_dir / rel
+        if skip_existing and output_is_whole(out):
+            plan.skipped.append((str(src), str(out)))
+            continue
+        depth = None
+        if drel is not None:
+            dpath = input_dir / drel
+            depth = str(dpath) if dpath.is_file() else None   # missing: try the embedded Z
+        plan.jobs.append(Job(str(src), str(out), depth, layer, view))
+    names = {}
+    for j in plan.jobs:
+        if j.output in names:
+            raise UserError(f"{j.input} and {names[j.output]} would both write {j.output}; use --format or rename")
+        names[j.output] = j.input
+    return plan
+
+
+def remove_stale_temporaries(output_dir: Path) -> int:
+    n = 0
+    if output_dir.is_dir():
+        for p in output_dir.rglob(".*"):
+            if p.is_file() and is_partial(p.name):
+                p.unlink(missing_ok=True)
+                n += 1
+    return n
+
+
+# -- workers ---------------------------------------------------------------------------
+_WORKER: dict = {}
+
+
+def _die_with_parent() -> None:
+    """A worker must not outlive a killed batch (it would keep writing into OUTPUT_DIR)."""
+    if sys.platform.startswith("linux"):
+        import ctypes
+        import signal
+
+        try:
+            ctypes.CDLL("libc.so.6", use_errno=True).prctl(1, signal.SIGKILL)   # PR_SET_PDEATHSIG
+        except OSError:
+            pass
+
+
+def init_worker(cfg, aovs, device, threads: int | None) -> None:
+    """Runs first in each spawned worker, before OpenCL is touched: PoCL's thread count
+    is fixed when the device is created."""
+    _die_with_parent()
+    if threads:
+        os.environ.setdefault("POCL_CPU_MAX_CU_NUM", str(threads))
+        os.environ.setdefault("POCL_MAX_PTHREAD_COUNT", str(threads))
+    _WORKER.update(cfg=cfg, aovs=aovs, device=device)
+
+
+def process(job: Job, cfg=None, aovs=None, device=None) -> dict:
+    """One job; never raises for a bad input: returns {'ok', 'input', 'output', 'reason'}."""
+    from .errors import ProcessingError
+    from .job import run_job
+
+    cfg = cfg if cfg is not None else _WORKER["cfg"]
+    aovs = aovs if aovs is not None else _WORKER.get("aovs", ())
+    device = device if device is not None else _WORKER.get("device")
+    t0 = time.perf_counter()
+    try:
+        Path(job.output).parent.mkdir(parents=True, exist_ok=True)
+        res = run_job(job, cfg, aovs=aovs, device=device)
+        return {"ok": True, "input": job.input, "output": job.output, "warnings": res.warnings,
+                "seconds": round(time.perf_counter() - t0, 3)}
+    except (UserError, ProcessingError) as exc:
+        return {"ok": False, "input": job.input, "output": job.output, "reason": str(exc)}
+    except Exception as exc:  # a worker reports, it does not die
+        return {"ok": False, "input": job.input, "output": job.output,
+                "reason": f"processing failed: {exc.__class__.__name__}: {exc}"}
+
+
+def dask_process(job: Job, cfg, aovs, device) -> dict:
+    """Task body on a Dask worker (one thread per worker process; kernels built once per
+    worker process by the runtime cache)."""
+    return process(job, cfg, aovs, device)
+
+
+@dataclass
+class Summary:
+    done: list = field(default_factory=list)
+    skipped: list = field(default_factory=list)
+    failed: list = field(default_factory=list)
+    seconds: float = 0.0
+
+    def as_json(self) -> dict:
+        d = asdict(self)
+        d["counts"] = {"done": len(self.done), "skipped": len(self.skipped), "failed": len(self.failed)}
+        d["images_per_second"] = round(len(self.done) / self.seconds, 3) if self.seconds > 0 else None
+        return d
+
+
+class Progress:
+    """tqdm on a terminal; plain lines otherwise; nothing when quiet."""
+
+    def __init__(self, total: int, quiet: bool):
+        self.quiet, self.total, self.n, self.t0 = quiet, total, 0, time.perf_counter()
+        self.bar = None
+        if not quiet and sys.stderr.isatty():
+            from tqdm import tqdm
+
+            self.bar = tqdm(total=total, unit="img", file=sys.stderr, dynamic_ncols=True)
+
+    def update(self, r: dict) -> None:
+        self.n += 1
+        if self.quiet:
+            return
+        if self.bar is not None:
+            self.bar.update(1)
+            if not r["ok"]:
+                self.bar.write(f"fogcli: failed: {r['reason']}", file=sys.stderr)
+            return
+        dt = time.perf_counter() - self.t0
+        rate = self.n / dt if dt > 0 else 0.0
+        eta = (self.total - self.n) / rate if rate > 0 else 0.0
+        what = f"done {r['output']}" if r["ok"] else f"failed: {r['reason']}"
+        print(f"[{self.n}/{self.total}] {what} ({rate:.2f} img/s, ETA {eta:.0f} s)", file=sys.stderr, flush=True)
+
+    def close(self) -> None:
+        if self.bar is not None:
+            self.bar.close()
+
+
+def _local(jobs, cfg, aovs, device, n_jobs, progress, collect):
+    if n_jobs <= 1:
+        for job in jobs:
+            collect(process(job, cfg, aovs, device), progress)
+        return
+    import multiprocessing as mp
+    from concurrent.futures import ProcessPoolExecutor, as_completed
+
+    threads = max(1, (os.cpu_count() or 1) // n_jobs)
+    with ProcessPoolExecutor(max_workers=n_jobs, mp_context=mp.get_context("spawn"),
+                             initializer=init_worker, initargs=(cfg, aovs, device, threads)) as ex:
+        futs = [ex.submit(process, job) for job in jobs]
+        for f in as_completed(futs):
+            collect(f.result(), progress)
+
+
+def _dask(jobs, cfg, aovs, device, scheduler, progress, collect):
+    try:
+        from dask.distributed import Client, LocalCluster, as_completed
+    except ImportError:
+        raise UserError("--scheduler needs Dask: pip install 'dask[distributed]'") from None
+    cluster = None
+    if scheduler.startswith("local"):
+        n = scheduler.partition(":")[2] or str(os.cpu_count() or 1)
+        if not n.isdigit() or int(n) < 1:
+            raise UserError(f"--scheduler {scheduler}: expected local:N with N >= 1 workers")
+        cluster = LocalCluster(n_workers=int(n), threads_per_worker=1, processes=True,
+                               dashboard_address=None, silence_logs=40)
+        client = Client(cluster)
+    else:
+        try:
+            client = Client(scheduler, timeout="20s")
+        except (OSError, TimeoutError) as exc:
+            raise UserError(f"--scheduler {scheduler}: cannot connect ({exc})") from None
+    try:
+        futs = [client.submit(dask_process, job, cfg, aovs, device, pure=False, key=f"fogcli-{i}-{job.input}")
+                for i, job in enumerate(jobs)]
+        for f in as_completed(futs):
+            try:
+                r = f.result()
+            except Exception as exc:   # a worker lost mid-task
+                r = {"ok": False, "input": "?", "output": "?", "reason": f"worker failed: {exc}"}
+            collect(r, progress)
+    finally:
+        client.close()
+        if cluster is not None:
+            cluster.close()
+
+
+def run_batch(input_dir: Path, output_dir: Path, cfg, *, depth_pattern=None, recursive=False, fmt=None,
+              jobs=1, skip_existing=False, scheduler=None, aovs=(), device=None, quiet=False,
+              report: Path | None = None, layer=None, view=None) -> Summary:
+    t0 = time.perf_counter()
+    if aovs and (fmt or "exr") != "exr":
+        raise UserError(f"--aov needs EXR outputs, got --format {fmt}")
+    plan = discover(input_dir, output_dir, depth_pattern, recursive, fmt, skip_existing, layer, view)
+    output_dir.mkdir(parents=True, exist_ok=True)
+    remove_stale_temporaries(output_dir)
+    summary = Summary(skipped=[{"input": i, "output": o} for i, o in plan.skipped],
+                      failed=[{"input": i, "reason": r} for i, r in plan.failed])
+
+    def collect(r, progress):
+        if r["ok"]:
+            summary.done.append({k: r[k] for k in ("input", "output", "seconds", "warnings")})
+        else:
+            summary.failed.append({"input": r["input"], "reason": r["reason"]})
+        progress.update(r)
+
+    progress = Progress(len(plan.jobs), quiet)
+    try:
+        if scheduler:
+            _dask(plan.jobs, cfg, tuple(aovs), device, scheduler, progress, collect)
+        else:
+            _local(plan.jobs, cfg, tuple(aovs), device, jobs, progress, collect)
+    finally:
+        progress.close()
+    summary.seconds = round(time.perf_counter() - t0, 3)
+    if report:
+        from .outputs import atomic_write
+
+        text = json.dumps(summary.as_json(), indent=2)
+        atomic_write(report, lambda tmp: Path(tmp).write_text(text))
+    return summary

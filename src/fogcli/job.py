@@ -1,0 +1,81 @@
+"""One frame from files to file: what `fogcli apply` does and what every batch worker
+repeats. Reading, depth decoding and cleaning, the device run, the atomic write."""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from . import depth as depth_mod
+from . import inputs, outputs
+from .config import Config
+from .errors import UserError
+from .pipeline import Timings, run
+
+
+@dataclass
+class Job:
+    input: str
+    output: str
+    depth: str | None = None          # a depth file; None: the input's own Z channel
+    layer: str | None = None
+    view: str | None = None
+    save_depth: str | None = None     # write the cleaned metric depth used here
+
+
+@dataclass
+class Result:
+    io_ms: float = 0.0
+    pixels: int = 0
+    warnings: list = field(default_factory=list)
+
+
+def save_depth(path: Path, depth: np.ndarray) -> None:
+    """Metric depth as a float EXR channel Z (or NPY)."""
+    if path.suffix.lower() == ".npy":
+        outputs.atomic_write(path, lambda tmp: np.save(open(tmp, "wb"), depth))
+        return
+    if path.suffix.lower() not in (".exr", ".tif", ".tiff"):
+        raise UserError(f"--save-depth {path}: use .exr, .tif or .npy (metric float depth)")
+    outputs.write_plane(path, depth, "Z")
+
+
+def run_job(job: Job, cfg: Config, aovs=(), device=None, timings: Timings | None = None) -> Result:
+    res = Result()
+    src = Path(job.input)
+    out_path = Path(job.output)
+    outputs.check_target(out_path, src, Path(job.depth) if job.depth else None)
+    if aovs and out_path.suffix.lower() != ".exr":
+        raise UserError(f"--aov needs an .exr output, got {out_path.name}")
+
+    t0 = time.perf_counter()
+    frame = inputs.read_image(src, job.layer, job.view)
+    if job.depth:
+        raw, dsrc = inputs.read_depth(job.depth), job.depth
+    elif frame.depth is not None:
+        raw, dsrc = frame.depth, f"{src} (Z channel)"
+    else:
+        raise UserError(f"{src}: no depth channel (Z, *.Z or *depth); pass --depth FILE")
+    res.io_ms += (time.perf_counter() - t0) * 1e3
+    h, w = frame.rgb.shape[:2]
+    cam = cfg.camera.for_size(w, h)
+    metric = depth_mod.decode(raw, cam, str(dsrc), w)
+    clean, rep = depth_mod.prepare(metric, frame.rgb, str(dsrc))
+    if rep.resampled_from:
+        res.warnings.append(f"{dsrc}: depth {rep.resampled_from[0]}x{rep.resampled_from[1]} upsampled "
+                            f"edge-aware to {w}x{h}")
+    if rep.holes:
+        res.warnings.append(f"{dsrc}: {rep.holes} invalid depth pixel(s) (no measurement: NaN, zero "
+                            "or negative) filled edge-aware from neighbours")
+    if job.save_depth:
+        save_depth(Path(job.save_depth), clean)
+
+    rgb, planes = run(frame.rgb, clean, cfg, alpha=frame.alpha, aovs=aovs, device=device,
+                      timings=timings if timings is not None else Timings())
+    t0 = time.perf_counter()
+    outputs.write(out_path, rgb, frame.alpha, planes, frame, cfg.output.half, cfg.output.exposure)
+    res.io_ms += (time.perf_counter() - t0) * 1e3
+    res.pixels = w * h
+    return res
