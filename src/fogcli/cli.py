@@ -125,7 +125,8 @@ def batch(input_dir, output_dir, depth_pattern, medium, config_file, camera_file
                   fmt=fmt, jobs=jobs, skip_existing=skip_existing, layer=layer, view=view, scheduler=scheduler, aovs=aovs,
                   device=device, quiet=quiet, report=Path(report) if report else None)
     for f in s.failed:
-        click.echo(f"fogcli: failed: {f['input']}: {f['reason']}", err=True)
+        why = f["reason"] if f["reason"].startswith(f["input"]) else f"{f['input']}: {f['reason']}"
+        click.echo(f"fogcli: failed: {why}", err=True)
     if not quiet:
         click.echo(f"fogcli: {len(s.done)} done, {len(s.skipped)} skipped, {len(s.failed)} failed "
                    f"in {s.seconds:.1f} s", err=True)

@@ -1,0 +1,154 @@
+"""fogcli batch: discovery (depth patterns, sequences, sub-folders), bad files reported
+without stopping the batch, atomic outputs, resume after SIGKILL, spawn workers and a
+Dask LocalCluster writing the same pixels."""
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+from fogcli.scenes import scene
+from test_cli import read, write_img
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def fogcli(*args, timeout=600):
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(ROOT / "src"), os.environ.get("PYTHONPATH", "")]))
+    return subprocess.run([sys.executable, "-m", "fogcli", *map(str, args)], capture_output=True, text=True,
+                          timeout=timeout, env=env)
+
+
+def frame(path, seed, w=48, h=32, z_in_file=True):
+    rgb, z, _ = scene(w, h, seed=seed)
+    if z_in_file:
+        write_img(path, np.dstack([rgb, z]), ["R", "G", "B", "Z"])
+    else:
+        write_img(path, rgb, ["R", "G", "B"])
+    return rgb, z
+
+
+def png16(path, z, scale=1000):
+    write_img(path, np.round(np.where(np.isfinite(z), z, 0) * scale).astype(np.uint16)[:, :, None], ["Y"], fmt="uint16")
+
+
+def test_bad_files_are_reported_and_the_rest_written(tmp_path):
+    src, out = tmp_path / "in", tmp_path / "out"
+    (src / "depth").mkdir(parents=True)
+    for i in range(12):
+        _, z = frame(src / f"f{i:02d}.exr", 10 + i, z_in_file=False)
+        png16(src / "depth" / f"f{i:02d}.png", z)
+    _, z = frame(src / "trunc.exr", 40, z_in_file=False)
+    png16(src / "depth" / "trunc.png", z)
+    data = (src / "trunc.exr").read_bytes()
+    (src / "trunc.exr").write_bytes(data[: len(data) // 2])
+    frame(src / "wrongsize.exr", 41, z_in_file=False)
+    png16(src / "depth" / "wrongsize.png", np.ones((30, 30), np.float32))
+    frame(src / "nodepth.exr", 42, z_in_file=False)
+    report = tmp_path / "report.json"
+    r = fogcli("batch", src, out, "--depth-pattern", "depth/{stem}.png", "--set", "camera.depth_scale=0.001",
+               "--jobs", "2", "--report", report)
+    assert r.returncode == 3, r.stderr
+    assert "Traceback" not in r.stderr
+    assert sorted(p.name for p in out.iterdir()) == [f"f{i:02d}.exr" for i in range(12)]
+    for p in out.iterdir():
+        assert np.isfinite(read(p)[1]).all()
+    rep = json.loads(report.read_text())
+    assert rep["counts"] == {"done": 12, "skipped": 0, "failed": 3}
+    why = {Path(f["input"]).name: f["reason"] for f in rep["failed"]}
+    assert "truncated or corrupt" in why["trunc.exr"]
+    assert "30x30" in why["wrongsize.exr"] and "aspect" in why["wrongsize.exr"]
+    assert "no depth" in why["nodepth.exr"]
+    for name in why:
+        assert f"failed: {src / name}" in r.stderr
+    assert "12 done, 0 skipped, 3 failed" in r.stderr
+
+
+def test_sequences_subfolders_format_and_skip_existing(tmp_path):
+    src, out = tmp_path / "in", tmp_path / "out"
+    (src / "cam2").mkdir(parents=True)
+    for k in (1, 2, 3):
+        _, z = frame(src / f"shot.{k:04d}.exr", k, z_in_file=False)
+        write_img(src / f"depth.{k:04d}.exr", z[:, :, None], ["Z"])
+        _, z = frame(src / "cam2" / f"shot.{k:04d}.exr", 20 + k, z_in_file=False)
+        write_img(src / "cam2" / f"depth.{k:04d}.exr", z[:, :, None], ["Z"])
+    r = fogcli("batch", src, out, "--depth-pattern", "depth.####.exr", "--format", "png")
+    assert r.returncode == 0, r.stderr
+    assert sorted(p.name for p in out.iterdir()) == ["shot.0001.png", "shot.0002.png", "shot.0003.png"]
+    assert "[3/3] done" in r.stderr                           # plain progress lines off a terminal
+    r = fogcli("batch", src, out, "--depth-pattern", "depth.####.exr", "--format", "png", "--recursive",
+               "--skip-existing", "--quiet")
+    assert r.returncode == 0 and r.stderr == "", r.stderr
+    assert sorted(str(p.relative_to(out)) for p in out.rglob("*")) == [
+        "cam2", "cam2/shot.0001.png", "cam2/shot.0002.png", "cam2/shot.0003.png",
+        "shot.0001.png", "shot.0002.png", "shot.0003.png"]
+    # a broken output is redone, whole ones are skipped, a stale temporary file is removed
+    (out / "shot.0002.png").write_bytes((out / "shot.0002.png").read_bytes()[:100])
+    (out / ".shot.0003.abcd1234.tmp.png").write_bytes(b"partial")
+    report = tmp_path / "r.json"
+    r = fogcli("batch", src, out, "--depth-pattern", "depth.####.exr", "--format", "png", "--recursive",
+               "--skip-existing", "--report", report)
+    assert r.returncode == 0, r.stderr
+    rep = json.loads(report.read_text())
+    assert rep["counts"] == {"done": 1, "skipped": 5, "failed": 0}
+    assert Path(rep["done"][0]["output"]).name == "shot.0002.png"
+    assert not (out / ".shot.0003.abcd1234.tmp.png").exists()
+    assert read(out / "shot.0002.png")[0].width == 48
+
+
+def test_killed_batch_resumes_with_skip_existing(tmp_path):
+    src, out = tmp_path / "in", tmp_path / "out"
+    src.mkdir()
+    for i in range(40):
+        frame(src / f"k{i:02d}.exr", 100 + i, w=384, h=256)
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(ROOT / "src"), os.environ.get("PYTHONPATH", "")]))
+    p = subprocess.Popen([sys.executable, "-m", "fogcli", "batch", str(src), str(out), "--jobs", "2", "-q"],
+                         stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, env=env)
+    deadline = time.time() + 300
+    while time.time() < deadline and p.poll() is None:
+        if out.is_dir() and len([f for f in out.iterdir() if not f.name.startswith(".")]) >= 4:
+            break
+        time.sleep(0.01)
+    assert p.poll() is None, "the batch ended before it could be killed"
+    os.kill(p.pid, signal.SIGKILL)
+    p.wait()
+    time.sleep(0.5)                      # workers die with their parent (PR_SET_PDEATHSIG)
+    written = [f.name for f in out.iterdir() if not f.name.startswith(".")]
+    assert 4 <= len(written) < 40
+    for name in written:                 # whatever carries an output's name is whole
+        assert read(out / name)[1].shape == (256, 384, 3)
+    report = tmp_path / "r.json"
+    r = fogcli("batch", src, out, "--jobs", "2", "--skip-existing", "--report", report)
+    assert r.returncode == 0, r.stderr
+    rep = json.loads(report.read_text())
+    assert rep["counts"]["skipped"] >= len(written) and rep["counts"]["failed"] == 0
+    assert rep["counts"]["done"] + rep["counts"]["skipped"] == 40
+    assert sorted(f.name for f in out.iterdir()) == [f"k{i:02d}.exr" for i in range(40)]
+
+
+def test_local_cluster_writes_the_same_pixels(tmp_path):
+    src = tmp_path / "in"
+    src.mkdir()
+    for i in range(4):
+        frame(src / f"c{i}.exr", 200 + i, w=64, h=40)
+    a = fogcli("batch", src, tmp_path / "local", "-q")
+    b = fogcli("batch", src, tmp_path / "dask", "--scheduler", "local:2", "--report", tmp_path / "r.json")
+    assert a.returncode == 0 and b.returncode == 0, a.stderr + b.stderr
+    assert json.loads((tmp_path / "r.json").read_text())["counts"]["done"] == 4
+    for i in range(4):
+        np.testing.assert_array_equal(read(tmp_path / "local" / f"c{i}.exr")[1], read(tmp_path / "dask" / f"c{i}.exr")[1])
+    assert sorted(p.name for p in (tmp_path / "dask").iterdir()) == [f"c{i}.exr" for i in range(4)]
+
+
+def test_batch_usage_errors_exit_2(tmp_path):
+    r = fogcli("batch", tmp_path / "missing", tmp_path / "out")
+    assert r.returncode == 2 and "not a folder (INPUT_DIR)" in r.stderr and len(r.stderr.strip().splitlines()) == 1
+    (tmp_path / "in").mkdir()
+    r = fogcli("batch", tmp_path / "in", tmp_path / "in")
+    assert r.returncode == 2 and "must differ" in r.stderr
+    r = fogcli("batch", tmp_path / "in", tmp_path / "out", "--format", "bmp")
+    assert r.returncode == 2 and "--format bmp" in r.stderr
