@@ -128,7 +128,11 @@ def main():
              "naive": "naive"}
     for k, a in fid.items():
         md.append(f"| {names[k]} | {a[:, 0].mean():.3f} | {a[:, 0].min():.3f} | {a[:, 1].mean():.3f} | {a[:, 1].max():.3f} |")
-    Path(args.out).write_text("\n".join(md) + "\n")
+    # benchmarks/throughput.py owns the batch section: keep it
+    old = Path(args.out).read_text() if Path(args.out).exists() else ""
+    begin, end = "<!-- batch-throughput: begin -->", "<!-- batch-throughput: end -->"
+    keep = old[old.index(begin): old.index(end) + len(end)] if begin in old and end in old else ""
+    Path(args.out).write_text("\n".join(md) + "\n" + ("\n" + keep + "\n" if keep else ""))
     print("wrote", args.out)
 
 

@@ -164,8 +164,12 @@ def init_worker(cfg, aovs, device, threads: int | None) -> None:
     is fixed when the device is created."""
     _die_with_parent()
     if threads:
+        # PoCL 3.0's pthread device reads POCL_MAX_PTHREAD_COUNT, later ones POCL_CPU_MAX_CU_NUM
         os.environ.setdefault("POCL_CPU_MAX_CU_NUM", str(threads))
         os.environ.setdefault("POCL_MAX_PTHREAD_COUNT", str(threads))
+        import OpenImageIO as oiio
+
+        oiio.attribute("threads", threads)
     _WORKER.update(cfg=cfg, aovs=aovs, device=device)
 
 
