@@ -221,9 +221,13 @@ class Progress:
         self.quiet, self.total, self.n, self.t0 = quiet, total, 0, time.perf_counter()
         self.bar = None
         if not quiet and sys.stderr.isatty():
+            import shutil
+
             from tqdm import tqdm
 
-            self.bar = tqdm(total=total, unit="img", file=sys.stderr, dynamic_ncols=True)
+            # a terminal that reports 0 columns (script, some CI ptys) makes tqdm print nothing
+            cols = shutil.get_terminal_size((100, 20)).columns or 100
+            self.bar = tqdm(total=total, unit="img", file=sys.stderr, ncols=cols, desc="fogcli")
 
     def update(self, r: dict) -> None:
         self.n += 1
