@@ -179,3 +179,21 @@ def test_rgbd_frame_jpeg_and_millimetre_png(tmp_path):
     assert code == 0, text
     spec, png = read(tmp_path / "o.png")
     assert (spec.width, spec.height) == (640, 480) and png.std() > 0.005
+
+
+@pytest.mark.parametrize("cs,decode", [("sRGB", "srgb"), ("lin_rec709", "linear"), ("g22_rec709", "gamma"), (None, "srgb")])
+def test_png_colour_space_metadata(tmp_path, cs, decode):
+    from fogcli.colour import srgb_to_linear
+
+    v = np.linspace(0, 1, 24, dtype=np.float32).reshape(2, 4, 3)
+    p = tmp_path / "c.png"
+    s = oiio.ImageSpec(4, 2, 3, "uint16")
+    if cs:
+        s.attribute("oiio:ColorSpace", cs)
+    out = oiio.ImageOutput.create(str(p))
+    assert out.open(str(p), s) and out.write_image(v)
+    out.close()
+    got = read_image(p).rgb
+    code = np.round(v * 65535) / 65535
+    want = {"srgb": srgb_to_linear(code), "linear": code, "gamma": code ** 2.2}[decode]
+    np.testing.assert_allclose(got, want, rtol=1e-5, atol=1e-6)

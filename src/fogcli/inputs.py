@@ -3,6 +3,7 @@ must keep of it (metadata, data and display windows). Everything goes through
 OpenImageIO except NPY depth. Every failure is a UserError naming the file."""
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -103,6 +104,18 @@ def _is_linear(spec, fmt_name: str) -> bool:
         return True
     cs = str(spec.getattribute("oiio:ColorSpace") or "").lower()
     return ("lin" in cs or cs in ("scene_linear", "acescg", "aces")) and "srgb" not in cs
+
+
+def _to_linear(rgb: np.ndarray, spec, fmt_name: str) -> np.ndarray:
+    """Integer images are sRGB unless their metadata says linear or a plain gamma
+    (OpenImageIO reports a PNG gAMA chunk as e.g. g22_rec709)."""
+    if _is_linear(spec, fmt_name):
+        return rgb
+    cs = str(spec.getattribute("oiio:ColorSpace") or "").lower()
+    m = re.match(r"g(\d)(\d)_", cs)
+    if m:
+        return np.power(np.clip(rgb, 0, None), float(f"{m.group(1)}.{m.group(2)}")).astype(np.float32)
+    return srgb_to_linear(rgb)
 
 
 def _parts(inp) -> list:
@@ -208,8 +221,7 @@ def read_image(path: str | Path, layer: str | None = None, view: str | None = No
     else:
         raise UserError(f"{path}: no colour channels (have: {', '.join(names)})")
     rgb = np.ascontiguousarray(rgb, dtype=np.float32)
-    if not _is_linear(spec, fmt_name):
-        rgb = srgb_to_linear(rgb)
+    rgb = _to_linear(rgb, spec, fmt_name)
     if not np.isfinite(rgb).all():
         bad = int((~np.isfinite(rgb)).any(axis=2).sum())
         raise UserError(f"{path}: {bad} pixel(s) hold NaN or infinite colour values")
@@ -219,8 +231,9 @@ def read_image(path: str | Path, layer: str | None = None, view: str | None = No
 
 
 def read_raw(path: Path) -> Frame:
-    """Camera RAW through rawpy/LibRaw: linear demosaic (AHD), the camera's white balance,
-    no auto-brightening, 16 bit, gamma 1 -> scene-linear sRGB primaries in [0, 1]."""
+    """Camera RAW through rawpy/LibRaw, kept linear in light: LibRaw's AHD demosaic, the
+    camera's white balance, no auto-brightening, gamma 1, 16 bit, sRGB primaries, scaled to
+    [0, 1] of the white level (no highlight reconstruction beyond it)."""
     import rawpy
 
     if not path.is_file():
