@@ -275,8 +275,16 @@ def _dask(jobs, cfg, aovs, device, scheduler, progress, collect):
         n = scheduler.partition(":")[2] or str(os.cpu_count() or 1)
         if not n.isdigit() or int(n) < 1:
             raise UserError(f"--scheduler {scheduler}: expected local:N with N >= 1 workers")
+        import dask
+
+        # workers are spawned (never forked, PoCL hangs in a forked child) and share the
+        # cores: each gets cores / N PoCL and OpenImageIO threads, like --jobs N
+        threads = str(max(1, (os.cpu_count() or 1) // int(n)))
+        dask.config.set({"distributed.worker.multiprocessing-method": "spawn"})
         cluster = LocalCluster(n_workers=int(n), threads_per_worker=1, processes=True,
-                               dashboard_address=None, silence_logs=40)
+                               dashboard_address=None, silence_logs=40,
+                               env={"POCL_MAX_PTHREAD_COUNT": threads, "POCL_CPU_MAX_CU_NUM": threads,
+                                    "OPENIMAGEIO_THREADS": threads})
         client = Client(cluster)
     else:
         try:
