@@ -123,6 +123,14 @@ def test_windows_alpha_metadata_and_half(tmp_path):
     assert str(spec.format) == "half"
     a = px[:, :, list(spec.channelnames).index("A")]
     np.testing.assert_allclose(a, data[:, :, 3], atol=1e-3)    # half precision
+    assert spec.getattribute("compression") == "zip"
+    out2 = tmp_path / "piz.exr"
+    assert run("apply", p, "-o", out2, "--set", "output.compression=piz")[0] == 0
+    spec2, px2 = read(out2)
+    assert spec2.getattribute("compression") == "piz"
+    np.testing.assert_allclose(px2[:, :, :3], read(tmp_path / "win_out.exr")[1][:, :, :3], atol=2e-2)
+    code, text, _ = run("apply", p, "-o", out2, "--set", "output.compression=lzma")
+    assert code == 2 and "output.compression: expected one of" in text
 
 
 @pytest.mark.parametrize("kind", ["exr", "tif", "png16", "npy"])

@@ -266,6 +266,10 @@ class Render:
 class Output:
     exposure: float = 0.0
     half: bool = False
+    compression: str = "zip"    # EXR: lossless none | rle | zip | zips | piz; lossy pxr24 | b44 | dwaa | dwab
+
+
+EXR_COMPRESSION = ["none", "rle", "zip", "zips", "piz", "pxr24", "b44", "b44a", "dwaa", "dwab"]
 
 
 @dataclass
@@ -367,7 +371,7 @@ _CAMERA_KEYS = dict.fromkeys(["fov", "focal_px", "position", "yaw", "pitch", "ro
 _RENDER_KEYS = dict.fromkeys(["method", "spread_model", "spread_scale", "kernel", "interpolation",
                               "c", "epsilon", "threshold", "levels", "fetch", "separation"])
 _SEP_KEYS = dict.fromkeys(["enabled", "luminance", "luminance_width", "depth", "depth_width", "level"])
-_OUTPUT_KEYS = dict.fromkeys(["exposure", "half"])
+_OUTPUT_KEYS = dict.fromkeys(["exposure", "half", "compression"])
 _SECTIONS = {"medium": _MEDIUM_KEYS, "camera": _CAMERA_KEYS, "render": _RENDER_KEYS, "output": _OUTPUT_KEYS}
 
 
@@ -547,6 +551,8 @@ def _output(ck: _Checker, sec: dict) -> Output:
         o.exposure = ck.number(sec["exposure"], "output.exposure") or 0.0
     if "half" in sec:
         o.half = bool(ck.boolean(sec["half"], "output.half"))
+    if "compression" in sec:
+        o.compression = ck.choice(sec["compression"], "output.compression", EXR_COMPRESSION) or o.compression
     return o
 
 

@@ -75,7 +75,8 @@ def run_job(job: Job, cfg: Config, aovs=(), device=None, timings: Timings | None
     rgb, planes = run(frame.rgb, clean, cfg, alpha=frame.alpha, aovs=aovs, device=device,
                       timings=timings if timings is not None else Timings())
     t0 = time.perf_counter()
-    outputs.write(out_path, rgb, frame.alpha, planes, frame, cfg.output.half, cfg.output.exposure)
+    outputs.write(out_path, rgb, frame.alpha, planes, frame, cfg.output.half, cfg.output.exposure,
+                  cfg.output.compression)
     res.io_ms += (time.perf_counter() - t0) * 1e3
     res.pixels = w * h
     return res

@@ -73,7 +73,7 @@ def write_plane(path: Path, plane: np.ndarray, channel: str) -> None:
 
 
 def write(path: Path, rgb: np.ndarray, alpha: np.ndarray | None, aovs: dict, frame, half: bool,
-          exposure: float) -> None:
+          exposure: float, compression: str = "zip") -> None:
     """rgb (h, w, 3) scene-linear; aovs: channel name -> (h, w) array."""
     import OpenImageIO as oiio
 
@@ -107,7 +107,7 @@ def write(path: Path, rgb: np.ndarray, alpha: np.ndarray | None, aovs: dict, fra
                             spec.attribute(name, typ, value)
                         except Exception:
                             pass
-            spec.attribute("compression", "zip")
+            spec.attribute("compression", compression)
         spec.attribute("Software", "fogcli")
     else:
         disp = linear_to_srgb(rgb * np.float32(2.0 ** exposure))
