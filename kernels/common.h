@@ -3,6 +3,52 @@
 #ifndef FOGCLI_COMMON_H
 #define FOGCLI_COMMON_H
 
+/* sqrt() is an out-of-line library call in PoCL, and one call stops the vectoriser; the
+ * clang builtin becomes the instruction. */
+#ifdef __clang__
+#define SQRT_(x) __builtin_sqrtf(x)
+#else
+#define SQRT_(x) sqrt(x)
+#endif
+
+/* e^y to ~2e-7 relative: 2^n from the exponent bits, 2^f (|f| <= 1/2) by its Taylor series
+ * to degree 7; 0 below e^-87, inf above e^88. exp() is a per-lane library call in PoCL, and one such call
+ * keeps the whole kernel from being vectorised across work-items. */
+inline float exp_poly(float y)
+{
+    /* ternaries and casts only: PoCL does not inline clamp / rint / fabs / dot either */
+    float z = y * 1.44269504f;
+    z = z < -127.0f ? -127.0f : (z > 128.0f ? 128.0f : z);
+    int ni = (int)(z + (z >= 0.0f ? 0.5f : -0.5f));
+    float g = (z - (float)ni) * 0.69314718f;
+    float p = 1.0f + g * (1.0f + g * (0.5f + g * (1.0f / 6.0f + g * (1.0f / 24.0f
+              + g * (1.0f / 120.0f + g * (1.0f / 720.0f + g * (1.0f / 5040.0f)))))));
+    return z <= -127.0f ? 0.0f : p * as_float((ni + 127) << 23);
+}
+
+/* 1 - e^-x for x >= 0, accurate in thin media where 1 - exp_poly(-x) would cancel: the
+ * series to x^5 below 0.05 (error < 3e-11 relative), then at most 4e-6 relative. */
+inline float one_minus_exp(float x)
+{
+    float series = x * (1.0f - x * (0.5f - x * (1.0f / 6.0f - x * (1.0f / 24.0f - x * (1.0f / 120.0f)))));
+    return x < 0.05f ? series : 1.0f - exp_poly(-x);
+}
+
+/* float4 pixels read and written as four floats: PoCL's loop vectoriser gives up on
+ * vector-typed loads and stores ("instruction return type cannot be vectorized") and
+ * handles strided scalar ones. */
+inline void load4(__global const float4 *buf, int idx, float *a, float *b, float *c, float *d)
+{
+    __global const float *f = (__global const float *)buf + 4 * idx;
+    *a = f[0]; *b = f[1]; *c = f[2]; *d = f[3];
+}
+
+inline void store4(__global float4 *buf, int idx, float a, float b, float c, float d)
+{
+    __global float *f = (__global float *)buf + 4 * idx;
+    f[0] = a; f[1] = b; f[2] = c; f[3] = d;
+}
+
 /* Rec.709 luminance (SPEC 4.5). */
 inline float luminance(float3 c) { return 0.2126f * c.x + 0.7152f * c.y + 0.0722f * c.z; }
 
@@ -14,7 +60,7 @@ inline float spread_w(float s, float sa, float ss, float g)
     float k = ss * (1.0f - g);
     float s2 = s * s;
     float w2 = 0.5f * s2 * s * k / ((2.0f / 3.0f) * sa * s2 * k + 4.0f);
-    return sqrt(fmax(w2, 0.0f));
+    return SQRT_(w2 > 0.0f ? w2 : 0.0f);
 }
 
 /* Blur std-dev in output pixels (SPEC 4.3). d_res is the rescaled distance D' (= P),
@@ -34,9 +80,10 @@ inline float spread_px(float d_res, float dist, float sa, float ss, float g,
 /* GLSL smoothstep; e0 == e1 degrades to a hard step instead of 0/0. */
 inline float smoothstep_(float e0, float e1, float x)
 {
-    if (e1 <= e0) return x >= e1 ? 1.0f : 0.0f;
-    float t = clamp((x - e0) / (e1 - e0), 0.0f, 1.0f);
-    return t * t * (3.0f - 2.0f * t);
+    float t = (x - e0) / (e1 - e0);
+    t = t < 0.0f ? 0.0f : (t > 1.0f ? 1.0f : t);   /* ternaries: clamp() is a call in PoCL */
+    float s = t * t * (3.0f - 2.0f * t);
+    return e1 <= e0 ? (x >= e1 ? 1.0f : 0.0f) : s;
 }
 
 /* Continuous MIP level of a blur of std-dev sigma (Elek eq. 10: level k holds c 2^k). */
@@ -120,7 +167,15 @@ inline float log_pos(float x)
 inline float4 prep_px(float3 rgb, float w, float thresh_next, float eps)
 {
     float m = smoothstep_(thresh_next, (1.0f + eps) * thresh_next, w);
-    return (float4)(m * rgb, log_pos(fmax(w, 1e-6f)));
+    return (float4)(m * rgb, log_pos(w > 1e-6f ? w : 1e-6f));
+}
+
+/* prep_px of (r, g, b, w) stored at buf[idx], in scalars (see store4) */
+inline void store_prep(__global float4 *buf, int idx, float r, float g, float b, float w,
+                       float thresh_next, float eps)
+{
+    float m = smoothstep_(thresh_next, (1.0f + eps) * thresh_next, w);
+    store4(buf, idx, m * r, m * g, m * b, log_pos(w > 1e-6f ? w : 1e-6f));
 }
 
 /* Level k+1 read at the centre of level-k pixel (x, y): (x + 0.5) / 2 - 0.5 has the

@@ -6,13 +6,7 @@
 #ifndef FOGCLI_DENSITY_H
 #define FOGCLI_DENSITY_H
 
-/* sqrt() is an out-of-line library call in PoCL, and one call stops the vectoriser; the
- * clang builtin becomes the instruction. */
-#ifdef __clang__
-#define SQRT_(x) __builtin_sqrtf(x)
-#else
-#define SQRT_(x) sqrt(x)
-#endif
+#include "common.h"
 
 /* The camera of SPEC 4.1 as the ray kernels need it. */
 typedef struct {
@@ -24,20 +18,6 @@ typedef struct {
     float max_depth;
     int depth_is_z;
 } camera_t;
-
-/* e^y to ~2e-7 relative: 2^n from the exponent bits, 2^f (|f| <= 1/2) by its Taylor series
- * to degree 7; 0 below e^-87, inf above e^88. exp() is a per-lane library call in PoCL. */
-inline float exp_poly(float y)
-{
-    /* ternaries and casts only: PoCL does not inline clamp / rint / fabs / dot either */
-    float z = y * 1.44269504f;
-    z = z < -127.0f ? -127.0f : (z > 128.0f ? 128.0f : z);
-    int ni = (int)(z + (z >= 0.0f ? 0.5f : -0.5f));
-    float g = (z - (float)ni) * 0.69314718f;
-    float p = 1.0f + g * (1.0f + g * (0.5f + g * (1.0f / 6.0f + g * (1.0f / 24.0f
-              + g * (1.0f / 120.0f + g * (1.0f / 720.0f + g * (1.0f / 5040.0f)))))));
-    return z <= -127.0f ? 0.0f : p * as_float((ni + 127) << 23);
-}
 
 /* Unit world-space ray (wx, wy, wz) of pixel (i, j) and its length D (SPEC 4.1): metric
  * z-depth is converted to distance, +inf (sky) and anything beyond max_depth clamp to

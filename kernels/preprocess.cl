@@ -35,42 +35,47 @@ __kernel void preprocess(__global const float4 *image, __global const float *dep
     float dist = pixel_ray(&m.cam, i, j, depth[idx], &wx, &wy, &wz);
     /* spread0 is read before it is overwritten below, by this work-item only */
     float P = m.homogeneous * dist + (m.has_p ? spread0[idx] : 0.0f);
-    float3 L = image[idx].xyz;
-    float3 sa = m.sa.xyz, ss = m.ss.xyz, st = sa + ss;
-
-    float3 t_all = exp(-st * P);
-    float3 l_at = t_all * L;
-    /* exp(-sa P)(1 - exp(-ss P)) = exp(-sa P) - exp(-st P); the thesis form (SPEC 4.2). */
-    float3 l_sc = (exp(-sa * P) - t_all) * L;
-
-    float3 l_med = (float3)(0.0f);
-    if (m.has_medium_light) {
-        /* expm1 keeps 1 - exp(-st P) exact in thin media; st -> 0 limits: emission grows
-         * as P, ambient vanishes */
-        float3 one_minus = -expm1(-st * P);
-        float3 safe_st = fmax(st, (float3)(1e-30f));
-        float3 em_w = select(one_minus / safe_st, (float3)(P), st <= 0.0f);
-        float3 amb_w = select(ss / safe_st * one_minus, (float3)(0.0f), st <= 0.0f);
-        l_med = m.emission.xyz * em_w + m.ambient.xyz * amb_w;
+    /* per channel, scalar and with polynomial exponentials: PoCL vectorises the kernel
+     * across work-items only without builtin calls and float3 arithmetic */
+    float L[3], alpha;
+    load4(image, idx, &L[0], &L[1], &L[2], &alpha);
+    float sa[3] = {m.sa.x, m.sa.y, m.sa.z}, ss[3] = {m.ss.x, m.ss.y, m.ss.z};
+    float le[3] = {m.emission.x, m.emission.y, m.emission.z};
+    float la[3] = {m.ambient.x, m.ambient.y, m.ambient.z};
+    float at[3], sc[3], med[3], tr[3];
+    for (int c = 0; c < 3; ++c) {
+        float st = sa[c] + ss[c];
+        float t_all = exp_poly(-st * P);
+        tr[c] = t_all;
+        at[c] = t_all * L[c];
+        /* exp(-sa P)(1 - exp(-ss P)) = exp(-sa P) - exp(-st P); the thesis form (SPEC 4.2) */
+        sc[c] = (exp_poly(-sa[c] * P) - t_all) * L[c];
+        /* 1 - exp(-st P) by its series in thin media; st -> 0 limits: emission grows as
+         * P, ambient vanishes */
+        float one_minus = one_minus_exp(st * P);
+        float em_w = st > 0.0f ? one_minus / st : P;
+        float amb_w = st > 0.0f ? ss[c] / st * one_minus : 0.0f;
+        med[c] = m.has_medium_light ? le[c] * em_w + la[c] * amb_w : 0.0f;
     }
 
     float sigma = spread_px(P, dist, m.sa.w, m.ss.w, m.g, m.spread_scale, m.cam.focal_px,
                             (float)width);
 
-    direct[idx] = (float4)(l_at, image[idx].w);
+    store4(direct, idx, at[0], at[1], at[2], alpha);
     if (sep) {
         /* Iser eq. 4.25: bright (luminance of L above sep_par.x, width .y) and near (D' = P
          * below .z, width .w) pixels get a chain of their own */
-        float ms = smoothstep_(sep_par.x, sep_par.x + sep_par.y, luminance(L))
+        float ms = smoothstep_(sep_par.x, sep_par.x + sep_par.y,
+                               0.2126f * L[0] + 0.7152f * L[1] + 0.0722f * L[2])
                  * (1.0f - smoothstep_(sep_par.z - sep_par.w, sep_par.z, P));
-        float3 l_sep = ms * l_sc;
-        l_sc -= l_sep;
-        sep_chain0[idx] = (float4)(l_sep, sigma);
-        sep_prep0[idx] = prep_px(l_sep, sigma, thresh1, eps);
+        float l0 = ms * sc[0], l1 = ms * sc[1], l2 = ms * sc[2];
+        sc[0] -= l0; sc[1] -= l1; sc[2] -= l2;
+        store4(sep_chain0, idx, l0, l1, l2, sigma);
+        store_prep(sep_prep0, idx, l0, l1, l2, sigma, thresh1, eps);
     }
-    scat0[idx] = (float4)(l_sc, sigma);
+    store4(scat0, idx, sc[0], sc[1], sc[2], sigma);
     spread0[idx] = sigma;
-    medium_term[idx] = (float4)(l_med, P);
-    if (want_transmittance) transmittance[idx] = (float4)(t_all, 1.0f);
-    if (source) prep0[idx] = prep_px(l_sc, sigma, thresh1, eps);
+    store4(medium_term, idx, med[0], med[1], med[2], P);
+    if (want_transmittance) store4(transmittance, idx, tr[0], tr[1], tr[2], 1.0f);
+    if (source) store_prep(prep0, idx, sc[0], sc[1], sc[2], sigma, thresh1, eps);
 }

@@ -163,7 +163,7 @@ class Plan:
             raise ProcessingError(f"cannot allocate device buffers for {width}x{height}: {exc}") from exc
         d = defines(cfg)
         self.k_pre = rt.program("preprocess", **d).preprocess
-        self.k_density = rt.program("density")
+        self.k_density = rt.program("density", **d)
         pyr = rt.program("pyramid", **d)
         self.k_reduce, self.k_reduce_src = pyr.reduce_level, pyr.reduce_level_source
         self.k_collapse, self.k_prep0, self.k_split = pyr.collapse_level, pyr.prep_level0, pyr.split_level
