@@ -152,3 +152,20 @@ def test_batch_usage_errors_exit_2(tmp_path):
     assert r.returncode == 2 and "must differ" in r.stderr
     r = fogcli("batch", tmp_path / "in", tmp_path / "out", "--format", "bmp")
     assert r.returncode == 2 and "--format bmp" in r.stderr
+
+
+def test_a_worker_that_dies_costs_only_its_frame(tmp_path, monkeypatch):
+    """A frame that kills its worker process (as a decoder segfault would) is reported;
+    every other frame is written."""
+    src, out = tmp_path / "in", tmp_path / "out"
+    src.mkdir()
+    for i in range(8):
+        frame(src / f"w{i}.exr", 300 + i)
+    monkeypatch.setenv("FOGCLI_TEST_KILL_WORKER", "w3.exr")
+    report = tmp_path / "r.json"
+    r = fogcli("batch", src, out, "--jobs", "2", "--report", report)
+    assert r.returncode == 3, r.stderr
+    rep = json.loads(report.read_text())
+    assert rep["counts"] == {"done": 7, "skipped": 0, "failed": 1}
+    assert Path(rep["failed"][0]["input"]).name == "w3.exr" and "worker process died" in rep["failed"][0]["reason"]
+    assert sorted(p.name for p in out.iterdir()) == [f"w{i}.exr" for i in range(8) if i != 3]

@@ -159,9 +159,11 @@ def _die_with_parent() -> None:
             pass
 
 
-def init_worker(cfg, aovs, device, threads: int | None) -> None:
+def init_worker(cfg, aovs, device, threads: int | None, started=None) -> None:
     """Runs first in each spawned worker, before OpenCL is touched: PoCL's thread count
-    is fixed when the device is created."""
+    is fixed when the device is created. `started` (a SimpleQueue) hears the input of
+    every frame a worker begins, so that a worker that dies (a decoder crash) can be traced
+    to its frame."""
     _die_with_parent()
     if threads:
         # PoCL 3.0's pthread device reads POCL_MAX_PTHREAD_COUNT, later ones POCL_CPU_MAX_CU_NUM
@@ -170,7 +172,7 @@ def init_worker(cfg, aovs, device, threads: int | None) -> None:
         import OpenImageIO as oiio
 
         oiio.attribute("threads", threads)
-    _WORKER.update(cfg=cfg, aovs=aovs, device=device)
+    _WORKER.update(cfg=cfg, aovs=aovs, device=device, started=started)
 
 
 def process(job: Job, cfg=None, aovs=None, device=None) -> dict:
@@ -181,6 +183,11 @@ def process(job: Job, cfg=None, aovs=None, device=None) -> dict:
     cfg = cfg if cfg is not None else _WORKER["cfg"]
     aovs = aovs if aovs is not None else _WORKER.get("aovs", ())
     device = device if device is not None else _WORKER.get("device")
+    if _WORKER.get("started") is not None:
+        _WORKER["started"].put(job.input)
+        # test hook: this frame kills its worker, as a segfault in a decoder would
+        if os.environ.get("FOGCLI_TEST_KILL_WORKER") == Path(job.input).name:
+            os.kill(os.getpid(), 9)
     t0 = time.perf_counter()
     try:
         Path(job.output).parent.mkdir(parents=True, exist_ok=True)
@@ -249,20 +256,61 @@ class Progress:
             self.bar.close()
 
 
+def _pool(jobs, workers, cfg, aovs, device, threads, progress, collect):
+    """Run `jobs` on `workers` spawned processes. Returns (crashed, started but unfinished,
+    never started) when a worker died, else (False, [], [])."""
+    import multiprocessing as mp
+    from concurrent.futures import ProcessPoolExecutor, wait
+    from concurrent.futures.process import BrokenProcessPool
+
+    ctx = mp.get_context("spawn")
+    started = ctx.SimpleQueue()
+    done: set = set()
+    with ProcessPoolExecutor(max_workers=workers, mp_context=ctx, initializer=init_worker,
+                             initargs=(cfg, aovs, device, threads, started)) as ex:
+        futs = {ex.submit(process, job): job for job in jobs}
+        pending = set(futs)
+        crashed = False
+        while pending and not crashed:
+            finished, pending = wait(pending, return_when="FIRST_COMPLETED")
+            for f in finished:
+                try:
+                    r = f.result()
+                except BrokenProcessPool:
+                    crashed = True
+                    continue
+                done.add(futs[f].input)
+                collect(r, progress)
+    if not crashed:
+        return False, [], []
+    began = set()
+    while not started.empty():
+        began.add(started.get())
+    rest = [j for j in jobs if j.input not in done]
+    return True, [j for j in rest if j.input in began], [j for j in rest if j.input not in began]
+
+
 def _local(jobs, cfg, aovs, device, n_jobs, progress, collect):
+    """In this process (--jobs 1), or on spawned workers. A worker that dies takes its
+    frame with it, and the pool breaks: the frames it had not started are rerun on a new
+    pool; the ones in flight are rerun one at a time, so the frame that kills a worker
+    again is known, and reported as failed."""
     if n_jobs <= 1:
         for job in jobs:
             collect(process(job, cfg, aovs, device), progress)
         return
-    import multiprocessing as mp
-    from concurrent.futures import ProcessPoolExecutor, as_completed
-
     threads = max(1, (os.cpu_count() or 1) // n_jobs)
-    with ProcessPoolExecutor(max_workers=n_jobs, mp_context=mp.get_context("spawn"),
-                             initializer=init_worker, initargs=(cfg, aovs, device, threads)) as ex:
-        futs = [ex.submit(process, job) for job in jobs]
-        for f in as_completed(futs):
-            collect(f.result(), progress)
+    todo, suspects = list(jobs), []
+    while todo or suspects:
+        if suspects:
+            job = suspects.pop(0)
+            crashed, _, _ = _pool([job], 1, cfg, aovs, device, os.cpu_count() or 1, progress, collect)
+            if crashed:
+                collect({"ok": False, "input": job.input, "output": job.output,
+                         "reason": "the worker process died on this frame (killed or crashed)"}, progress)
+            continue
+        crashed, inflight, unstarted = _pool(todo, n_jobs, cfg, aovs, device, threads, progress, collect)
+        todo, suspects = unstarted, inflight
 
 
 def _dask(jobs, cfg, aovs, device, scheduler, progress, collect):
