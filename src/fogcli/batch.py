@@ -31,9 +31,9 @@ def _frame_number(stem: str) -> str | None:
 
 
 def depth_for(rel: Path, pattern: str) -> Path:
-    """The depth path (relative to INPUT_DIR) of the input at `rel`: {stem} is the input's
-    stem, a run of # (or %0Nd) its frame number (the last digits of the stem), padded; a
-    pattern without a folder looks beside the input."""
+    """The depth path (relative to INPUT_DIR) of the input at `rel` (relative to INPUT_DIR):
+    the pattern is relative to the input's own folder; {stem} is the input's stem, a run of
+    # (or %0Nd) its frame number (the last digits of the stem), padded."""
     stem = rel.stem
     out = pattern.replace("{stem}", stem)
     frame = _frame_number(stem)
@@ -358,8 +358,10 @@ def run_batch(input_dir: Path, output_dir: Path, cfg, *, depth_pattern=None, rec
               jobs=1, skip_existing=False, scheduler=None, aovs=(), device=None, quiet=False,
               report: Path | None = None, layer=None, view=None) -> Summary:
     t0 = time.perf_counter()
-    if aovs and (fmt or "exr") != "exr":
+    if aovs and (fmt or "exr").lower().lstrip(".") != "exr":
         raise UserError(f"--aov needs EXR outputs, got --format {fmt}")
+    if aovs:
+        fmt = "exr"
     plan = discover(input_dir, output_dir, depth_pattern, recursive, fmt, skip_existing, layer, view)
     output_dir.mkdir(parents=True, exist_ok=True)
     remove_stale_temporaries(output_dir)

@@ -101,7 +101,7 @@ def apply(input, depth_path, medium, config_file, camera_file, sets, layer, view
 @click.argument("input_dir", metavar="INPUT_DIR")
 @click.argument("output_dir", metavar="OUTPUT_DIR")
 @click.option("--depth-pattern", metavar="PATTERN",
-              help="Depth file per input, relative to INPUT_DIR: {stem} and #### (frame number), "
+              help="Depth file per input, relative to the input's folder: {stem} and #### (frame number), "
                    "e.g. depth/{stem}.png, {stem}_depth.exr, depth.####.exr. Default: the embedded Z.")
 @medium_options
 @click.option("--format", "fmt", metavar="EXT", help="Output format: exr, png, tif, jpg, hdr. Default: the input's (RAW: exr).")
