@@ -383,6 +383,9 @@ def run_batch(input_dir: Path, output_dir: Path, cfg, *, depth_pattern=None, rec
             _local(plan.jobs, cfg, tuple(aovs), device, jobs, progress, collect)
     finally:
         progress.close()
+    # a worker killed mid-write (a crash of another frame breaks the whole pool) leaves its
+    # temporary file; every worker has stopped now
+    remove_stale_temporaries(output_dir)
     summary.seconds = round(time.perf_counter() - t0, 3)
     if report:
         from .outputs import atomic_write
