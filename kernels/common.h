@@ -182,26 +182,29 @@ inline void store_prep(__global float4 *buf, int idx, float r, float g, float b,
  * fractional part 0.75 (even x) or 0.25 (odd x), so the B-spline (or tent) weights are
  * two constant sets and the 4x4 (2x2) taps are read directly: the same values as
  * fetch4() at that point, without the per-fetch floor and clamp work. */
+/* ternaries: the int clamp / min / max builtins are out-of-line calls in PoCL */
+inline int clampi_(int v, int lo, int hi) { return v < lo ? lo : (v > hi ? hi : v); }
+
 inline float4 up2_fetch4(__global const float4 *img, int w, int h, int x, int y)
 {
 #if INTERP == 0
     int x0 = (x >> 1) - 1 + (x & 1), y0 = (y >> 1) - 1 + (y & 1);
     float fx = (x & 1) ? 0.25f : 0.75f, fy = (y & 1) ? 0.25f : 0.75f;
-    int xa = clamp(x0, 0, w - 1), xb = clamp(x0 + 1, 0, w - 1);
-    int ya = clamp(y0, 0, h - 1), yb = clamp(y0 + 1, 0, h - 1);
-    float4 a = mix(img[ya * w + xa], img[ya * w + xb], fx);
-    float4 b = mix(img[yb * w + xa], img[yb * w + xb], fx);
-    return mix(a, b, fy);
+    int xa = clampi_(x0, 0, w - 1), xb = clampi_(x0 + 1, 0, w - 1);
+    int ya = clampi_(y0, 0, h - 1), yb = clampi_(y0 + 1, 0, h - 1);
+    float4 a = (1.0f - fx) * img[ya * w + xa] + fx * img[ya * w + xb];
+    float4 b = (1.0f - fx) * img[yb * w + xa] + fx * img[yb * w + xb];
+    return (1.0f - fy) * a + fy * b;
 #else
     /* cubic B-spline weights at f = 0.25 (odd) and f = 0.75 (even) */
     const float wo[4] = {0.0703125f, 0.61197917f, 0.31510417f, 0.00260417f};
     const float we[4] = {0.00260417f, 0.31510417f, 0.61197917f, 0.0703125f};
     int x0 = (x >> 1) - 2 + (x & 1), y0 = (y >> 1) - 2 + (y & 1);
     int xi[4];
-    for (int t = 0; t < 4; ++t) xi[t] = clamp(x0 + t, 0, w - 1);
+    for (int t = 0; t < 4; ++t) xi[t] = clampi_(x0 + t, 0, w - 1);
     float4 acc = (float4)(0.0f);
     for (int r = 0; r < 4; ++r) {
-        __global const float4 *row = img + clamp(y0 + r, 0, h - 1) * w;
+        __global const float4 *row = img + clampi_(y0 + r, 0, h - 1) * w;
         float4 racc = (float4)(0.0f);
         for (int t = 0; t < 4; ++t) racc += ((x & 1) ? wo[t] : we[t]) * row[xi[t]];
         acc += ((y & 1) ? wo[r] : we[r]) * racc;
@@ -217,31 +220,33 @@ inline float4 up2_fetch4(__global const float4 *img, int w, int h, int x, int y)
  * steps make a spread between two levels a mix of two close Gaussians instead of two a
  * factor 2 apart, whose tails are up to 10x too heavy at 4 sigma.
  *
- * split_px: per pixel, (half-octave share of the colour, M_h); keep_px then sums the 3x3
+ * split_weights: per pixel, M and M_h; split_level stores (M_h - M) I and M_h, and keep_px sums the 3x3
  * of shares with weights (a, 1 - 2a, a) (clamp-to-edge, which conserves energy for a
  * symmetric 3-tap) and adds (1 - M_h) I of the pixel itself. */
 inline float smooth01(float t)
 {
-    t = clamp(t, 0.0f, 1.0f);
+    t = t < 0.0f ? 0.0f : (t > 1.0f ? 1.0f : t);
     return t * t * (3.0f - 2.0f * t);
 }
 
-inline float4 split_px(float4 v, float T, float eps)
+inline void split_weights(float w, float T, float eps, float *m, float *mh)
 {
     float th = T * 0.70710678f;
-    float m = smooth01((v.w - T) / fmax(eps * T, 1e-30f));
-    float mh = fmax(m, smooth01((v.w - th) / fmax(eps * th, 1e-30f)));
-    return (float4)((mh - m) * v.xyz, mh);
+    float et = eps * T, eth = eps * th;
+    float m1 = smooth01((w - T) / (et > 1e-30f ? et : 1e-30f));
+    float m2 = smooth01((w - th) / (eth > 1e-30f ? eth : 1e-30f));
+    *m = m1;
+    *mh = m1 > m2 ? m1 : m2;
 }
 
 inline float3 keep_px(float3 rgb, __global const float4 *half_img, int w, int h, int x, int y,
                       float a)
 {
     float b = 1.0f - 2.0f * a;
-    int x0 = max(x - 1, 0), x2 = min(x + 1, w - 1);
-    __global const float4 *r0 = half_img + max(y - 1, 0) * w;
+    int x0 = x > 0 ? x - 1 : 0, x2 = x + 1 < w ? x + 1 : w - 1;
+    __global const float4 *r0 = half_img + (y > 0 ? y - 1 : 0) * w;
     __global const float4 *r1 = half_img + y * w;
-    __global const float4 *r2 = half_img + min(y + 1, h - 1) * w;
+    __global const float4 *r2 = half_img + (y + 1 < h ? y + 1 : h - 1) * w;
     float4 c = r1[x];
     float4 acc = a * (a * r0[x0] + b * r0[x] + a * r0[x2])
                + b * (a * r1[x0] + b * c + a * r1[x2])

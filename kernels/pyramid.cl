@@ -87,7 +87,7 @@ __kernel void reduce_level_source(__global float4 *chain, __global float4 *prep,
         }
     }
     float3 c = acc_c / acc_g;
-    float wk = exp(acc_y > 1e-30f ? acc_yw / acc_y : acc_lw / (float)n);
+    float wk = exp_poly(acc_y > 1e-30f ? acc_yw / acc_y : acc_lw / (float)n);
     int d = dst_off + y * dw + x;
     chain[d] = (float4)(c, wk);
     prep[d] = prep_px(c, wk, thresh_next, eps);
@@ -102,7 +102,12 @@ __kernel void split_level(__global const float4 *chain, const int off, const int
 {
     int i = get_global_id(0);
     if (i >= n) return;
-    half_img[i] = split_px(chain[off + i], thresh, eps);
+    /* scalar loads and stores so that PoCL vectorises it (see load4 in common.h) */
+    float r, g, b, w;
+    load4(chain, off + i, &r, &g, &b, &w);
+    float m, mh;
+    split_weights(w, thresh, eps, &m, &mh);
+    store4(half_img, i, (mh - m) * r, (mh - m) * g, (mh - m) * b, mh);
 }
 
 __kernel void collapse_level(__global float4 *chain, const int off, const int w, const int h,
