@@ -86,10 +86,28 @@ inline float smoothstep_(float e0, float e1, float x)
     return e1 <= e0 ? (x >= e1 ? 1.0f : 0.0f) : s;
 }
 
+/* Natural log for positive normal floats, to ~1e-7 absolute: the exponent from the bits,
+ * the mantissa reduced to [sqrt(1/2), sqrt(2)) and the atanh series to t^7. PoCL's log()
+ * is a scalar library call that cost half of the preprocess stage. */
+inline float log_pos(float x)
+{
+    int bits = as_int(x);
+    int e = ((bits >> 23) & 0xff) - 127;
+    float mant = as_float((bits & 0x007fffff) | 0x3f800000);   /* [1, 2) */
+    if (mant > 1.41421356f) { mant *= 0.5f; e += 1; }
+    float t = (mant - 1.0f) / (mant + 1.0f), t2 = t * t;
+    float series = t * (2.0f + t2 * (0.66666667f + t2 * (0.4f + t2 * 0.28571429f)));
+    return series + (float)e * 0.69314718f;
+}
+
 /* Continuous MIP level of a blur of std-dev sigma (Elek eq. 10: level k holds c 2^k). */
 inline float level_of(float sigma, float c, float kmax)
 {
-    return clamp(log2(fmax(sigma, 1e-30f) / c), 0.0f, kmax);
+    /* log2 through log_pos, ternaries for clamp / fmax: each builtin is an out-of-line
+     * call in PoCL, and this runs once or twice per pixel */
+    float s = sigma / c;
+    float l = log_pos(s > 1e-30f ? s : 1e-30f) * 1.44269504f;
+    return l < 0.0f ? 0.0f : (l > kmax ? kmax : l);
 }
 
 /* Level-k coordinate of a level-0 pixel centre: level k pixel x has its centre at
@@ -103,6 +121,13 @@ inline float2 level_coord(float2 p0, int k)
 /* Cubic B-spline weights folded into two bilinear taps per axis (Sigg & Hadwiger 2005,
  * GPU Gems 2 ch. 20): returns (h0, h1, g0) with tap offsets -h0, +h1 and weight g0 on
  * the first tap. */
+/* floor for any float, without the builtin call */
+inline float floor_(float x)
+{
+    float t = (float)(int)x;
+    return t > x ? t - 1.0f : t;
+}
+
 inline float3 bspline_taps(float f)
 {
     float f2 = f * f, f3 = f2 * f;
@@ -120,23 +145,28 @@ inline float3 bspline_taps(float f)
 #define DEFINE_SAMPLERS(T, S)                                                               \
 inline T bilinear##S(__global const T *img, int w, int h, float x, float y)                  \
 {                                                                                           \
-    x = clamp(x, 0.0f, (float)(w - 1));                                                     \
-    y = clamp(y, 0.0f, (float)(h - 1));                                                     \
-    int x0 = (int)floor(x), y0 = (int)floor(y);                                             \
-    int x1 = min(x0 + 1, w - 1), y1 = min(y0 + 1, h - 1);                                   \
+    /* ternaries, casts and plain arithmetic: clamp / floor / min / mix are out-of-line   \
+     * calls in PoCL, and this runs up to 16 times per pixel */                             \
+    float xm = (float)(w - 1), ym = (float)(h - 1);                                         \
+    x = x < 0.0f ? 0.0f : (x > xm ? xm : x);                                                \
+    y = y < 0.0f ? 0.0f : (y > ym ? ym : y);                                                \
+    int x0 = (int)x, y0 = (int)y;                          /* x, y >= 0: the floor */       \
+    int x1 = x0 + 1 < w ? x0 + 1 : w - 1, y1 = y0 + 1 < h ? y0 + 1 : h - 1;                 \
     float fx = x - x0, fy = y - y0;                                                         \
-    T a = mix(img[y0 * w + x0], img[y0 * w + x1], fx);                                      \
-    T b = mix(img[y1 * w + x0], img[y1 * w + x1], fx);                                      \
-    return mix(a, b, fy);                                                                   \
+    T p = img[y0 * w + x0], q = img[y1 * w + x0];                                           \
+    T a = p + (img[y0 * w + x1] - p) * fx;                                                  \
+    T b = q + (img[y1 * w + x1] - q) * fx;                                                  \
+    return a + (b - a) * fy;                                                                \
 }                                                                                           \
 inline T bicubic##S(__global const T *img, int w, int h, float x, float y)                   \
 {                                                                                           \
-    float ix = floor(x), iy = floor(y);                                                     \
+    float ix = floor_(x), iy = floor_(y);                                                   \
     float3 tx = bspline_taps(x - ix), ty = bspline_taps(y - iy);                            \
     float x0 = x - tx.x, x1 = x + tx.y, y0 = y - ty.x, y1 = y + ty.y;                       \
-    T a = mix(bilinear##S(img, w, h, x1, y0), bilinear##S(img, w, h, x0, y0), tx.z);        \
-    T b = mix(bilinear##S(img, w, h, x1, y1), bilinear##S(img, w, h, x0, y1), tx.z);        \
-    return mix(b, a, ty.z);                                                                 \
+    T a1 = bilinear##S(img, w, h, x1, y0), b1 = bilinear##S(img, w, h, x1, y1);             \
+    T a = a1 + (bilinear##S(img, w, h, x0, y0) - a1) * tx.z;                                \
+    T b = b1 + (bilinear##S(img, w, h, x0, y1) - b1) * tx.z;                                \
+    return b + (a - b) * ty.z;                                                              \
 }                                                                                           \
 inline T fetch##S(__global const T *img, int w, int h, float x, float y)                     \
 {                                                                                           \
@@ -145,20 +175,6 @@ inline T fetch##S(__global const T *img, int w, int h, float x, float y)        
 
 DEFINE_SAMPLERS(float4, 4)
 DEFINE_SAMPLERS(float, 1)
-
-/* Natural log for positive normal floats, to ~1e-7 absolute: the exponent from the bits,
- * the mantissa reduced to [sqrt(1/2), sqrt(2)) and the atanh series to t^7. PoCL's log()
- * is a scalar library call that cost half of the preprocess stage. */
-inline float log_pos(float x)
-{
-    int bits = as_int(x);
-    int e = ((bits >> 23) & 0xff) - 127;
-    float mant = as_float((bits & 0x007fffff) | 0x3f800000);   /* [1, 2) */
-    if (mant > 1.41421356f) { mant *= 0.5f; e += 1; }
-    float t = (mant - 1.0f) / (mant + 1.0f), t2 = t * t;
-    float series = t * (2.0f + t2 * (0.66666667f + t2 * (0.4f + t2 * 0.28571429f)));
-    return series + (float)e * 0.69314718f;
-}
 
 /* What a pixel of level k passes to level k+1 in the source collapse: its colour masked
  * by eq. 7 (M^[k+1] from its spread W and the threshold of level k+1) and log W, which the

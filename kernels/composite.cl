@@ -14,11 +14,11 @@ inline T level_fetch##S(__global const T *chain, __global const int4 *lv, int k,
 inline T chain_linear##S(__global const T *chain, __global const int4 *lv, int kmax,          \
                          float level, float2 p0)                                             \
 {                                                                                            \
-    int k = (int)floor(level);                                                               \
+    int k = (int)level;                                      /* level >= 0: the floor */     \
     float f = level - k;                                                                     \
-    T a = level_fetch##S(chain, lv, min(k, kmax), p0);                                       \
+    T a = level_fetch##S(chain, lv, k < kmax ? k : kmax, p0);                                \
     if (f <= 0.0f || k >= kmax) return a;                                                    \
-    return mix(a, level_fetch##S(chain, lv, k + 1, p0), f);                                  \
+    return a + (level_fetch##S(chain, lv, k + 1, p0) - a) * f;                               \
 }
 
 DEFINE_LEVEL_FETCH(float4, 4)
