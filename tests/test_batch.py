@@ -33,7 +33,9 @@ def frame(path, seed, w=48, h=32, z_in_file=True):
 
 
 def png16(path, z, scale=1000):
-    write_img(path, np.round(np.where(np.isfinite(z), z, 0) * scale).astype(np.uint16)[:, :, None], ["Y"], fmt="uint16")
+    """Sensor-style 16-bit depth: 0 where there is none (sky), clipped at the largest code."""
+    code = np.clip(np.round(np.where(np.isfinite(z), z, 0) * scale), 0, 65535)
+    write_img(path, code.astype(np.uint16)[:, :, None], ["Y"], fmt="uint16")
 
 
 def test_bad_files_are_reported_and_the_rest_written(tmp_path):
@@ -51,7 +53,7 @@ def test_bad_files_are_reported_and_the_rest_written(tmp_path):
     frame(src / "nodepth.exr", 42, z_in_file=False)
     report = tmp_path / "report.json"
     r = fogcli("batch", src, out, "--depth-pattern", "depth/{stem}.png", "--set", "camera.depth_scale=0.001",
-               "--jobs", "2", "--report", report)
+               "--jobs", "2", "--report", report, "--save-depth", tmp_path / "clean")
     assert r.returncode == 3, r.stderr
     assert "Traceback" not in r.stderr
     assert sorted(p.name for p in out.iterdir()) == [f"f{i:02d}.exr" for i in range(12)]
@@ -66,6 +68,13 @@ def test_bad_files_are_reported_and_the_rest_written(tmp_path):
     for name in why:
         assert f"failed: {src / name}" in r.stderr
     assert "12 done, 0 skipped, 3 failed" in r.stderr
+    # the cleaned metric depth of each written frame: millimetres decoded, sky holes filled
+    assert sorted(p.name for p in (tmp_path / "clean").iterdir()) == [f"f{i:02d}.exr" for i in range(12)]
+    _, z0, _ = scene(48, 32, seed=10)
+    d0 = read(tmp_path / "clean" / "f00.exr")[1][:, :, 0]
+    fin = np.isfinite(z0)
+    np.testing.assert_allclose(d0[fin], np.minimum(np.round(z0[fin] * 1000), 65535) / 1000, rtol=1e-6, atol=1e-6)
+    assert np.isfinite(d0).all()
 
 
 def test_sequences_subfolders_format_and_skip_existing(tmp_path):

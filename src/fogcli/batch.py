@@ -81,7 +81,8 @@ def output_is_whole(path: Path) -> bool:
 
 
 def discover(input_dir: Path, output_dir: Path, depth_pattern: str | None, recursive: bool,
-             fmt: str | None, skip_existing: bool, layer: str | None = None, view: str | None = None) -> Plan:
+             fmt: str | None, skip_existing: bool, layer: str | None = None, view: str | None = None,
+             depth_dir: Path | None = None) -> Plan:
     if not input_dir.is_dir():
         raise UserError(f"{input_dir}: not a folder (INPUT_DIR)")
     if output_dir.exists() and not output_dir.is_dir():
@@ -124,7 +125,8 @@ def discover(input_dir: Path, output_dir: Path, depth_pattern: str | None, recur
         if drel is not None:
             dpath = input_dir / drel
             depth = str(dpath) if dpath.is_file() else None   # missing: try the embedded Z
-        plan.jobs.append(Job(str(src), str(out), depth, layer, view))
+        saved = str(depth_dir / rel.parent / f"{rel.stem}.exr") if depth_dir else None
+        plan.jobs.append(Job(str(src), str(out), depth, layer, view, saved))
     names = {}
     for j in plan.jobs:
         if j.output in names:
@@ -191,6 +193,8 @@ def process(job: Job, cfg=None, aovs=None, device=None) -> dict:
     t0 = time.perf_counter()
     try:
         Path(job.output).parent.mkdir(parents=True, exist_ok=True)
+        if job.save_depth:
+            Path(job.save_depth).parent.mkdir(parents=True, exist_ok=True)
         res = run_job(job, cfg, aovs=aovs, device=device)
         return {"ok": True, "input": job.input, "output": job.output, "warnings": res.warnings,
                 "seconds": round(time.perf_counter() - t0, 3)}
@@ -356,14 +360,18 @@ def _dask(jobs, cfg, aovs, device, scheduler, progress, collect):
 
 def run_batch(input_dir: Path, output_dir: Path, cfg, *, depth_pattern=None, recursive=False, fmt=None,
               jobs=1, skip_existing=False, scheduler=None, aovs=(), device=None, quiet=False,
-              report: Path | None = None, layer=None, view=None) -> Summary:
+              report: Path | None = None, layer=None, view=None, save_depth: Path | None = None) -> Summary:
     t0 = time.perf_counter()
     if aovs and (fmt or "exr").lower().lstrip(".") != "exr":
         raise UserError(f"--aov needs EXR outputs, got --format {fmt}")
     if aovs:
         fmt = "exr"
-    plan = discover(input_dir, output_dir, depth_pattern, recursive, fmt, skip_existing, layer, view)
+    if save_depth is not None and save_depth.resolve() == output_dir.resolve():
+        raise UserError(f"--save-depth {save_depth}: use a folder other than OUTPUT_DIR (it holds only outputs)")
+    plan = discover(input_dir, output_dir, depth_pattern, recursive, fmt, skip_existing, layer, view, save_depth)
     output_dir.mkdir(parents=True, exist_ok=True)
+    if save_depth is not None:
+        save_depth.mkdir(parents=True, exist_ok=True)
     remove_stale_temporaries(output_dir)
     summary = Summary(skipped=[{"input": i, "output": o} for i, o in plan.skipped],
                       failed=[{"input": i, "reason": r} for i, r in plan.failed])

@@ -111,10 +111,12 @@ def apply(input, depth_path, medium, config_file, camera_file, sets, layer, view
 @click.option("--skip-existing", is_flag=True, help="Leave outputs that exist and read back whole.")
 @click.option("--scheduler", metavar="ADDRESS", help="Run on a Dask cluster: tcp://host:8786, or local:N for a LocalCluster.")
 @click.option("--report", metavar="PATH", help="Write the summary (done, skipped, failed with reasons) as JSON.")
+@click.option("--save-depth", "save_depth", metavar="DIR",
+              help="Also write each frame's cleaned metric depth as DIR/<stem>.exr (channel Z).")
 @click.option("-q", "--quiet", is_flag=True, help="No progress output.")
 @guarded
 def batch(input_dir, output_dir, depth_pattern, medium, config_file, camera_file, sets, layer, view, aovs,
-          device, fmt, recursive, jobs, skip_existing, scheduler, report, quiet):
+          device, fmt, recursive, jobs, skip_existing, scheduler, report, save_depth, quiet):
     """Apply a medium to every image of INPUT_DIR, writing OUTPUT_DIR/<stem>.<format>.
     Exit 0 when all were written (or skipped), 3 when some failed."""
     from .batch import run_batch
@@ -123,7 +125,8 @@ def batch(input_dir, output_dir, depth_pattern, medium, config_file, camera_file
     cfg = assemble(medium, config_file, sets, camera_file)
     s = run_batch(Path(input_dir), Path(output_dir), cfg, depth_pattern=depth_pattern, recursive=recursive,
                   fmt=fmt, jobs=jobs, skip_existing=skip_existing, layer=layer, view=view, scheduler=scheduler, aovs=aovs,
-                  device=device, quiet=quiet, report=Path(report) if report else None)
+                  device=device, quiet=quiet, report=Path(report) if report else None,
+                  save_depth=Path(save_depth) if save_depth else None)
     for f in s.failed:
         why = f["reason"] if f["reason"].startswith(f["input"]) else f"{f['input']}: {f['reason']}"
         click.echo(f"fogcli: failed: {why}", err=True)
