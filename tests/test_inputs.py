@@ -86,7 +86,7 @@ def test_multipart_exr_depth_in_its_own_part_and_layer_choice(tmp_path):
     diffuse = rng.uniform(0, 1, (20, 30, 3)).astype(np.float32)
     z = rng.uniform(2, 50, (20, 30, 1)).astype(np.float32)
     p = tmp_path / "nuke.exr"
-    _multipart(p, [("rgba", ["R", "G", "B", "A"], beauty, None), ("depth", ["depth.Z"], z, None),
+    _multipart(p, [("depth", ["depth.Z"], z, None), ("rgba", ["R", "G", "B", "A"], beauty, None),
                    ("diffuse", ["diffuse.R", "diffuse.G", "diffuse.B"], diffuse, None)])
     f = read_image(p)
     np.testing.assert_array_equal(f.rgb, beauty[:, :, :3])

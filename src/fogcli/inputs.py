@@ -171,7 +171,8 @@ def read_image(path: str | Path, layer: str | None = None, view: str | None = No
             inp.close()
             raise UserError(f"{path}: --view {view}: no such view (have: {', '.join(have)})")
     by_name = [p for p in chosen if layer and p[2] == layer]
-    colour_part = by_name[0] if by_name else chosen[0]
+    with_rgb = [p for p in chosen if _colour_channels(list(p[1].channelnames))[0]]
+    colour_part = (by_name or with_rgb or chosen)[0]    # a depth-only part may come first
     sub, spec = colour_part[0], colour_part[1]
     px = _read_pixels(inp, path, "float", sub)
     names = list(spec.channelnames)
