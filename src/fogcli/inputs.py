@@ -55,7 +55,8 @@ _BEAUTY = ("", "combined", "beauty", "rgba", "c", "main", "color", "colour")
 
 
 def _read_pixels(inp, path: Path, fmt: str, subimage: int = 0):
-    spec = inp.spec(subimage, 0) if subimage else inp.spec()
+    inp.seek_subimage(subimage, 0)      # read_image(subimage, ...) alone reads the current one
+    spec = inp.spec()
     try:
         px = inp.read_image(subimage, 0, 0, spec.nchannels, fmt)
     except Exception as exc:  # OIIO raises on some truncations, returns None on others
