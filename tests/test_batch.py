@@ -161,6 +161,9 @@ def test_batch_usage_errors_exit_2(tmp_path):
     assert r.returncode == 2 and "must differ" in r.stderr
     r = fogcli("batch", tmp_path / "in", tmp_path / "out", "--format", "bmp")
     assert r.returncode == 2 and "--format bmp" in r.stderr
+    (tmp_path / "in" / "notes.txt").write_text("not an image")
+    r = fogcli("batch", tmp_path / "in", tmp_path / "out")
+    assert r.returncode == 2 and "no images found" in r.stderr and "--recursive" in r.stderr
 
 
 def test_a_worker_that_dies_costs_only_its_frame(tmp_path, monkeypatch):

@@ -127,6 +127,9 @@ def discover(input_dir: Path, output_dir: Path, depth_pattern: str | None, recur
             depth = str(dpath) if dpath.is_file() else None   # missing: try the embedded Z
         saved = str(depth_dir / rel.parent / f"{rel.stem}.exr") if depth_dir else None
         plan.jobs.append(Job(str(src), str(out), depth, layer, view, saved))
+    if not (plan.jobs or plan.skipped or plan.failed):
+        hint = "" if recursive else "; --recursive looks in sub-folders"
+        raise UserError(f"{input_dir}: no images found (EXR, HDR, TIFF, PNG, JPEG, camera RAW){hint}")
     names = {}
     for j in plan.jobs:
         if j.output in names:
