@@ -69,7 +69,23 @@ __kernel void reduce_level_source(__global float4 *chain, __global float4 *prep,
     float3 acc_c = (float3)(0.0f);
     float acc_g = 0.0f, acc_yw = 0.0f, acc_y = 0.0f, acc_lw = 0.0f;
     int n = 0;
-    for (int ty = 0; ty < FILTER_TAPS; ++ty) {
+    if (x0 >= 0 && y0 >= 0 && x0 + FILTER_TAPS <= sw && y0 + FILTER_TAPS <= sh) {
+        /* interior (almost every pixel): no bounds tests in the taps */
+        for (int ty = 0; ty < FILTER_TAPS; ++ty) {
+            __global const float4 *row = src + (y0 + ty) * sw + x0;
+            for (int tx = 0; tx < FILTER_TAPS; ++tx) {
+                float4 p = row[tx];
+                float wg = filter_w[tx] * filter_w[ty];
+                acc_c += wg * p.xyz;
+                float yl = luminance(p.xyz);
+                acc_yw += yl * p.w;
+                acc_y += yl;
+                acc_lw += p.w;
+            }
+        }
+        acc_g = 1.0f;
+        n = FILTER_TAPS * FILTER_TAPS;
+    } else for (int ty = 0; ty < FILTER_TAPS; ++ty) {
         int sy = y0 + ty;
         if (sy < 0 || sy >= sh) continue;
         for (int tx = 0; tx < FILTER_TAPS; ++tx) {
