@@ -175,6 +175,9 @@ def test_rgbd_frame_jpeg_and_millimetre_png(tmp_path):
     assert t[holes].max() < 0.99
     cleaned = read(tmp_path / "clean.exr")[1][:, :, 0]
     assert np.isfinite(cleaned).all() and cleaned.min() >= 0.8 - 0.31
+    before = dep.read_bytes()
+    code, text = run("apply", img, "--depth", dep, *sets, "-o", tmp_path / "o2.exr", "--save-depth", dep)
+    assert code == 2 and "refusing to overwrite" in text and dep.read_bytes() == before
     code, text = run("apply", img, "--depth", dep, *sets, "-o", tmp_path / "o.png")
     assert code == 0, text
     spec, png = read(tmp_path / "o.png")

@@ -70,7 +70,11 @@ def run_job(job: Job, cfg: Config, aovs=(), device=None, timings: Timings | None
         res.warnings.append(f"{dsrc}: {rep.holes} invalid depth pixel(s) (no measurement: NaN, zero "
                             "or negative) filled edge-aware from neighbours")
     if job.save_depth:
-        save_depth(Path(job.save_depth), clean)
+        target = Path(job.save_depth)
+        for p in (src, Path(job.depth) if job.depth else None, out_path):
+            if p is not None and target.exists() and target.resolve() == p.resolve():
+                raise UserError(f"--save-depth {target}: refusing to overwrite {p}")
+        save_depth(target, clean)
 
     rgb, planes = run(frame.rgb, clean, cfg, alpha=frame.alpha, aovs=aovs, device=device,
                       timings=timings if timings is not None else Timings())
