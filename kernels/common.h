@@ -4,8 +4,9 @@
 #define FOGCLI_COMMON_H
 
 /* sqrt() is an out-of-line library call in PoCL, and one call stops the vectoriser; the
- * clang builtin becomes the instruction. */
-#ifdef __clang__
+ * clang builtin becomes the instruction. The host defines FOGCLI_POCL for PoCL only, so a
+ * vendor compiler never sees the builtin. */
+#ifdef FOGCLI_POCL
 #define SQRT_(x) __builtin_sqrtf(x)
 #else
 #define SQRT_(x) sqrt(x)

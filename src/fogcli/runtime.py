@@ -121,6 +121,7 @@ class Runtime:
         self.ctx = cl.Context([device])
         self.queue = cl.CommandQueue(self.ctx, properties=cl.command_queue_properties.PROFILING_ENABLE)
         self._programs: dict[tuple, object] = {}
+        self.pocl = "portable computing language" in device.platform.name.lower()
         gpu = "gpu" in self.info.kind or "accelerator" in self.info.kind
         self.local2d = (16, 8) if gpu else LOCAL_CPU
         self.local1d = 128 if gpu else LOCAL_CPU[0] * LOCAL_CPU[1]
@@ -142,6 +143,8 @@ class Runtime:
         if prog is None:
             src = (KERNEL_DIR / f"{name}.cl").read_text()
             opts = ["-I", str(KERNEL_DIR)]
+            if self.pocl:      # kernels/common.h: clang builtins where PoCL's library calls are slow
+                opts += ["-D", "FOGCLI_POCL=1"]
             for k, v in sorted(defines.items()):
                 opts += ["-D", f"{k}={v}"]
             try:
