@@ -3,6 +3,7 @@ docs/media.md:
 
     python docs/make_pictures.py
 """
+import os
 import subprocess
 import sys
 import tempfile
@@ -17,7 +18,9 @@ OUT = ROOT / "docs" / "images"
 
 
 def fogcli(*args):
-    subprocess.run([sys.executable, "-m", "fogcli", *map(str, args)], check=True)
+    # this checkout's fogcli, installed or not
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(ROOT / "src"), os.environ.get("PYTHONPATH", "")]))
+    subprocess.run([sys.executable, "-m", "fogcli", *map(str, args)], check=True, env=env)
 
 
 def load(path):
