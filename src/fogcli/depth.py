@@ -78,26 +78,32 @@ def _nearest_fill(d: np.ndarray, valid: np.ndarray) -> np.ndarray:
     return out
 
 
-def _edge_aware(d: np.ndarray, confident: np.ndarray, guide: np.ndarray, sigma_max: float) -> np.ndarray:
-    """Edge-aware normalised convolution: the average of the confident values weighted by a
-    domain-transform filter of the colour guide (Gastal & Oliveira 2011; OpenCV ximgproc
-    dtFilter), in log depth. The filter's support stops at colour edges, so a hole or an
+def _log_depth(d: np.ndarray) -> tuple[np.ndarray, float]:
+    """log depth, sky (+inf) carried as 4x the farthest finite depth, NaN kept; and the
+    log value above which an estimate is sky again."""
+    far = float(d[np.isfinite(d)].max())
+    logd = np.log(np.where(np.isposinf(d), far * 4.0, np.maximum(d, 1e-6)))
+    return logd.astype(np.float32), float(np.log(far * 2.0))
+
+
+def _edge_aware(logd: np.ndarray, confident: np.ndarray, guide: np.ndarray, sigma_max: float) -> np.ndarray:
+    """Edge-aware normalised convolution of log depth: the average of the confident values
+    weighted by a domain-transform filter of the colour guide (Gastal & Oliveira 2011;
+    OpenCV ximgproc dtFilter). The filter's support stops at colour edges, so a hole or an
     unreliable pixel on a near object is filled from that object, not from the background
     beside it. Scales grow from 3 px, doubling: a pixel is filled at the smallest scale
     where a quarter of its support is known, so a sloping floor is filled from its nearest
     rows, not averaged over metres; filled pixels then count (at half weight) for the next
-    scale. Sky (+inf) is carried as a large finite stand-in. Pixels that nothing reaches
-    keep `d`."""
+    scale. Returns log depth: confident pixels as given, the others estimated, NaN where
+    nothing reached."""
     import cv2
 
-    finite_max = float(d[np.isfinite(d)].max())
-    logd = np.log(np.where(~np.isfinite(d), finite_max * 4.0, np.maximum(d, 1e-6))).astype(np.float32)
     w = confident.astype(np.float32)
     known = np.where(confident, logd, 0.0).astype(np.float32)
-    out = logd.copy()
+    out = np.where(confident, logd, np.nan).astype(np.float32)
     done = confident.copy()
     s = 3.0
-    h, wd = d.shape
+    h, wd = logd.shape
     while not done.all():
         # only the box around what is left, with a margin where the filter's weight has
         # fallen to e^-4: numerator and denominator as the two channels of one call
@@ -119,9 +125,7 @@ def _edge_aware(d: np.ndarray, confident: np.ndarray, guide: np.ndarray, sigma_m
         if last:
             break
         s = min(2 * s, sigma_max)
-    res = np.where(done, np.exp(out), d).astype(np.float32)
-    res[done & (out > np.log(finite_max * 2.0))] = np.inf      # sky again
-    return res
+    return out
 
 
 def prepare(metric: np.ndarray, rgb: np.ndarray, source: str) -> tuple[np.ndarray, DepthReport]:
@@ -144,30 +148,30 @@ def prepare(metric: np.ndarray, rgb: np.ndarray, source: str) -> tuple[np.ndarra
     if rep.holes == 0 and rep.resampled_from is None:
         return d, rep
     if rep.resampled_from is None:
-        confident = valid
-        base = d               # holes stay NaN: not confident, filled by the filter below
+        confident = valid      # holes stay NaN: not confident, filled by the filter below
+        logd, sky = _log_depth(d)
         sigma = 8.0
     else:
-        filled = _nearest_fill(d, valid) if rep.holes else d
         # low-res samples whose 3x3 neighbourhood spans an edge are mixtures (sensors
         # average, and so would bilinear upsampling): they are refilled from the flat ones
-        logd = np.log(np.where(np.isfinite(filled), np.maximum(filled, 1e-6), filled[np.isfinite(filled)].max() * 4))
+        low, sky = _log_depth(_nearest_fill(d, valid) if rep.holes else d)
         k = np.ones((3, 3), np.uint8)
-        spread = cv2.dilate(logd.astype(np.float32), k) - cv2.erode(logd.astype(np.float32), k)
-        flat = (spread < 0.05) & valid
+        flat = ((cv2.dilate(low, k) - cv2.erode(low, k)) < 0.05) & valid
         confident = cv2.resize(flat.astype(np.uint8), (w, h), interpolation=cv2.INTER_NEAREST) > 0
-        base = np.exp(cv2.resize(logd.astype(np.float32), (w, h), interpolation=cv2.INTER_LINEAR))
-        base[cv2.resize((~np.isfinite(filled)).astype(np.uint8), (w, h), interpolation=cv2.INTER_NEAREST) > 0] = np.inf
+        logd = cv2.resize(low, (w, h), interpolation=cv2.INTER_LINEAR)
         sigma = max(8.0, 3.0 * max(w / dw, h / dh))
     if rep.holes:
         inside = cv2.distanceTransform((~valid).astype(np.uint8), cv2.DIST_L2, 3)
         sigma = max(sigma, 2.0 * float(inside.max()) * max(w / dw, h / dh))
-    est = _edge_aware(base, confident, _guide(rgb), min(sigma, 200.0))
-    out = np.where(confident, base, est).astype(np.float32)
+    est = _edge_aware(logd, confident, _guide(rgb), min(sigma, 200.0))
+    out = np.exp(est)
+    out[est > sky] = np.inf
+    if rep.resampled_from is None:
+        out[valid] = d[valid]  # measured values kept as measured
     left = np.isnan(out)
     if left.any():             # beyond the filter's reach: the nearest value
         out = _nearest_fill(out, ~left)
-    return out, rep
+    return out.astype(np.float32), rep
 
 
 def clean(depth: np.ndarray, source: str) -> tuple[np.ndarray, int]:
