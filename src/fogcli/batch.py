@@ -16,13 +16,11 @@ from .errors import UserError
 from .job import Job
 from .outputs import DISPLAY_EXT, LINEAR_EXT, is_partial
 
-IMAGE_EXT = {".exr", ".hdr", ".tif", ".tiff", ".png", ".jpg", ".jpeg"}
-
-
 def _image_ext() -> set[str]:
+    """What a batch takes as a frame: every format fogcli writes, and camera RAW."""
     from .inputs import RAW_EXT
 
-    return IMAGE_EXT | RAW_EXT
+    return DISPLAY_EXT | LINEAR_EXT | RAW_EXT
 
 
 def _frame_number(stem: str) -> str | None:
