@@ -46,7 +46,7 @@ inline float4 chain_fetch4(__global const float4 *chain, __global const int4 *lv
 __kernel void composite(__global const float4 *direct, __global const float4 *medium_term,
                         __global const float4 *chain, __global const float *spread_chain,
                         __global const int4 *lv, const int kmax,
-                        const float c, const int depth_blur,
+                        const float c, const int depth_blur, const int add_medium,
                         __global float4 *out, const int want_aov,
                         __global float *level_aov, __global float4 *scattered_aov)
 {
@@ -65,7 +65,8 @@ __kernel void composite(__global const float4 *direct, __global const float4 *me
     }
     float4 sc = chain_fetch4(chain, lv, kmax, level, p0);
     float4 d = direct[idx];
-    out[idx] = (float4)(d.xyz + medium_term[idx].xyz + sc.xyz, d.w);
+    float3 med = add_medium ? medium_term[idx].xyz : (float3)(0.0f);
+    out[idx] = (float4)(d.xyz + med + sc.xyz, d.w);
     if (want_aov) {
         level_aov[idx] = level;
         scattered_aov[idx] = (float4)(sc.xyz, 0.0f);
@@ -78,7 +79,7 @@ __kernel void composite(__global const float4 *direct, __global const float4 *me
 __kernel void composite_source(__global const float4 *direct, __global const float4 *medium_term,
                                __global const float4 *chain, __global const float4 *half_img,
                                __global const int4 *lv, const int kmax, const float c,
-                               const float a, const int accumulate,
+                               const float a, const int accumulate, const int add_medium,
                                __global float4 *out, const int want_aov,
                                __global float *level_aov, __global float4 *scattered_aov)
 {
@@ -97,7 +98,8 @@ __kernel void composite_source(__global const float4 *direct, __global const flo
         return;
     }
     float4 d = direct[idx];
-    out[idx] = (float4)(d.xyz + medium_term[idx].xyz + sc, d.w);
+    float3 med = add_medium ? medium_term[idx].xyz : (float3)(0.0f);
+    out[idx] = (float4)(d.xyz + med + sc, d.w);
     if (want_aov) {
         /* the level this pixel's own scattered light is deposited at */
         level_aov[idx] = level_of(v.w, c, (float)kmax);

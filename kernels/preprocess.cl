@@ -22,6 +22,7 @@ __kernel void preprocess(__global const float4 *image, __global const float *dep
                          __global float4 *direct, __global float4 *scat0,
                          __global float *spread0, __global float4 *medium_term,
                          __global float4 *transmittance, const int want_transmittance,
+                         const int split_medium,
                          const int width, const int height, const medium_t m,
                          __global float4 *prep0, const int source, const float thresh1,
                          const float eps, __global float4 *sep_chain0, __global float4 *sep_prep0,
@@ -61,7 +62,10 @@ __kernel void preprocess(__global const float4 *image, __global const float *dep
     float sigma = spread_px(P, dist, m.sa.w, m.ss.w, m.g, m.spread_scale, m.cam.focal_px,
                             (float)width);
 
-    store4(direct, idx, at[0], at[1], at[2], alpha);
+    /* emission and ambient travel in `direct` unless an AOV wants them apart: one buffer
+     * less to write here and to read in the composite */
+    float keep = split_medium ? 0.0f : 1.0f;
+    store4(direct, idx, at[0] + keep * med[0], at[1] + keep * med[1], at[2] + keep * med[2], alpha);
     if (sep) {
         /* Iser eq. 4.25: bright (luminance of L above sep_par.x, width .y) and near (D' = P
          * below .z, width .w) pixels get a chain of their own */
@@ -75,7 +79,7 @@ __kernel void preprocess(__global const float4 *image, __global const float *dep
     }
     store4(scat0, idx, sc[0], sc[1], sc[2], sigma);
     spread0[idx] = sigma;
-    store4(medium_term, idx, med[0], med[1], med[2], P);
+    if (split_medium) store4(medium_term, idx, med[0], med[1], med[2], P);
     if (want_transmittance) store4(transmittance, idx, tr[0], tr[1], tr[2], 1.0f);
     if (source) store_prep(prep0, idx, sc[0], sc[1], sc[2], sigma, thresh1, eps);
 }

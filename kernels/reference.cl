@@ -118,14 +118,16 @@ __kernel void ref_brute(__global const float4 *scat0, __global const float *spre
 
 /* out = L_at + L_em + L_amb + the reference blur of L_sc */
 __kernel void ref_finish(__global const float4 *direct, __global const float4 *medium_term,
-                         __global const float4 *acc_img, const int n, __global float4 *out,
+                         __global const float4 *acc_img, const int n, const int add_medium,
+                         __global float4 *out,
                          const int want_aov, __global float *level_aov,
                          __global float4 *scattered_aov)
 {
     int i = get_global_id(0);
     if (i >= n) return;
     float4 d = direct[i];
-    out[i] = (float4)(d.xyz + medium_term[i].xyz + acc_img[i].xyz, d.w);
+    float3 med = add_medium ? medium_term[i].xyz : (float3)(0.0f);
+    out[i] = (float4)(d.xyz + med + acc_img[i].xyz, d.w);
     if (want_aov) {
         level_aov[i] = -1.0f;   /* the reference has no pyramid level */
         scattered_aov[i] = (float4)(acc_img[i].xyz, 0.0f);

@@ -145,3 +145,16 @@ def test_pixel_separation_on_a_night_scene(fetch):
         assert rel_l1(on, ref) < 1.02 * rel_l1(off, ref)
     else:
         assert rel_l1(on, ref) < 0.8 * rel_l1(off, ref)
+
+
+@pytest.mark.parametrize("method", ["pyramid", "naive", "reference"])
+def test_medium_light_same_with_and_without_aovs(method):
+    """Emission and ambient ride in `direct` unless an AOV needs them apart: the picture
+    must not depend on which AOVs were asked for."""
+    rgb, z, _ = scene(48, 32, seed=5, night=True)
+    cfg = make_config("fog", sets=["medium.emission=[0.01, 0.02, 0.03]", "medium.ambient=[0.1, 0.1, 0.2]",
+                                   f"render.method={method}"])
+    plain = apply(rgb, z, cfg)
+    split, planes = apply(rgb, z, cfg, aovs=("emission", "direct"), return_aovs=True)
+    np.testing.assert_allclose(split, plain, rtol=1e-6, atol=1e-7)
+    assert planes["emission.G"].mean() > 0.01

@@ -126,6 +126,8 @@ class Plan:
         self.rt, self.w, self.h, self.cfg = rt, width, height, cfg
         cl = rt.cl
         self.aovs = tuple(aovs)
+        # L_em + L_amb ride in `direct` unless an AOV needs them (or P) on their own
+        self.split_medium = bool({"optical_depth", "emission", "direct"} & set(self.aovs))
         self.sizes = level_sizes(width, height, cfg.render.levels)
         offs = np.cumsum([0] + [w * h for w, h in self.sizes])
         self.lv = np.array([[o, w, h, 0] for o, (w, h) in zip(offs[:-1], self.sizes)], np.int32)
@@ -145,7 +147,7 @@ class Plan:
             self.image = B(16 * n)
             self.depth = B(4 * n)
             self.direct = B(16 * n)
-            self.medium = B(16 * n)
+            self.medium = B(16 * n if self.split_medium else 16)
             self.chain = B(16 * total)
             self.spread = B(4 * total)
             self.prep = B(16 * total if self.source else 16)
@@ -197,7 +199,7 @@ class Plan:
         self.optical_depth(t)
         t.add("preprocess", self.k_pre(
             q, *self.rt.nd(self.w, self.h), self.image, self.depth, self.direct, self.chain, self.spread,
-            self.medium, self.trans, np.int32("transmittance" in self.aovs),
+            self.medium, self.trans, np.int32("transmittance" in self.aovs), np.int32(self.split_medium),
             np.int32(self.w), np.int32(self.h), medium_struct(self.cfg, self.w, self.h),
             self.prep, np.int32(self.source), np.float32(self.threshold(1)), np.float32(eps),
             self.chain2, self.prep2, np.int32(self.sep), self.sep_params()))
@@ -260,7 +262,8 @@ class Plan:
         t.add("composite", self.k_comp_src(
             self.rt.queue, *self.rt.nd(self.w, self.h), self.direct, self.medium, chain, half,
             self.lv_buf, np.int32(top), np.float32(self.cfg.render.resolved()[0]),
-            np.float32(self.half_step()), np.int32(second), self.out, np.int32(bool(self.aovs)),
+            np.float32(self.half_step()), np.int32(second), np.int32(self.split_medium), self.out,
+            np.int32(bool(self.aovs)),
             self.level_aov, self.scat_aov))
 
     def composite_separated(self, t: Timings) -> None:
@@ -276,7 +279,8 @@ class Plan:
         t.add("composite", self.k_comp(
             self.rt.queue, *self.rt.nd(self.w, self.h), self.direct, self.medium, self.chain,
             self.spread, self.lv_buf, np.int32(len(self.sizes) - 1), np.float32(c),
-            np.int32(depth_blur), self.out, np.int32(bool(self.aovs)), self.level_aov, self.scat_aov))
+            np.int32(depth_blur), np.int32(self.split_medium), self.out, np.int32(bool(self.aovs)),
+            self.level_aov, self.scat_aov))
 
     def download(self, buf, channels: int, t: Timings) -> np.ndarray:
         arr = np.empty((self.h, self.w, channels) if channels > 1 else (self.h, self.w), np.float32)

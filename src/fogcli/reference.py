@@ -45,7 +45,8 @@ def reference_into(plan, t) -> None:
                                                np.int32(b), nx, ny, src))
         t.add("reference", prog.ref_rows(q, *rt.nd(w, h), src, np.int32(w), np.int32(h), taps, np.int32(R), tmp))
         t.add("reference", prog.ref_cols_acc(q, *rt.nd(w, h), tmp, np.int32(w), np.int32(h), taps, np.int32(R), acc))
-    t.add("reference", prog.ref_finish(q, *rt.nd(n), plan.direct, plan.medium, acc, np.int32(n), plan.out,
+    t.add("reference", prog.ref_finish(q, *rt.nd(n), plan.direct, plan.medium, acc, np.int32(n),
+                                       np.int32(plan.split_medium), plan.out,
                                        np.int32(bool(plan.aovs)), plan.level_aov, plan.scat_aov))
 
 
