@@ -141,6 +141,12 @@ def test_blender_layer_names(tmp_path):
     np.testing.assert_allclose(f.rgb, comb[:, :, :3], rtol=1e-6)
     np.testing.assert_allclose(f.alpha, comb[:, :, 3], rtol=1e-6)
     np.testing.assert_allclose(f.depth, depth[:, :, 0], rtol=1e-6)
+    # Houdini: the beauty plain, depth as a one-channel plane Pz.Y beside P.X/P.Y/P.Z
+    h = tmp_path / "houdini.exr"
+    pos = rng.uniform(-5, 5, (10, 12, 3))
+    write_img(h, np.concatenate([comb, pos, depth], axis=2), ["R", "G", "B", "A", "P.X", "P.Y", "P.Z", "Pz.Y"])
+    g = read_image(h)
+    np.testing.assert_allclose(g.depth, depth[:, :, 0], rtol=1e-6)
 
 
 def test_rgbd_frame_jpeg_and_millimetre_png(tmp_path):

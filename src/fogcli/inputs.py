@@ -76,13 +76,16 @@ def _read_pixels(inp, path: Path, fmt: str, subimage: int = 0):
 
 def _is_depth_name(name: str) -> bool:
     """Z, depth, distance, Pz, and a layer's Z / depth channel (Nuke depth.Z, Blender
-    ViewLayer.Depth.Z), but not the Z component of normals or positions (Normal.Z, P.Z)."""
+    ViewLayer.Depth.Z, Houdini Pz or Pz.Y), but not the Z component of normals or positions
+    (Normal.Z, P.Z)."""
     n = name.lower()
     parts = n.split(".")
     last, layer = parts[-1], (parts[-2] if len(parts) > 1 else "")
     if last in ("depth", "distance", "zdepth", "pz") or n.endswith("depth"):
         return True
-    return last == "z" and layer in ("", "depth", "z", "zdepth", "distance")
+    if layer in ("pz", "depth", "zdepth", "distance"):     # a one-channel layer: Pz.Y, depth.V
+        return last in ("z", "y", "v", "r")
+    return last == "z" and layer in ("", "z")
 
 
 def _colour_channels(names: list[str]) -> tuple[list[int], int | None]:
