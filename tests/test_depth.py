@@ -152,3 +152,19 @@ def test_principal_point_and_calibrated_size(tmp_path):
     # corner ray: z * sqrt(1 + ((x - cx)/fx)^2 + ((y - cy)/fy)^2), scaled intrinsics 150 / 50, 190
     want = 10 * math.sqrt(1 + ((319.5 - 50) / 150) ** 2 + ((0.5 - 190) / 150) ** 2)
     assert P[0, 319] == pytest.approx(want, rel=1e-4)
+
+
+def test_disparity_uses_intrinsics_scaled_to_the_image(tmp_path):
+    """Intrinsics for 640x480, image and disparity at 320x240: z = B * (f / 2) / d, through
+    the Python API as through the command line."""
+    from fogcli.media import assemble
+
+    f = tmp_path / "k.json"
+    f.write_text(json.dumps({"width": 640, "height": 480, "baseline": 0.5,
+                             "fx": 600.0, "fy": 600.0, "cx": 320.0, "cy": 240.0}))
+    cfg = assemble("fog", None, ("camera.depth=disparity", "medium.scattering=0.0001", "medium.absorption=0"), str(f))
+    h, w = 240, 320
+    _, aov = apply(np.ones((h, w, 3), np.float32), np.full((h, w), 15.0, np.float32), cfg,
+                   aovs=("optical_depth",), return_aovs=True)
+    # the centre pixel's ray is the optical axis: P = z
+    assert aov["optical_depth"][120, 160] == pytest.approx(0.5 * 300.0 / 15.0, rel=1e-3)

@@ -31,8 +31,6 @@ def apply(image: np.ndarray, depth: np.ndarray, config: Config | str | None = No
     img = np.ascontiguousarray(image, dtype=np.float32)
     if img.ndim != 3 or img.shape[2] != 3:
         raise ValueError(f"image must be (h, w, 3), got {img.shape}")
-    metric = depth_mod.decode(np.asarray(depth), cfg.camera, "depth",
-                              img.shape[1] if cfg.camera.calibrated_size is None else cfg.camera.calibrated_size[0])
-    d, _ = depth_mod.prepare(metric, img, "depth")
+    d, _ = depth_mod.metric_depth(np.asarray(depth), img, cfg.camera, "depth")
     out, planes = run(img, d, cfg, alpha=alpha, aovs=aovs, device=device, timings=timings)
     return (out, planes) if return_aovs else out

@@ -174,6 +174,13 @@ def prepare(metric: np.ndarray, rgb: np.ndarray, source: str) -> tuple[np.ndarra
     return out.astype(np.float32), rep
 
 
+def metric_depth(raw: np.ndarray, rgb: np.ndarray, cam: Camera, source: str) -> tuple[np.ndarray, DepthReport]:
+    """A depth file's values to the metric depth the kernels take, at the image's size:
+    intrinsics scaled to the image (calibrated_size), decoded, holes filled, resampled."""
+    h, w = rgb.shape[:2]
+    return prepare(decode(raw, cam.for_size(w, h), source, w), rgb, source)
+
+
 def clean(depth: np.ndarray, source: str) -> tuple[np.ndarray, int]:
     """Raw metric depth at the image size, holes (NaN, <= 0) filled from the nearest valid
     pixel: for callers with no colour guide."""

@@ -60,9 +60,7 @@ def run_job(job: Job, cfg: Config, aovs=(), device=None, timings: Timings | None
         raise UserError(f"{src}: no depth channel (Z, *.Z or *depth); pass --depth FILE")
     res.io_ms += (time.perf_counter() - t0) * 1e3
     h, w = frame.rgb.shape[:2]
-    cam = cfg.camera.for_size(w, h)
-    metric = depth_mod.decode(raw, cam, str(dsrc), w)
-    clean, rep = depth_mod.prepare(metric, frame.rgb, str(dsrc))
+    clean, rep = depth_mod.metric_depth(raw, frame.rgb, cfg.camera, str(dsrc))
     if rep.resampled_from:
         res.warnings.append(f"{dsrc}: depth {rep.resampled_from[0]}x{rep.resampled_from[1]} upsampled "
                             f"edge-aware to {w}x{h}")
