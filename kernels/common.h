@@ -271,6 +271,16 @@ inline float3 keep_px(float3 rgb, __global const float4 *half_img, int w, int h,
     return acc.xyz + (1.0f - c.w) * rgb;
 }
 
+/* out = direct (+ L_em + L_amb when they were kept apart for an AOV) + blurred L_sc, alpha
+ * from direct: the last step of every composite (pyramid, naive, reference). */
+inline void store_out(__global float4 *out, __global const float4 *direct,
+                      __global const float4 *medium_term, int add_medium, int idx, float3 sc)
+{
+    float4 d = direct[idx];
+    float3 med = add_medium ? medium_term[idx].xyz : (float3)(0.0f);
+    out[idx] = (float4)(d.xyz + med + sc, d.w);
+}
+
 /* Even-length separable pyramid filter: tap t of FILTER_TAPS reads source index
  * 2x - FILTER_TAPS/2 + 1 + t. FILTER_WEIGHTS is set by the host (-D). */
 __constant float filter_w[FILTER_TAPS] = { FILTER_WEIGHTS };

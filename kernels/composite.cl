@@ -64,9 +64,7 @@ __kernel void composite(__global const float4 *direct, __global const float4 *me
         level = level_of(s1, c, (float)kmax);
     }
     float4 sc = chain_fetch4(chain, lv, kmax, level, p0);
-    float4 d = direct[idx];
-    float3 med = add_medium ? medium_term[idx].xyz : (float3)(0.0f);
-    out[idx] = (float4)(d.xyz + med + sc.xyz, d.w);
+    store_out(out, direct, medium_term, add_medium, idx, sc.xyz);
     if (want_aov) {
         level_aov[idx] = level;
         scattered_aov[idx] = (float4)(sc.xyz, 0.0f);
@@ -97,9 +95,7 @@ __kernel void composite_source(__global const float4 *direct, __global const flo
         if (want_aov) scattered_aov[idx].xyz += sc;
         return;
     }
-    float4 d = direct[idx];
-    float3 med = add_medium ? medium_term[idx].xyz : (float3)(0.0f);
-    out[idx] = (float4)(d.xyz + med + sc, d.w);
+    store_out(out, direct, medium_term, add_medium, idx, sc);
     if (want_aov) {
         /* the level this pixel's own scattered light is deposited at */
         level_aov[idx] = level_of(v.w, c, (float)kmax);

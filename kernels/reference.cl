@@ -125,9 +125,7 @@ __kernel void ref_finish(__global const float4 *direct, __global const float4 *m
 {
     int i = get_global_id(0);
     if (i >= n) return;
-    float4 d = direct[i];
-    float3 med = add_medium ? medium_term[i].xyz : (float3)(0.0f);
-    out[i] = (float4)(d.xyz + med + acc_img[i].xyz, d.w);
+    store_out(out, direct, medium_term, add_medium, i, acc_img[i].xyz);
     if (want_aov) {
         level_aov[i] = -1.0f;   /* the reference has no pyramid level */
         scattered_aov[i] = (float4)(acc_img[i].xyz, 0.0f);
