@@ -69,9 +69,8 @@ def run_job(job: Job, cfg: Config, aovs=(), device=None, timings: Timings | None
                             "or negative) filled edge-aware from neighbours")
     if job.save_depth:
         target = Path(job.save_depth)
-        for p in (src, Path(job.depth) if job.depth else None, out_path):
-            if p is not None and target.exists() and target.resolve() == p.resolve():
-                raise UserError(f"--save-depth {target}: refusing to overwrite {p}")
+        outputs.refuse_overwrite(target, "--save-depth", src, Path(job.depth) if job.depth else None)
+        outputs.refuse_overwrite(target, "--save-depth", out_path, what="the output")
         save_depth(target, clean)
 
     rgb, planes = run(frame.rgb, clean, cfg, alpha=frame.alpha, aovs=aovs, device=device,

@@ -20,13 +20,18 @@ _DROP = ("compression", "oiio:", "openexr:chunkCount", "openexr:lineOrder", "tif
          "YResolution", "ResolutionUnit")
 
 
+def refuse_overwrite(target: Path, option: str, *protected: Path | None, what: str = "the input file") -> None:
+    """No output may replace an input (or another output): UserError naming the option."""
+    for p in protected:
+        if p is not None and target.exists() and target.resolve() == Path(p).resolve():
+            raise UserError(f"{option} {target}: refusing to overwrite {what}")
+
+
 def check_target(output: Path, *inputs: Path | None) -> None:
     ext = output.suffix.lower()
     if ext not in DISPLAY_EXT | LINEAR_EXT:
         raise UserError(f"-o {output}: unsupported output format {ext or '(none)'} (use .exr, .hdr, .png, .tif, .jpg)")
-    for p in inputs:
-        if p is not None and output.exists() and output.resolve() == Path(p).resolve():
-            raise UserError(f"-o {output}: refusing to overwrite the input file")
+    refuse_overwrite(output, "-o", *inputs)
     if not output.parent.exists():
         raise UserError(f"-o {output}: folder {output.parent} does not exist")
 
