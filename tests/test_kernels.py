@@ -33,12 +33,11 @@ def test_preprocess_matches_oracle(rt, rng, model, depth_kind):
     depth[0, :5] = np.inf          # sky
     depth[1, :3] = 5000.0          # beyond max_depth
     sa, ss, g = [0.02, 0.05, 0.1], [0.3, 0.2, 0.25], 0.8
-    plan, cfg = plan_for(rt, w, h, f"medium.absorption={sa}", f"medium.scattering={ss}",
-                         f"medium.asymmetry={g}", f"render.spread_model={model}",
-                         "render.spread_scale=1.7", "camera.fov=70", f"camera.depth={depth_kind}",
-                         "camera.depth_scale=0.5", "camera.max_depth=300",
-                         "medium.emission=[0.1, 0.2, 0.3]", "medium.ambient=[1, 2, 0.5]", *pp,
-                         aovs=("transmittance", "emission"))
+    sets = (f"medium.absorption={sa}", f"medium.scattering={ss}", f"medium.asymmetry={g}",
+            f"render.spread_model={model}", "render.spread_scale=1.7", "camera.fov=70",
+            f"camera.depth={depth_kind}", "camera.depth_scale=0.5", "camera.max_depth=300",
+            "medium.emission=[0.1, 0.2, 0.3]", "medium.ambient=[1, 2, 0.5]", *pp)
+    plan, cfg = plan_for(rt, w, h, *sets, aovs=("transmittance", "emission"))
     t = Timings()
     plan.upload(img, depth * np.float32(0.5), t)
     plan.preprocess(t)
@@ -60,11 +59,7 @@ def test_preprocess_matches_oracle(rt, rng, model, depth_kind):
     trans = _download(plan, plan.trans, 4)
     np.testing.assert_allclose(trans[:, :, :3], np.exp(-(np.add(sa, ss)) * P[..., None]), rtol=1e-4, atol=1e-7)
     # without an AOV that needs it apart, the medium's own light rides in `direct`
-    plan2, _ = plan_for(rt, w, h, f"medium.absorption={sa}", f"medium.scattering={ss}",
-                        f"medium.asymmetry={g}", f"render.spread_model={model}",
-                        "render.spread_scale=1.7", "camera.fov=70", f"camera.depth={depth_kind}",
-                        "camera.depth_scale=0.5", "camera.max_depth=300",
-                        "medium.emission=[0.1, 0.2, 0.3]", "medium.ambient=[1, 2, 0.5]", *pp)
+    plan2, _ = plan_for(rt, w, h, *sets)
     assert not plan2.split_medium
     t = Timings()
     plan2.upload(img, depth * np.float32(0.5), t)
