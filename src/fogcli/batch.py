@@ -14,7 +14,8 @@ from pathlib import Path
 
 from .errors import UserError
 from .job import Job
-from .outputs import DISPLAY_EXT, LINEAR_EXT, is_partial
+from .outputs import DISPLAY_EXT, LINEAR_EXT, default_ext, is_partial
+
 
 def _image_ext() -> set[str]:
     """What a batch takes as a frame: every format fogcli writes, and camera RAW."""
@@ -113,7 +114,7 @@ def discover(input_dir: Path, output_dir: Path, depth_pattern: str | None, recur
     for rel, drel in depths.items():
         if rel in depth_files or (depth_rx and depth_rx.match(rel.as_posix())):
             continue                      # a depth map, not a frame
-        ext = f".{fmt}" if fmt else (rel.suffix.lower() if rel.suffix.lower() in DISPLAY_EXT | LINEAR_EXT else ".exr")
+        ext = f".{fmt}" if fmt else default_ext(rel)
         out = output_dir / rel.parent / f"{rel.stem}{ext}"
         src = input_dir / rel
         if skip_existing and output_is_whole(out):

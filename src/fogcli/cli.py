@@ -80,8 +80,7 @@ def apply(input, depth_path, medium, config_file, camera_file, sets, layer, view
     start = time.perf_counter()
     cfg = assemble(medium, config_file, sets, camera_file)
     src = Path(input)
-    ext = src.suffix if src.suffix.lower() in outputs.LINEAR_EXT | outputs.DISPLAY_EXT else ".exr"
-    out_path = Path(output) if output else src.with_name(f"{src.stem}.fog{ext}")
+    out_path = Path(output) if output else src.with_name(f"{src.stem}.fog{outputs.default_ext(src)}")
     t = Timings()
     res = run_job(Job(str(src), str(out_path), depth_path, layer, view, save_depth), cfg,
                   aovs=tuple(dict.fromkeys(aovs)), device=device, timings=t)

@@ -20,6 +20,12 @@ _DROP = ("compression", "oiio:", "openexr:chunkCount", "openexr:lineOrder", "tif
          "YResolution", "ResolutionUnit")
 
 
+def default_ext(source: Path) -> str:
+    """The output format when none is asked for: the input's own, else EXR (camera RAW)."""
+    ext = source.suffix.lower()
+    return ext if ext in DISPLAY_EXT | LINEAR_EXT else ".exr"
+
+
 def refuse_overwrite(target: Path, option: str, *protected: Path | None, what: str = "the input file") -> None:
     """No output may replace an input (or another output): UserError naming the option."""
     for p in protected:
