@@ -207,12 +207,6 @@ def process(job: Job, cfg=None, aovs=None, device=None) -> dict:
                 "reason": f"processing failed: {exc.__class__.__name__}: {exc}"}
 
 
-def dask_process(job: Job, cfg, aovs, device) -> dict:
-    """Task body on a Dask worker (one thread per worker process; kernels built once per
-    worker process by the runtime cache)."""
-    return process(job, cfg, aovs, device)
-
-
 @dataclass
 class Summary:
     done: list = field(default_factory=list)
@@ -238,7 +232,7 @@ class Progress:
 
             from tqdm import tqdm
 
-            # a terminal that reports 0 columns (script, some CI ptys) makes tqdm print nothing
+            # the terminal's width, 100 columns where it reports none
             cols = shutil.get_terminal_size((100, 20)).columns or 100
             self.bar = tqdm(total=total, unit="img", file=sys.stderr, ncols=cols, desc="fogcli")
 
@@ -346,7 +340,9 @@ def _dask(jobs, cfg, aovs, device, scheduler, progress, collect):
         except (OSError, TimeoutError) as exc:
             raise UserError(f"--scheduler {scheduler}: cannot connect ({exc})") from None
     try:
-        futs = [client.submit(dask_process, job, cfg, aovs, device, pure=False, key=f"fogcli-{i}-{job.input}")
+        # process() with the config as arguments: a Dask worker has no init_worker; its
+        # kernels are built once per worker process by the runtime cache
+        futs = [client.submit(process, job, cfg, aovs, device, pure=False, key=f"fogcli-{i}-{job.input}")
                 for i, job in enumerate(jobs)]
         for f in as_completed(futs):
             try:
