@@ -139,8 +139,8 @@ def rgbd(tmp: Path):
     err_holes = float(np.median(np.abs(t[holes] - true_t[holes])))
     depth_err = float(np.median(np.abs(np.log(clean[holes] / z[holes]))))
     wrong = float((np.abs(np.log(clean[holes] / z[holes])) > 0.1).mean())
-    from fogcli.depth import clean as nearest_fill
-    nf = nearest_fill(mm.astype(np.float32) / 1000, "mm")[0]
+    from fogcli.depth import _nearest_fill
+    nf = _nearest_fill(mm.astype(np.float32) / 1000, mm > 0)
     wrong_nearest = float((np.abs(np.log(nf[holes] / z[holes])) > 0.1).mean())
     r2 = fogcli("apply", tmp / "frame.jpg", *sets, "-o", tmp / "frame_fog.png")
     png = read(tmp / "frame_fog.png")[1]

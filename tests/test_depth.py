@@ -79,8 +79,9 @@ def test_low_resolution_depth_is_upsampled_along_colour_edges():
     low[np.random.default_rng(1).random(low.shape) < 0.13] = np.nan
     out, rep = D.prepare(low, rgb, "low")
     assert rep.resampled_from == (80, 60) and out.shape == true.shape
-    near = cv2.resize(D.clean(np.nan_to_num(low), "x")[0], (320, 240), interpolation=cv2.INTER_NEAREST)
-    bil = cv2.resize(D.clean(np.nan_to_num(low), "x")[0], (320, 240), interpolation=cv2.INTER_LINEAR)
+    filled = D._nearest_fill(low, ~np.isnan(low))
+    near = cv2.resize(filled, (320, 240), interpolation=cv2.INTER_NEAREST)
+    bil = cv2.resize(filled, (320, 240), interpolation=cv2.INTER_LINEAR)
     # measured in session 2: 0 wrong pixels (nearest 1537, bilinear 3021)
     assert _wrong(out, true) < 0.1 * _wrong(near, true) < 0.1 * _wrong(bil, true)
     again, _ = D.prepare(low, rgb, "low")
@@ -97,7 +98,7 @@ def test_holes_are_filled_from_their_own_surface():
     valid = ~np.isnan(d)
     assert rep.holes == int((~valid).sum())
     np.testing.assert_array_equal(out[valid], d[valid])       # measurements kept as measured
-    nearest, _ = D.clean(np.nan_to_num(d), "x")
+    nearest = D._nearest_fill(d, valid)
     assert _wrong(out, true) < 0.3 * _wrong(nearest, true)   # measured: 0 vs 137
 
 

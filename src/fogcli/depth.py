@@ -179,16 +179,3 @@ def metric_depth(raw: np.ndarray, rgb: np.ndarray, cam: Camera, source: str) -> 
     intrinsics scaled to the image (calibrated_size), decoded, holes filled, resampled."""
     h, w = rgb.shape[:2]
     return prepare(decode(raw, cam.for_size(w, h), source, w), rgb, source)
-
-
-def clean(depth: np.ndarray, source: str) -> tuple[np.ndarray, int]:
-    """Raw metric depth at the image size, holes (NaN, <= 0) filled from the nearest valid
-    pixel: for callers with no colour guide."""
-    d = np.asarray(depth, dtype=np.float32)
-    valid = (d > 0) & ~np.isnan(d)          # +inf counts as valid (sky)
-    n_bad = int(d.size - np.count_nonzero(valid))
-    if n_bad == 0:
-        return d, 0
-    if n_bad == d.size:
-        raise UserError(f"{source}: depth has no valid pixel (all NaN or <= 0)")
-    return _nearest_fill(d, valid), n_bad
