@@ -12,6 +12,10 @@
 #define SQRT_(x) sqrt(x)
 #endif
 
+/* clamp by ternaries: the clamp / min / max builtins are out-of-line calls in PoCL */
+inline float clampf_(float v, float lo, float hi) { return v < lo ? lo : (v > hi ? hi : v); }
+inline int clampi_(int v, int lo, int hi) { return v < lo ? lo : (v > hi ? hi : v); }
+
 /* e^y to ~2e-7 relative: 2^n from the exponent bits, 2^f (|f| <= 1/2) by its Taylor series
  * to degree 7; 0 below e^-87, inf above e^88. exp() is a per-lane library call in PoCL, and one such call
  * keeps the whole kernel from being vectorised across work-items. */
@@ -19,7 +23,7 @@ inline float exp_poly(float y)
 {
     /* ternaries and casts only: PoCL does not inline clamp / rint / fabs / dot either */
     float z = y * 1.44269504f;
-    z = z < -127.0f ? -127.0f : (z > 128.0f ? 128.0f : z);
+    z = clampf_(z, -127.0f, 128.0f);
     int ni = (int)(z + (z >= 0.0f ? 0.5f : -0.5f));
     float g = (z - (float)ni) * 0.69314718f;
     float p = 1.0f + g * (1.0f + g * (0.5f + g * (1.0f / 6.0f + g * (1.0f / 24.0f
@@ -82,7 +86,7 @@ inline float spread_px(float d_res, float dist, float sa, float ss, float g,
 inline float smoothstep_(float e0, float e1, float x)
 {
     float t = (x - e0) / (e1 - e0);
-    t = t < 0.0f ? 0.0f : (t > 1.0f ? 1.0f : t);   /* ternaries: clamp() is a call in PoCL */
+    t = clampf_(t, 0.0f, 1.0f);
     float s = t * t * (3.0f - 2.0f * t);
     return e1 <= e0 ? (x >= e1 ? 1.0f : 0.0f) : s;
 }
@@ -108,7 +112,7 @@ inline float level_of(float sigma, float c, float kmax)
      * call in PoCL, and this runs once or twice per pixel */
     float s = sigma / c;
     float l = log_pos(s > 1e-30f ? s : 1e-30f) * 1.44269504f;
-    return l < 0.0f ? 0.0f : (l > kmax ? kmax : l);
+    return clampf_(l, 0.0f, kmax);
 }
 
 /* Level-k coordinate of a level-0 pixel centre: level k pixel x has its centre at
@@ -149,10 +153,10 @@ inline T bilinear##S(__global const T *img, int w, int h, float x, float y)     
     /* ternaries, casts and plain arithmetic: clamp / floor / min / mix are out-of-line   \
      * calls in PoCL, and this runs up to 16 times per pixel */                             \
     float xm = (float)(w - 1), ym = (float)(h - 1);                                         \
-    x = x < 0.0f ? 0.0f : (x > xm ? xm : x);                                                \
-    y = y < 0.0f ? 0.0f : (y > ym ? ym : y);                                                \
+    x = clampf_(x, 0.0f, xm);                                                               \
+    y = clampf_(y, 0.0f, ym);                                                               \
     int x0 = (int)x, y0 = (int)y;                          /* x, y >= 0: the floor */       \
-    int x1 = x0 + 1 < w ? x0 + 1 : w - 1, y1 = y0 + 1 < h ? y0 + 1 : h - 1;                 \
+    int x1 = clampi_(x0 + 1, 0, w - 1), y1 = clampi_(y0 + 1, 0, h - 1);                     \
     float fx = x - x0, fy = y - y0;                                                         \
     T p = img[y0 * w + x0], q = img[y1 * w + x0];                                           \
     T a = p + (img[y0 * w + x1] - p) * fx;                                                  \
@@ -199,9 +203,6 @@ inline void store_prep(__global float4 *buf, int idx, float r, float g, float b,
  * fractional part 0.75 (even x) or 0.25 (odd x), so the B-spline (or tent) weights are
  * two constant sets and the 4x4 (2x2) taps are read directly: the same values as
  * fetch4() at that point, without the per-fetch floor and clamp work. */
-/* ternaries: the int clamp / min / max builtins are out-of-line calls in PoCL */
-inline int clampi_(int v, int lo, int hi) { return v < lo ? lo : (v > hi ? hi : v); }
-
 inline float4 up2_fetch4(__global const float4 *img, int w, int h, int x, int y)
 {
 #if INTERP == 0
@@ -242,7 +243,7 @@ inline float4 up2_fetch4(__global const float4 *img, int w, int h, int x, int y)
  * symmetric 3-tap) and adds (1 - M_h) I of the pixel itself. */
 inline float smooth01(float t)
 {
-    t = t < 0.0f ? 0.0f : (t > 1.0f ? 1.0f : t);
+    t = clampf_(t, 0.0f, 1.0f);
     return t * t * (3.0f - 2.0f * t);
 }
 
@@ -260,10 +261,10 @@ inline float3 keep_px(float3 rgb, __global const float4 *half_img, int w, int h,
                       float a)
 {
     float b = 1.0f - 2.0f * a;
-    int x0 = x > 0 ? x - 1 : 0, x2 = x + 1 < w ? x + 1 : w - 1;
-    __global const float4 *r0 = half_img + (y > 0 ? y - 1 : 0) * w;
+    int x0 = clampi_(x - 1, 0, w - 1), x2 = clampi_(x + 1, 0, w - 1);
+    __global const float4 *r0 = half_img + clampi_(y - 1, 0, h - 1) * w;
     __global const float4 *r1 = half_img + y * w;
-    __global const float4 *r2 = half_img + (y + 1 < h ? y + 1 : h - 1) * w;
+    __global const float4 *r2 = half_img + clampi_(y + 1, 0, h - 1) * w;
     float4 c = r1[x];
     float4 acc = a * (a * r0[x0] + b * r0[x] + a * r0[x2])
                + b * (a * r1[x0] + b * c + a * r1[x2])
