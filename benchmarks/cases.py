@@ -42,4 +42,5 @@ def constant_depth_cases(sigmas=(2.0, 5.0, 12.0), size=(192, 160)):
     for sg in sigmas:
         yield f"constant/sigma{sg:g}", "fog", rgb, z, [
             f"medium.absorption={sa}", f"medium.scattering={ss}", f"medium.asymmetry={g}",
-            "render.spread_model=paper", f"render.spread_scale={sg / (W * w / 1280)}", "camera.depth=distance"]
+            "render.psf=gaussian", "render.border=closed", "render.spread_model=paper", f"render.spread_scale={sg / (W * w / 1280)}",
+            "camera.depth=distance"]

@@ -15,6 +15,7 @@
 /* clamp by ternaries: the clamp / min / max builtins are out-of-line calls in PoCL */
 inline float clampf_(float v, float lo, float hi) { return v < lo ? lo : (v > hi ? hi : v); }
 inline int clampi_(int v, int lo, int hi) { return v < lo ? lo : (v > hi ? hi : v); }
+inline float absf_(float v) { return v < 0.0f ? -v : v; }
 
 /* e^y to ~2e-7 relative: 2^n from the exponent bits, 2^f (|f| <= 1/2) by its Taylor series
  * to degree 7; 0 below e^-87, inf above e^88. exp() is a per-lane library call in PoCL, and one such call
@@ -257,8 +258,8 @@ inline void split_weights(float w, float T, float eps, float *m, float *mh)
     *mh = m1 > m2 ? m1 : m2;
 }
 
-inline float3 keep_px(float3 rgb, __global const float4 *half_img, int w, int h, int x, int y,
-                      float a)
+inline float4 half_blur(__global const float4 *half_img, int w, int h, int x, int y, float a,
+                        float4 *centre)
 {
     float b = 1.0f - 2.0f * a;
     int x0 = clampi_(x - 1, 0, w - 1), x2 = clampi_(x + 1, 0, w - 1);
@@ -266,11 +267,99 @@ inline float3 keep_px(float3 rgb, __global const float4 *half_img, int w, int h,
     __global const float4 *r1 = half_img + y * w;
     __global const float4 *r2 = half_img + clampi_(y + 1, 0, h - 1) * w;
     float4 c = r1[x];
-    float4 acc = a * (a * r0[x0] + b * r0[x] + a * r0[x2])
-               + b * (a * r1[x0] + b * c + a * r1[x2])
-               + a * (a * r2[x0] + b * r2[x] + a * r2[x2]);
-    return acc.xyz + (1.0f - c.w) * rgb;
+    *centre = c;
+    return a * (a * r0[x0] + b * r0[x] + a * r0[x2])
+         + b * (a * r1[x0] + b * c + a * r1[x2])
+         + a * (a * r2[x0] + b * r2[x] + a * r2[x2]);
 }
+
+#if defined(PSF_APSF) && defined(BORDER_OPEN)
+/* Open border with apsf: the pyramid itself keeps light in the frame (the closed chain),
+ * and what level k keeps at pixel (x, y) is scaled by the share of a Gaussian of that
+ * slot's width, centred there, that lands in the frame (apsf.edge_tables: per level, the
+ * x and y factors of the sharp and the half-blurred slot). So each source keeps what
+ * the open reference keeps, shaped like the closed blur near the edge. */
+inline float edge_share(__global const float *edge, int off, int w, int h, int x, int y, int which)
+{
+    int o = off + which * (w + h);
+    return edge[o + x] * edge[o + w + y];
+}
+#endif
+
+/* What level k keeps of I^[k] = rgb. Gaussian: the pixel's own sharp share is (1 - M_h),
+ * stored in the half image's .w. apsf: the shares are per channel; the sharp one is what
+ * is neither passed on (the prep chain's colour, `passed`) nor half-blurred. */
+inline float3 keep_px(float3 rgb, float3 passed, __global const float4 *half_img, int w, int h,
+                      int x, int y, float a, __global const float *edge, int edge_off)
+{
+    float4 c;
+    float4 acc = half_blur(half_img, w, h, x, y, a, &c);
+#ifdef PSF_APSF
+#ifdef BORDER_OPEN
+    /* the half image holds each pixel's half share already scaled by its edge share */
+    float es = edge_share(edge, edge_off, w, h, x, y, 0), eh = edge_share(edge, edge_off, w, h, x, y, 1);
+    return acc.xyz + (rgb - passed - c.xyz / eh) * es;
+#else
+    return acc.xyz + rgb - passed - c.xyz;
+#endif
+#else
+    return acc.xyz + (1.0f - c.w) * rgb;
+#endif
+}
+
+/* render.psf: apsf. The host's table in log P (apsf.py, build_lut): a header (log P of the
+ * first sample, samples per unit log P, APSF_NP, number of levels), then per level and
+ * channel the shares passed up and kept half-blurred, the energy ratio per channel, and
+ * the weight of each tabulated Gaussian per channel (reference). */
+#ifdef PSF_APSF
+/* sample index and fraction of log P in the table: once per pixel, shared by every read */
+inline int lut_pos(__global const float *lut, float lp, float *f)
+{
+    float u = clampf_((lp - lut[0]) * lut[1], 0.0f, (float)APSF_NP - 1.001f);
+    int i = (int)u;
+    *f = u - (float)i;
+    return i;
+}
+inline float lut_get(__global const float *lut, int base, int i, float f)
+{
+    float v = lut[base + i];
+    return v + (lut[base + i + 1] - v) * f;
+}
+inline float lut_at(__global const float *lut, int base, float lp)
+{
+    float f;
+    int i = lut_pos(lut, lp, &f);
+    return lut_get(lut, base, i, f);
+}
+inline int lut_updown(int k, int ch, int q) { return 4 + ((k * 3 + ch) * 2 + q) * APSF_NP; }
+inline int lut_ratio(int nlev, int ch) { return 4 + nlev * 6 * APSF_NP + ch * APSF_NP; }
+inline int lut_shape(int nlev, int j, int ch) { return 4 + nlev * 6 * APSF_NP + 3 * APSF_NP + (j * 3 + ch) * APSF_NP; }
+
+#ifdef EMISSION_LAMBERT
+/* Lambertian over isotropic scattered energy at log P and view cosine cosv (bilinear) */
+inline float lambert_at(__global const float *lut, int nlev, int ch, float cosv, float lp)
+{
+    float u = clampf_((cosv - APSF_COS_MIN) / (1.0f - APSF_COS_MIN) * (float)(APSF_NC - 1), 0.0f,
+                      (float)APSF_NC - 1.001f);
+    int ci = (int)u;
+    float f = u - (float)ci;
+    int base = lut_shape(nlev, APSF_J, 0);   /* the table just after the Gaussians' weights */
+    float a = lut_at(lut, base + (ci * 3 + ch) * APSF_NP, lp);
+    float b = lut_at(lut, base + ((ci + 1) * 3 + ch) * APSF_NP, lp);
+    return a + (b - a) * f;
+}
+#endif
+
+/* prep of level k for apsf: each channel's share passed on to level k+1, and log P */
+inline void store_prep_apsf(__global float4 *buf, int idx, float r, float g, float b, float lp,
+                            __global const float *lut, int k)
+{
+    float f;
+    int i = lut_pos(lut, lp, &f);
+    store4(buf, idx, lut_get(lut, lut_updown(k, 0, 0), i, f) * r, lut_get(lut, lut_updown(k, 1, 0), i, f) * g,
+           lut_get(lut, lut_updown(k, 2, 0), i, f) * b, lp);
+}
+#endif
 
 /* out = direct (+ L_em + L_amb when they were kept apart for an AOV) + blurred L_sc, alpha
  * from direct: the last step of every composite (pyramid, naive, reference). */

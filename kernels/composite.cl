@@ -79,7 +79,9 @@ __kernel void composite_source(__global const float4 *direct, __global const flo
                                __global const int4 *lv, const int kmax, const float c,
                                const float a, const int accumulate, const int add_medium,
                                __global float4 *out, const int want_aov,
-                               __global float *level_aov, __global float4 *scattered_aov)
+                               __global float *level_aov, __global float4 *scattered_aov,
+                               __global const float4 *prep, __global const float *spread0,
+                               __global const float *edge)
 {
     int i = get_global_id(0), j = get_global_id(1);
     int width = lv[0].y, height = lv[0].z;
@@ -88,7 +90,7 @@ __kernel void composite_source(__global const float4 *direct, __global const flo
     float4 v = chain[idx];
     float3 sc = v.xyz;
     if (kmax > 0)
-        sc = keep_px(v.xyz, half_img, width, height, i, j, a)
+        sc = keep_px(v.xyz, prep[idx].xyz, half_img, width, height, i, j, a, edge, 0)
            + up2_fetch4(chain + lv[1].x, lv[1].y, lv[1].z, i, j).xyz;
     if (accumulate) {
         out[idx].xyz += sc;
@@ -97,8 +99,9 @@ __kernel void composite_source(__global const float4 *direct, __global const flo
     }
     store_out(out, direct, medium_term, add_medium, idx, sc);
     if (want_aov) {
-        /* the level this pixel's own scattered light is deposited at */
-        level_aov[idx] = level_of(v.w, c, (float)kmax);
+        /* the level of this pixel's Gaussian spread (with apsf its light lands on several
+         * levels around it) */
+        level_aov[idx] = level_of(spread0[idx], c, (float)kmax);
         scattered_aov[idx] = (float4)(sc, 0.0f);
     }
 }

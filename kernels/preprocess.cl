@@ -18,6 +18,44 @@ typedef struct {
     int has_p;          /* the density stage left the other primitives' P in spread0 */
 } medium_t;
 
+#ifdef EMISSION_LAMBERT
+/* Camera-space point of pixel (i, j), clamped to the image; unclamped depth (surfaces) */
+inline void cam_point(const camera_t *c, __global const float *depth, int w, int h, int i, int j,
+                      float *x, float *y, float *z)
+{
+    i = clampi_(i, 0, w - 1);
+    j = clampi_(j, 0, h - 1);
+    float dx = (i + 0.5f - c->cx) / c->focal_px, dy = -(j + 0.5f - c->cy) / c->focal_y;
+    float dlen = SQRT_(dx * dx + dy * dy + 1.0f);
+    float s = depth[j * w + i] * (c->depth_is_z ? 1.0f : 1.0f / dlen);   /* planar depth */
+    *x = dx * s; *y = dy * s; *z = -s;
+}
+
+/* |cos| between the surface normal and the line to the camera. The normal comes from the
+ * depth map with, along each axis, the one-sided difference whose depth step is smaller,
+ * so that a depth edge does not tilt the surfaces on either side of it. Sky and anything
+ * that is not finite count as facing the camera. */
+inline float view_cosine(const camera_t *c, __global const float *depth, int w, int h, int i, int j)
+{
+    float px, py, pz, ax, ay, az, bx, by, bz;
+    cam_point(c, depth, w, h, i, j, &px, &py, &pz);
+    cam_point(c, depth, w, h, i + 1, j, &ax, &ay, &az);
+    cam_point(c, depth, w, h, i - 1, j, &bx, &by, &bz);
+    int fwd = (i == 0) || (i < w - 1 && absf_(az - pz) < absf_(pz - bz));
+    float ux = fwd ? ax - px : px - bx, uy = fwd ? ay - py : py - by, uz = fwd ? az - pz : pz - bz;
+    cam_point(c, depth, w, h, i, j + 1, &ax, &ay, &az);
+    cam_point(c, depth, w, h, i, j - 1, &bx, &by, &bz);
+    fwd = (j == 0) || (j < h - 1 && absf_(az - pz) < absf_(pz - bz));
+    float vx = fwd ? ax - px : px - bx, vy = fwd ? ay - py : py - by, vz = fwd ? az - pz : pz - bz;
+    if (w == 1) { ux = 1.0f; uy = 0.0f; uz = 0.0f; }
+    if (h == 1) { vx = 0.0f; vy = 1.0f; vz = 0.0f; }
+    float nx = uy * vz - uz * vy, ny = uz * vx - ux * vz, nz = ux * vy - uy * vx;
+    float cosv = absf_(nx * px + ny * py + nz * pz)
+               / SQRT_((nx * nx + ny * ny + nz * nz) * (px * px + py * py + pz * pz));
+    return (cosv == cosv && cosv <= 1.0f) ? cosv : 1.0f;   /* NaN (sky, flat zero) */
+}
+#endif
+
 __kernel void preprocess(__global const float4 *image, __global const float *depth,
                          __global float4 *direct, __global float4 *scat0,
                          __global float *spread0, __global float4 *medium_term,
@@ -26,7 +64,7 @@ __kernel void preprocess(__global const float4 *image, __global const float *dep
                          const int width, const int height, const medium_t m,
                          __global float4 *prep0, const int source, const float thresh1,
                          const float eps, __global float4 *sep_chain0, __global float4 *sep_prep0,
-                         const int sep, const float4 sep_par)
+                         const int sep, const float4 sep_par, __global const float *lut)
 {
     int i = get_global_id(0), j = get_global_id(1);
     if (i >= width || j >= height) return;
@@ -61,6 +99,25 @@ __kernel void preprocess(__global const float4 *image, __global const float *dep
 
     float sigma = spread_px(P, dist, m.sa.w, m.ss.w, m.g, m.spread_scale, m.cam.focal_px,
                             (float)width);
+#ifdef PSF_APSF
+    /* radiative transfer: the scattered energy is the thin-medium form times the table's
+     * ratio (lower where long multiply scattered paths absorb more); the chain carries
+     * log P, from which every level reads its shares */
+    float lp = log_pos(P > 1e-30f ? P : 1e-30f);
+    int nlev = (int)lut[3];
+    float lf;
+    int li = lut_pos(lut, lp, &lf);
+    sc[0] *= lut_get(lut, lut_ratio(nlev, 0), li, lf);
+    sc[1] *= lut_get(lut, lut_ratio(nlev, 1), li, lf);
+    sc[2] *= lut_get(lut, lut_ratio(nlev, 2), li, lf);
+#ifdef EMISSION_LAMBERT
+    float cosv = dist < m.cam.max_depth ? view_cosine(&m.cam, depth, width, height, i, j) : 1.0f;
+    for (int c = 0; c < 3; ++c) sc[c] *= lambert_at(lut, nlev, c, cosv, lp);
+#endif
+    float wv = lp;
+#else
+    float wv = sigma;
+#endif
 
     /* emission and ambient travel in `direct` unless an AOV wants them apart: one buffer
      * less to write here and to read in the composite */
@@ -74,12 +131,20 @@ __kernel void preprocess(__global const float4 *image, __global const float *dep
                  * (1.0f - smoothstep_(sep_par.z - sep_par.w, sep_par.z, P));
         float l0 = ms * sc[0], l1 = ms * sc[1], l2 = ms * sc[2];
         sc[0] -= l0; sc[1] -= l1; sc[2] -= l2;
-        store4(sep_chain0, idx, l0, l1, l2, sigma);
+        store4(sep_chain0, idx, l0, l1, l2, wv);
+#ifdef PSF_APSF
+        store_prep_apsf(sep_prep0, idx, l0, l1, l2, lp, lut, 0);
+#else
         store_prep(sep_prep0, idx, l0, l1, l2, sigma, thresh1, eps);
+#endif
     }
-    store4(scat0, idx, sc[0], sc[1], sc[2], sigma);
+    store4(scat0, idx, sc[0], sc[1], sc[2], wv);
     spread0[idx] = sigma;
     if (split_medium) store4(medium_term, idx, med[0], med[1], med[2], P);
     if (want_transmittance) store4(transmittance, idx, tr[0], tr[1], tr[2], 1.0f);
+#ifdef PSF_APSF
+    if (source) store_prep_apsf(prep0, idx, sc[0], sc[1], sc[2], lp, lut, 0);
+#else
     if (source) store_prep(prep0, idx, sc[0], sc[1], sc[2], sigma, thresh1, eps);
+#endif
 }

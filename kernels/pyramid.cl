@@ -42,8 +42,12 @@ __kernel void reduce_level(__global float4 *chain, __global float *spread_chain,
             ++n;
         }
     }
-    /* Border taps that fall outside are dropped and the rest renormalised, so a
-     * constant image stays constant and no energy leaves through the edge. */
+    /* closed border: taps that fall outside are dropped and the rest renormalised, so a
+     * constant image stays constant and no energy leaves through the edge; open: what
+     * falls outside is black, and light blurred across the edge is lost */
+#ifdef BORDER_OPEN
+    acc_g = 1.0f;
+#endif
     float wk = acc_y > 1e-30f ? acc_yw / acc_y : acc_w / (float)n;
     int d = dst_off + y * dw + x;
     chain[d] = (float4)(acc_c / acc_g, wk);
@@ -58,7 +62,9 @@ __kernel void reduce_level(__global float4 *chain, __global float *spread_chain,
 __kernel void reduce_level_source(__global float4 *chain, __global float4 *prep,
                                   const int src_off, const int sw, const int sh,
                                   const int dst_off, const int dw, const int dh,
-                                  const float thresh_next, const float eps)
+                                  const float thresh_next, const float eps,
+                                  __global const float *lut, const int level,
+                                  __global const float *edge, const int edge_off)
 {
     int x = get_global_id(0), y = get_global_id(1);
     if (x >= dw || y >= dh) return;
@@ -102,11 +108,30 @@ __kernel void reduce_level_source(__global float4 *chain, __global float4 *prep,
             ++n;
         }
     }
+#if defined(BORDER_OPEN) && !defined(PSF_APSF)
+    acc_g = 1.0f;
+#endif
     float3 c = acc_c / acc_g;
-    float wk = exp_poly(acc_y > 1e-30f ? acc_yw / acc_y : acc_lw / (float)n);
+    float lw = acc_y > 1e-30f ? acc_yw / acc_y : acc_lw / (float)n;
     int d = dst_off + y * dw + x;
+#ifdef PSF_APSF
+    /* .w is log P: the level's shares come from the table at the light-weighted P. The
+     * top level keeps all it gets but what its `up` share says leaves the frame (open
+     * border; apsf.build_lut) */
+    store_prep_apsf(prep, d, c.x, c.y, c.z, lw, lut, level);
+    if (level == (int)lut[3] - 1) {
+        float4 p = prep[d];
+        c -= p.xyz;
+#ifdef BORDER_OPEN
+        c *= edge_share(edge, edge_off, dw, dh, x, y, 0);
+#endif
+    }
+    chain[d] = (float4)(c, lw);
+#else
+    float wk = exp_poly(lw);
     chain[d] = (float4)(c, wk);
     prep[d] = prep_px(c, wk, thresh_next, eps);
+#endif
 }
 
 /* Source collapse (`render.fetch: source`, docs/method.md), levels K-1 .. 0:
@@ -114,27 +139,44 @@ __kernel void reduce_level_source(__global float4 *chain, __global float4 *prep,
  * half-octave share to `half_img`, then collapse_level writes E_k over I^[k] in place (it
  * reads only its own pixel of the colour chain). Level 0 is composite_source. */
 __kernel void split_level(__global const float4 *chain, const int off, const int n,
-                          __global float4 *half_img, const float thresh, const float eps)
+                          __global float4 *half_img, const float thresh, const float eps,
+                          __global const float *lut, const int level, const int w,
+                          __global const float *edge, const int edge_off)
 {
     int i = get_global_id(0);
     if (i >= n) return;
     /* scalar loads and stores so that PoCL vectorises it (see load4 in common.h) */
-    float r, g, b, w;
-    load4(chain, off + i, &r, &g, &b, &w);
+    float r, g, b, w_;
+    load4(chain, off + i, &r, &g, &b, &w_);
+#ifdef PSF_APSF
+    float f;
+    int li = lut_pos(lut, w_, &f);
+#ifdef BORDER_OPEN
+    float e = edge_share(edge, edge_off, w, n / w, i % w, i / w, 1);
+#else
+    float e = 1.0f;
+#endif
+    store4(half_img, i, e * lut_get(lut, lut_updown(level, 0, 1), li, f) * r,
+           e * lut_get(lut, lut_updown(level, 1, 1), li, f) * g,
+           e * lut_get(lut, lut_updown(level, 2, 1), li, f) * b, 0.0f);
+    return;
+#endif
     float m, mh;
-    split_weights(w, thresh, eps, &m, &mh);
+    split_weights(w_, thresh, eps, &m, &mh);
     store4(half_img, i, (mh - m) * r, (mh - m) * g, (mh - m) * b, mh);
 }
 
 __kernel void collapse_level(__global float4 *chain, const int off, const int w, const int h,
                              __global const float4 *half_img, const int up_off, const int uw,
-                             const int uh, const float a)
+                             const int uh, const float a, __global const float4 *prep,
+                             __global const float *edge, const int edge_off)
 {
     int x = get_global_id(0), y = get_global_id(1);
     if (x >= w || y >= h) return;
     int d = off + y * w + x;
     float4 v = chain[d];
-    float3 e = keep_px(v.xyz, half_img, w, h, x, y, a) + up2_fetch4(chain + up_off, uw, uh, x, y).xyz;
+    float3 e = keep_px(v.xyz, prep[d].xyz, half_img, w, h, x, y, a, edge, edge_off)
+             + up2_fetch4(chain + up_off, uw, uh, x, y).xyz;
     chain[d] = (float4)(e, v.w);
 }
 

@@ -1,11 +1,13 @@
-/* The screen-space reference (SPEC 4.4, Elek sec. 3.3): every pixel spreads its L_sc
- * with a Gaussian of its own sigma_px, truncated at R = ceil(4 sigma) and normalised
- * over the in-image pixels it reaches, so no scattered energy is lost at the border.
+/* The screen-space reference (Elek sec. 3.3): every pixel spreads its L_sc with its
+ * point-spread kernel, truncated at R = ceil(4 sigma). Closed border: each kernel is
+ * normalised over the in-image pixels it reaches, so no scattered energy leaves the frame;
+ * open: normalised over the whole plane, so what falls outside is lost.
  *
- * Binned form: sigma is split between two neighbouring bins of a geometric ladder
- * (linear weights in log sigma); each bin is a separable Gaussian whose per-pixel
- * normalisation is the product of two 1-D in-image sums. `ref_brute` is the O(N^2)
- * definition, kept to validate the binned form on small images. */
+ * psf gaussian, binned form: sigma is split between two neighbouring bins of a geometric
+ * ladder (linear weights in log sigma); each bin is a separable Gaussian whose per-pixel
+ * normalisation is the product of two 1-D sums. psf apsf: the kernel is the table's sum
+ * of Gaussians, one pass per Gaussian with each pixel's own weight (ref_apsf_source).
+ * `ref_brute` is the O(N^2) definition of the Gaussian, kept to validate the binned form. */
 #include "common.h"
 
 /* taps[r] = exp(-r^2 / (2 sigma^2)), r = 0..R */
@@ -16,16 +18,38 @@ __kernel void ref_taps(__global float *taps, const float sigma, const int R)
     taps[r] = exp(-(float)(r * r) / (2.0f * sigma * sigma));
 }
 
-/* norm[x] = sum of taps reaching in-image positions from x along an axis of length n */
+/* norm[x] = sum of taps reaching in-image positions from x along an axis of length n
+ * (closed border), or of all taps (open border) */
 __kernel void ref_norm1d(__global const float *taps, const int R, const int n,
-                         __global float *norm)
+                         __global float *norm, const int open_border)
 {
     int x = get_global_id(0);
     if (x >= n) return;
     float s = 0.0f;
-    for (int d = max(-R, -x); d <= min(R, n - 1 - x); ++d) s += taps[abs(d)];
+    int lo = open_border ? -R : max(-R, -x), hi = open_border ? R : min(R, n - 1 - x);
+    for (int d = lo; d <= hi; ++d) s += taps[abs(d)];
     norm[x] = s;
 }
+
+#ifdef PSF_APSF
+/* Gaussian j of the table: each pixel's L_sc times its own weight (from log P in .w of
+ * the colour chain, per channel), divided by the kernel's normalisation */
+__kernel void ref_apsf_source(__global const float4 *scat0, __global const float *lut,
+                              const int width, const int height, const int j,
+                              __global const float *norm_x, __global const float *norm_y,
+                              __global float4 *src)
+{
+    int i = get_global_id(0), y = get_global_id(1);
+    if (i >= width || y >= height) return;
+    int idx = y * width + i;
+    float4 v = scat0[idx];
+    int nlev = (int)lut[3];
+    float n = norm_x[i] * norm_y[y];
+    src[idx] = (float4)(lut_at(lut, lut_shape(nlev, j, 0), v.w) * v.x / n,
+                        lut_at(lut, lut_shape(nlev, j, 1), v.w) * v.y / n,
+                        lut_at(lut, lut_shape(nlev, j, 2), v.w) * v.z / n, 0.0f);
+}
+#endif
 
 /* Hat weight of pixel spread in bin b (u = log(sigma/s0)/log(ratio)), divided by the
  * 2-D normalisation: the bin's source image. */
@@ -77,16 +101,16 @@ __kernel void ref_cols_acc(__global const float4 *src, const int width, const in
 
 /* Brute-force definition: pixel y's normalisation, then an all-pairs gather. */
 __kernel void ref_brute_norm(__global const float *spread0, const int width,
-                             const int height, __global float *norm)
+                             const int height, __global float *norm, const int open_border)
 {
     int i = get_global_id(0), j = get_global_id(1);
     if (i >= width || j >= height) return;
     float s = spread0[j * width + i];
     int R = (int)ceil(4.0f * s);
     float nx = 0.0f, ny = 0.0f;
-    for (int d = max(-R, -i); d <= min(R, width - 1 - i); ++d)
+    for (int d = open_border ? -R : max(-R, -i); d <= (open_border ? R : min(R, width - 1 - i)); ++d)
         nx += exp(-(float)(d * d) / (2.0f * s * s));
-    for (int d = max(-R, -j); d <= min(R, height - 1 - j); ++d)
+    for (int d = open_border ? -R : max(-R, -j); d <= (open_border ? R : min(R, height - 1 - j)); ++d)
         ny += exp(-(float)(d * d) / (2.0f * s * s));
     norm[j * width + i] = s > 0.0f ? nx * ny : 1.0f;
 }

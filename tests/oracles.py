@@ -170,3 +170,118 @@ def reference(sc, sigma):
             k = np.outer(gy, gx)
             out[ys[0]:ys[-1] + 1, xs[0]:xs[-1] + 1] += k[:, :, None] * sc[j, i] / k.sum()
     return out
+
+
+# ----------------------------------------------------------------------------- apsf
+
+def lut_at(lut, base, lp):
+    """Linear lookup in the host's apsf table (fogcli.apsf.build_lut) at log P."""
+    n = int(lut[2])
+    u = np.clip((lp - lut[0]) * lut[1], 0.0, n - 1.001)
+    i = np.floor(u).astype(np.int64)
+    f = u - i
+    return lut[base + i] * (1 - f) + lut[base + i + 1] * f
+
+
+def _updown(k, c, q, n):
+    return 4 + ((k * 3 + c) * 2 + q) * n
+
+
+def apsf_shares(lut, k, lp, rgb, q):
+    """Per channel, the share of rgb that level k passes on (q 0) or half-blurs (q 1)."""
+    n = int(lut[2])
+    return np.stack([lut_at(lut, _updown(k, c, q, n), lp) * rgb[..., c] for c in range(3)], axis=-1)
+
+
+def apsf_reduce(prep, taps, open_border):
+    """One level of the apsf chain from the level below's prep (passed colour, log P): the
+    filtered colour and the log P weighted by the luminance of what moves up."""
+    h, w = prep.shape[:2]
+    n = len(taps)
+    dh, dw = (h + 1) // 2, (w + 1) // 2
+    col = np.zeros((dh, dw, 3))
+    lp = np.zeros((dh, dw))
+    for y in range(dh):
+        for x in range(dw):
+            c = np.zeros(3)
+            gsum = yw = ysum = lsum = 0.0
+            cnt = 0
+            for ty in range(n):
+                sy = 2 * y - n // 2 + 1 + ty
+                if not 0 <= sy < h:
+                    continue
+                for tx in range(n):
+                    sx = 2 * x - n // 2 + 1 + tx
+                    if not 0 <= sx < w:
+                        continue
+                    v = prep[sy, sx]
+                    wg = taps[tx] * taps[ty]
+                    c += wg * v[:3]
+                    gsum += wg
+                    lum = LUM @ v[:3]
+                    yw += lum * v[3]
+                    ysum += lum
+                    lsum += v[3]
+                    cnt += 1
+            col[y, x] = c / (1.0 if open_border else gsum)
+            lp[y, x] = yw / ysum if ysum > 1e-30 else lsum / cnt
+    return col, lp
+
+
+def _blur3(img, a):
+    h, w = img.shape[:2]
+    g = {-1: a, 0: 1 - 2 * a, 1: a}
+    out = np.zeros_like(img)
+    for dy in (-1, 0, 1):
+        for dx in (-1, 0, 1):
+            ys = np.clip(np.arange(h) + dy, 0, h - 1)
+            xs = np.clip(np.arange(w) + dx, 0, w - 1)
+            out += g[dx] * g[dy] * img[ys][:, xs]
+    return out
+
+
+def _frame_share(n, n0, scale, sigma):
+    """Share along one axis of a Gaussian centred on each of n level pixels (level-0 centre
+    scale (x + 0.5)) that lands in [0, n0]."""
+    if sigma <= 0:
+        return np.ones(n)
+    x0 = scale * (np.arange(n) + 0.5)
+    k = 1 / (math.sqrt(2) * sigma)
+    return np.array([0.5 * (math.erf((n0 - v) * k) + math.erf(v * k)) for v in x0])
+
+
+def apsf_collapse(sc, lp0, lut, levels, taps, cubic, a, open_border=False, slots=None):
+    """The whole apsf source collapse from level 0 (scattered colour, log P): every level
+    keeps its sharp and half-blurred shares and passes the rest up. The chain itself is
+    closed; with the open border each level's kept light is scaled by the frame share of
+    its slot's Gaussian (slots: the slot widths, apsf.slot_widths)."""
+    H0, W0 = sc.shape[:2]
+    cols, lps, preps = [sc.astype(np.float64)], [lp0.astype(np.float64)], []
+    for k in range(levels + 1):
+        p = apsf_shares(lut, k, lps[k], cols[k], 0)
+        preps.append(np.concatenate([p, lps[k][..., None]], axis=-1))
+        if k < levels:
+            c, lp = apsf_reduce(preps[k], taps, False)
+            cols.append(c)
+            lps.append(lp)
+
+    def share(k, half):
+        h, w = cols[k].shape[:2]
+        sg = slots[min(2 * k + half, len(slots) - 1)] if half == 0 or 2 * k + 1 < len(slots) else slots[2 * k]
+        return np.outer(_frame_share(h, H0, 2.0 ** k, sg), _frame_share(w, W0, 2.0 ** k, sg))[..., None]
+
+    E = cols[levels] - preps[levels][..., :3] if levels > 0 else cols[0]   # the top's `up`: lost
+    if open_border and levels > 0:
+        E = E * share(levels, 0)
+    for k in range(levels - 1, -1, -1):
+        half = apsf_shares(lut, k, lps[k], cols[k], 1)
+        if open_border:
+            hs = half * share(k, 1)
+            keep = _blur3(hs, a) + (cols[k] - preps[k][..., :3] - half) * share(k, 0)
+        else:
+            keep = _blur3(half, a) + cols[k] - preps[k][..., :3] - half
+        h, w = keep.shape[:2]
+        up = np.array([[sample(E, (x + 0.5) * 0.5 - 0.5, (y + 0.5) * 0.5 - 0.5, cubic) for x in range(w)]
+                       for y in range(h)])
+        E = keep + up
+    return E

@@ -51,7 +51,7 @@ def test_constant_depth_is_a_gaussian_blur(sigma, kernel):
     W = float(oracles.spread_w(D, sa, ss, g))
     scale = sigma / (W * w / 1280)
     cfg = make_config("fog", sets=[f"medium.absorption={sa}", f"medium.scattering={ss}", f"medium.asymmetry={g}",
-                                   "render.spread_model=paper", f"render.spread_scale={scale}",
+                                   "render.psf=gaussian", "render.spread_model=paper", f"render.spread_scale={scale}",
                                    "camera.depth=distance", f"render.kernel={kernel}"])
     out = apply(rgb, np.full((h, w), D, np.float32), cfg)
     at, sc, s_px, *_ = oracles.preprocess(rgb, np.full((h, w), D), [sa] * 3, [ss] * 3, g, 1.0, scale=scale,
@@ -67,7 +67,8 @@ def test_reference_conserves_scattered_energy():
     rgb, z, fov = scene(120, 90, seed=4)
     rgb[0, 0] = 5000.0   # an HDR pixel in the corner: its Gaussian is mostly outside
     z[0, 0] = 30.0
-    cfg = make_config("fog", sets=["render.method=reference", f"camera.fov={fov}"])
+    cfg = make_config("fog", sets=["render.method=reference", "render.psf=gaussian", "render.border=closed",
+                                   f"camera.fov={fov}"])
     out, aov = apply(rgb, z, cfg, aovs=("scattered",), return_aovs=True)
     f = (120 / 2) / math.tan(math.radians(fov) / 2)
     cm = cfg.medium
@@ -133,7 +134,8 @@ def test_pixel_separation_on_a_night_scene(fetch):
     """Separation keeps the scattered energy and, for Elek's receiver fetch where it was
     designed (Iser 4.4.4), brings the result much closer to the reference."""
     rgb, z, fov = scene(160, 120, seed=13, night=True)
-    sets = [f"camera.fov={fov}", f"render.fetch={fetch}"]
+    # the receiver fetch is a Gaussian model; the source collapse runs the default apsf
+    sets = [f"camera.fov={fov}", f"render.fetch={fetch}"] + (["render.psf=gaussian"] if fetch == "receiver" else [])
     ref = apply(rgb, z, make_config("fog", sets=sets + ["render.method=reference"]))
     off, a = apply(rgb, z, make_config("fog", sets=sets), aovs=("scattered",), return_aovs=True)
     on, b = apply(rgb, z, make_config("fog", sets=sets + ["render.separation.enabled=true"]),

@@ -251,6 +251,9 @@ class Render:
     levels: int | str = "auto"
     fetch: str = "source"
     separation: Separation = field(default_factory=Separation)
+    psf: str = "apsf"                 # apsf (radiative transfer, apsf.py) | gaussian (SPEC 4.3)
+    border: str = "open"              # open: scattered light leaves the frame | closed: it stays (docs/physics.md)
+    emission_profile: str = "isotropic"   # isotropic | lambertian (normals from the depth map)
 
     def resolved(self) -> tuple[float, float, float]:
         """(c, epsilon, threshold) with `auto` replaced by the derived c and the calibrated
@@ -369,7 +372,8 @@ _CAMERA_KEYS = dict.fromkeys(["fov", "focal_px", "position", "yaw", "pitch", "ro
                               "depth_scale", "max_depth", "focal_px_y", "cx", "cy", "baseline",
                               "near", "far", "encoding", "calibrated_size"])
 _RENDER_KEYS = dict.fromkeys(["method", "spread_model", "spread_scale", "kernel", "interpolation",
-                              "c", "epsilon", "threshold", "levels", "fetch", "separation"])
+                              "c", "epsilon", "threshold", "levels", "fetch", "separation",
+                              "psf", "border", "emission_profile"])
 _SEP_KEYS = dict.fromkeys(["enabled", "luminance", "luminance_width", "depth", "depth_width", "level"])
 _OUTPUT_KEYS = dict.fromkeys(["exposure", "half", "compression"])
 _SECTIONS = {"medium": _MEDIUM_KEYS, "camera": _CAMERA_KEYS, "render": _RENDER_KEYS, "output": _OUTPUT_KEYS}
@@ -508,6 +512,9 @@ def _render(ck: _Checker, sec: dict) -> Render:
         "spread_model": ["angular", "paper"],
         "interpolation": ["linear-bilinear", "linear-bicubic", "cubic-bicubic"],
         "fetch": ["source", "receiver"],
+        "psf": ["apsf", "gaussian"],
+        "border": ["open", "closed"],
+        "emission_profile": ["isotropic", "lambertian"],
     }
     for k, opts in choices.items():
         if k in sec:
@@ -542,6 +549,14 @@ def _render(ck: _Checker, sec: dict) -> Render:
             if "level" in s:
                 sp.level = ck.number(s["level"], "render.separation.level", lo=0.0, hi=1.0) or 0.0
             r.separation = sp
+    if r.method == "naive" or (r.method == "pyramid" and r.fetch == "receiver"):
+        # the naive and receiver-fetch composites read one Gaussian level per pixel
+        if sec.get("psf") == "apsf":
+            ck.fail("render.psf", "apsf needs render.method pyramid (fetch: source) or reference; "
+                    "naive and the receiver fetch are Gaussian models (render.psf: gaussian)")
+        r.psf = "gaussian"
+    if r.psf == "gaussian" and r.emission_profile == "lambertian" and "emission_profile" in sec:
+        ck.fail("render.emission_profile", "lambertian weights the tabulated point spread; it needs render.psf: apsf")
     return r
 
 

@@ -57,7 +57,23 @@ def defines(cfg: Config) -> dict:
          "INTERP": INTERP[cfg.render.interpolation]}
     if cfg.render.spread_model == "paper":
         d["SPREAD_PAPER"] = 1
+    if uses_apsf(cfg):
+        from .apsf import COS_MIN, NC, NP, load_table
+
+        d["PSF_APSF"] = 1
+        d["APSF_NP"] = NP
+        if cfg.render.emission_profile == "lambertian":
+            d.update(EMISSION_LAMBERT=1, APSF_NC=NC, APSF_COS_MIN=f"{COS_MIN!r}f",
+                     APSF_J=len(load_table()["sigma_u"]))
+    if cfg.render.border == "open":
+        d["BORDER_OPEN"] = 1
     return d
+
+
+def uses_apsf(cfg: Config) -> bool:
+    """The tabulated point spread runs in the source collapse and in the reference."""
+    r = cfg.render
+    return r.psf == "apsf" and (r.method == "reference" or (r.method == "pyramid" and r.fetch == "source"))
 
 
 def rotation(yaw: float, pitch: float, roll: float) -> np.ndarray:
@@ -161,6 +177,16 @@ class Plan:
             self.level_aov = B(4 * n if want else 16)
             self.scat_aov = B(16 * n if want else 16)
             self.lv_buf = cl.Buffer(rt.ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=self.lv)
+            self.apsf = uses_apsf(cfg)
+            self.lut = B(4 * self.lut_floats()) if self.apsf else B(16)
+            self._lut_key = None
+            self.edge_off = [0] * len(self.sizes)
+            self.edge = B(16)
+            if self.apsf and cfg.render.border == "open":
+                from .apsf import edge_tables
+
+                tab, self.edge_off = edge_tables(self.sizes, cfg.render.resolved()[0], 2.0 * self.half_step())
+                self.edge = cl.Buffer(rt.ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=tab)
         except cl.Error as exc:
             raise ProcessingError(f"cannot allocate device buffers for {width}x{height}: {exc}") from exc
         d = defines(cfg)
@@ -193,16 +219,40 @@ class Plan:
         c, _, thr = self.cfg.render.resolved()
         return thr * c * 2.0 ** (k - 1)
 
+    def lut_floats(self) -> int:
+        from .apsf import load_table, lut_offsets
+
+        return lut_offsets(len(self.sizes) - 1, len(load_table()["sigma_u"]))["end"]
+
+    def upload_lut(self, t: Timings, table: dict | None = None) -> np.ndarray | None:
+        """The apsf lookup table of this medium, focal length and pyramid (apsf.build_lut);
+        rebuilt only when one of them changes."""
+        if not self.apsf:
+            return None
+        from .apsf import build_lut
+
+        m, r = self.cfg.medium, self.cfg.render
+        frame = (self.w, self.h) if r.border == "open" else None
+        key = (m.absorption, m.scattering, m.asymmetry, self.cfg.camera.focal(self.w), r.spread_scale,
+               r.resolved()[0], id(table), frame)
+        if key != self._lut_key:
+            self.lut_host = build_lut(m.absorption, m.scattering, m.asymmetry, key[3], r.spread_scale,
+                                      len(self.sizes) - 1, key[5], 2.0 * self.half_step(), table, frame)
+            t.add("upload", self.rt.cl.enqueue_copy(self.rt.queue, self.lut, self.lut_host))
+            self._lut_key = key
+        return self.lut_host
+
     def preprocess(self, t: Timings) -> None:
         q = self.rt.queue
         eps = self.cfg.render.resolved()[1]
+        self.upload_lut(t)
         self.optical_depth(t)
         t.add("preprocess", self.k_pre(
             q, *self.rt.nd(self.w, self.h), self.image, self.depth, self.direct, self.chain, self.spread,
             self.medium, self.trans, np.int32("transmittance" in self.aovs), np.int32(self.split_medium),
             np.int32(self.w), np.int32(self.h), medium_struct(self.cfg, self.w, self.h),
             self.prep, np.int32(self.source), np.float32(self.threshold(1)), np.float32(eps),
-            self.chain2, self.prep2, np.int32(self.sep), self.sep_params()))
+            self.chain2, self.prep2, np.int32(self.sep), self.sep_params(), self.lut))
 
     def sep_params(self) -> np.ndarray:
         s = self.cfg.render.separation
@@ -218,7 +268,8 @@ class Plan:
                 t.add("pyramid", self.k_reduce_src(
                     q, *self.rt.nd(dw, dh), chain, prep,
                     np.int32(so), np.int32(sw), np.int32(sh), np.int32(do), np.int32(dw), np.int32(dh),
-                    np.float32(self.threshold(k + 1)), np.float32(eps)))
+                    np.float32(self.threshold(k + 1)), np.float32(eps), self.lut, np.int32(k),
+                    self.edge, np.int32(self.edge_off[k])))
             return
         spread = self.spread2 if second else self.spread
         for k in range(1, len(self.sizes)):
@@ -239,24 +290,26 @@ class Plan:
         o, w, h, _ = (int(v) for v in self.lv[k])
         t.add("composite", self.k_split(
             self.rt.queue, *self.rt.nd(w * h), chain, np.int32(o), np.int32(w * h), out,
-            np.float32(self.threshold(k + 1)), np.float32(self.cfg.render.resolved()[1])))
+            np.float32(self.threshold(k + 1)), np.float32(self.cfg.render.resolved()[1]),
+            self.lut, np.int32(k), np.int32(w), self.edge, np.int32(self.edge_off[k])))
 
     def collapse(self, t: Timings, second: bool = False) -> None:
         """Source collapse of levels K-1 .. 1, in place over the colour chain (level 0 is
         fused into composite_source). The input buffer, free after preprocess, is the
         scratch for the half-octave shares."""
         q, a = self.rt.queue, self.half_step()
-        chain, half = (self.chain2, self.half2) if second else (self.chain, self.image)
+        chain, half, prep = (self.chain2, self.half2, self.prep2) if second else (self.chain, self.image, self.prep)
         for k in range(len(self.sizes) - 2, 0, -1):
             (o, w, h, _), (uo, uw, uh, _) = self.lv[k], self.lv[k + 1]
             self.split(t, k, chain, half)
             t.add("composite", self.k_collapse(
                 q, *self.rt.nd(w, h), chain, np.int32(o), np.int32(w), np.int32(h), half,
-                np.int32(uo), np.int32(uw), np.int32(uh), np.float32(a)))
+                np.int32(uo), np.int32(uw), np.int32(uh), np.float32(a), prep, self.edge,
+                np.int32(self.edge_off[k])))
 
     def composite_source(self, t: Timings, second: bool = False) -> None:
         top = len(self.sizes) - 1
-        chain, half = (self.chain2, self.half2) if second else (self.chain, self.image)
+        chain, half, prep = (self.chain2, self.half2, self.prep2) if second else (self.chain, self.image, self.prep)
         if top > 0:
             self.split(t, 0, chain, half)
         t.add("composite", self.k_comp_src(
@@ -264,7 +317,7 @@ class Plan:
             self.lv_buf, np.int32(top), np.float32(self.cfg.render.resolved()[0]),
             np.float32(self.half_step()), np.int32(second), np.int32(self.split_medium), self.out,
             np.int32(bool(self.aovs)),
-            self.level_aov, self.scat_aov))
+            self.level_aov, self.scat_aov, prep, self.spread, self.edge))
 
     def composite_separated(self, t: Timings) -> None:
         """Iser eq. 4.26-4.28 on the receiver fetch: level k_ssc = separation.level * K."""
@@ -404,6 +457,8 @@ def write_level0(plan: Plan, scat: np.ndarray, spread: np.ndarray) -> None:
     cl.enqueue_copy(q, plan.chain, np.ascontiguousarray(scat, np.float32))
     cl.enqueue_copy(q, plan.spread, np.ascontiguousarray(spread, np.float32))
     if plan.source:
+        if plan.apsf:
+            raise NotImplementedError("write_level0 drives the Gaussian chain only")
         eps = plan.cfg.render.resolved()[1]
         plan.k_prep0(q, *plan.rt.nd(plan.w * plan.h), plan.chain, plan.prep, np.int32(plan.w * plan.h),
                      np.float32(plan.threshold(1)), np.float32(eps))

@@ -1,0 +1,264 @@
+"""The multiple-scattering point spread (`render.psf: apsf`).
+
+`data/apsf.npz` (made by `benchmarks/make_apsf_table.py` with `apsf_mc.py`) holds, over a
+grid of optical distance tau = ss P, single-scattering albedo a = ss / (sa + ss) and phase
+asymmetry g, what an isotropic point source seen through the medium sends to the camera
+as scattered light: its energy (relative to the unscattered image of the source) and how
+that energy spreads, as weights on 2-D Gaussians of widths `sigma_u` in the image plane
+(u = tan of the angle from the source; a pixel r_px from the source is at u = r_px / f_px).
+
+Per image the host turns the table into a small lookup table in log P (one per RGB
+channel, since the albedo is per channel) that the kernels read:
+  * the energy ratio against the thin-medium form exp(-sa P)(1 - exp(-ss P));
+  * per pyramid level k, the fractions of the light still travelling up the pyramid that
+    level k keeps sharp, keeps with its half-octave blur, and passes on (the Gaussians of
+    the table mapped to the pyramid's widths through f_px: results do not depend on the
+    resolution);
+  * for the reference, the weight of every table Gaussian;
+  * for `emission_profile: lambertian`, the energy weight per view cosine.
+"""
+from __future__ import annotations
+
+import math
+from functools import lru_cache
+from importlib import resources
+
+import numpy as np
+
+NP = 128          # samples of log P in the device lookup table
+HEADER = 4        # lp0, 1 / dlp, NP, number of levels (floats)
+NC = 16           # samples of the view cosine (emission_profile: lambertian) ...
+COS_MIN = 0.05    # ... from here to 1; grazing views clamp here
+
+
+@lru_cache(maxsize=1)
+def load_table() -> dict:
+    with resources.files("fogcli").joinpath("data/apsf.npz").open("rb") as f:
+        z = np.load(f)
+        tab = {k: np.asarray(z[k], np.float64) for k in z.files if k in
+               ("g", "albedo", "tau", "sigma_u", "weights", "energy", "emit_mu", "ratio")}
+    return with_ratios(tab)
+
+
+def with_ratios(tab: dict) -> dict:
+    """Add what is interpolated: the energy over thin_energy (the table's own `ratio`
+    where it has one: energy underflows float32 in thick absorbing media, the ratio does
+    not) and the normalised weights."""
+    if "ratio" not in tab:
+        thin = thin_energy(tab["tau"][None, :], tab["albedo"][:, None])
+        tab["ratio"] = tab["energy"] / np.maximum(thin, 1e-300)[None]
+    tab["ratio"] = np.nan_to_num(tab["ratio"], nan=0.0, posinf=0.0)
+    tab["shape"] = tab["weights"] / np.maximum(tab["weights"].sum(-1, keepdims=True), 1e-300)
+    return tab
+
+
+def thin_energy(tau, albedo):
+    """exp(-sa P)(1 - exp(-ss P)) in units of the scattering length (tau = ss P)."""
+    tau = np.asarray(tau, np.float64)
+    albedo = np.asarray(albedo, np.float64)
+    sa_p = tau * (1.0 - albedo) / np.maximum(albedo, 1e-12)
+    return np.exp(-sa_p) * -np.expm1(-tau)
+
+
+def _bracket(grid: np.ndarray, x: float) -> tuple[int, float]:
+    """Index i and weight t of x between grid[i] and grid[i+1], clamped to the grid."""
+    x = min(max(x, grid[0]), grid[-1])
+    i = int(np.clip(np.searchsorted(grid, x) - 1, 0, len(grid) - 2))
+    return i, (x - grid[i]) / (grid[i + 1] - grid[i])
+
+
+def _slice_ga(tab: dict, key: str, g: float, albedo: float) -> np.ndarray:
+    """tab[key] bilinearly interpolated at (g, albedo): an array over tau (and more)."""
+    ig, tg = _bracket(tab["g"], g)
+    ia, ta = _bracket(tab["albedo"], albedo)
+    v = tab[key]
+    return ((1 - tg) * ((1 - ta) * v[ig, ia] + ta * v[ig, ia + 1])
+            + tg * ((1 - ta) * v[ig + 1, ia] + ta * v[ig + 1, ia + 1]))
+
+
+def spread(tab: dict, g: float, albedo: float, tau: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(ratio, shape): the scattered energy over thin_energy, and the normalised weights of
+    the table's Gaussians (..., J), at optical distances tau (clamped to the table's range,
+    where the shape has settled: the single-scattering shape below, the diffuse one above).
+    Interpolated linearly in log tau, albedo and g; the ratio rather than the energy,
+    because it varies slowly where the energy itself changes by orders of magnitude."""
+    tgrid = np.log(tab["tau"])
+    ratio_t = _slice_ga(tab, "ratio", g, albedo)
+    shape_t = _slice_ga(tab, "shape", g, albedo)
+    lt = np.clip(np.log(np.maximum(np.asarray(tau, np.float64), 1e-300)), tgrid[0], tgrid[-1])
+    i = np.clip(np.searchsorted(tgrid, lt) - 1, 0, len(tgrid) - 2)
+    t = (lt - tgrid[i]) / (tgrid[i + 1] - tgrid[i])
+    ratio = (1 - t) * ratio_t[i] + t * ratio_t[i + 1]
+    shape = (1 - t)[..., None] * shape_t[i] + t[..., None] * shape_t[i + 1]
+    return ratio, shape
+
+
+def _along_tau(tab: dict, per_tau: np.ndarray, tau: np.ndarray) -> np.ndarray:
+    tgrid = np.log(tab["tau"])
+    lt = np.clip(np.log(np.maximum(np.asarray(tau, np.float64), 1e-300)), tgrid[0], tgrid[-1])
+    i = np.clip(np.searchsorted(tgrid, lt) - 1, 0, len(tgrid) - 2)
+    t = ((lt - tgrid[i]) / (tgrid[i + 1] - tgrid[i]))[..., None]
+    return (1 - t) * per_tau[i] + t * per_tau[i + 1]
+
+
+def lambert_weight(tab: dict, g: float, albedo: float, tau: np.ndarray, cos_view: np.ndarray) -> np.ndarray:
+    """Scattered energy of a Lambertian emitter over that of the isotropic source the table
+    assumes, (len(tau), len(cos_view)). Both send the camera the same radiance; they differ
+    in what they emit elsewhere. The table gives the directions, relative to the line to the
+    camera (cosine mu0), in which the light that reaches the camera scattered left the
+    source; a Lambertian surface whose normal is at theta to that line emits
+    max(0, cos(theta) mu0 + sin(theta) sqrt(1 - mu0^2) cos(phi)) / cos(theta) times the
+    isotropic source's intensity there, averaged over phi in closed form."""
+    mu_dist = _along_tau(tab, _slice_ga(tab, "emit_mu", g, albedo), tau)       # (T, M)
+    m = mu_dist.shape[-1]
+    mu = -1.0 + (np.arange(m) + 0.5) * 2.0 / m
+    ct = np.asarray(cos_view, np.float64)[None, :]
+    st = np.sqrt(np.maximum(1.0 - ct * ct, 0.0))
+    A = ct * mu[:, None]
+    B = st * np.sqrt(np.maximum(1.0 - mu * mu, 0.0))[:, None]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        phi0 = np.arccos(np.clip(np.where(B > 0, -A / B, np.sign(-A) * 2.0), -1.0, 1.0))
+    h = (A * phi0 + B * np.sin(phi0)) / np.pi / ct                                # (M, C)
+    return mu_dist @ h
+
+
+def slot_widths(levels: int, c: float, half_var: float) -> np.ndarray:
+    """Blur (std-dev, level-0 px) of what the source collapse leaves at each slot: level k
+    sharp (c 2^k; 0 at level 0, which is not filtered) and level k with its half-octave
+    3x3 blur (variance half_var in level-k pixels, added)."""
+    out = []
+    for k in range(levels + 1):
+        base2 = 0.0 if k == 0 else (c * 2.0 ** k) ** 2
+        out += [math.sqrt(base2), math.sqrt(base2 + half_var * 4.0 ** k)]
+    return np.array(out[:-1])   # the top level keeps all it gets, sharp
+
+
+def to_slots(shape: np.ndarray, sigma_px: np.ndarray, slots: np.ndarray) -> np.ndarray:
+    """Each Gaussian of width sigma_px split between the two slots around it so that the
+    variance is kept; narrower than slot 0 stays there, wider than the top goes to the top."""
+    if len(slots) == 1:
+        return shape.sum(axis=-1, keepdims=True)
+    v2, s2 = sigma_px ** 2, slots ** 2
+    j = np.clip(np.searchsorted(s2, v2) - 1, 0, len(slots) - 2)
+    t = np.clip((v2 - s2[j]) / np.maximum(s2[j + 1] - s2[j], 1e-30), 0.0, 1.0)
+    m = np.zeros((len(sigma_px), len(slots)))
+    m[np.arange(len(sigma_px)), j] = 1 - t
+    m[np.arange(len(sigma_px)), j + 1] += t
+    return shape @ m
+
+
+def fractions(slot_w: np.ndarray, levels: int) -> tuple[np.ndarray, np.ndarray]:
+    """(up, half) per level (..., levels + 1): of what reaches level k, the share passed on
+    and the share kept with the half-octave blur; the rest is kept sharp."""
+    n = slot_w.shape[-1]
+    rem = np.cumsum(slot_w[..., ::-1], axis=-1)[..., ::-1]   # weight of slots >= s
+    up = np.zeros(slot_w.shape[:-1] + (levels + 1,))
+    half = np.zeros_like(up)
+    for k in range(levels + 1):
+        r = rem[..., 2 * k]
+        safe = np.where(r > 1e-12, r, 1.0)
+        if 2 * k + 2 < n:
+            up[..., k] = np.where(r > 1e-12, rem[..., 2 * k + 2] / safe, 0.0)
+        if 2 * k + 1 < n:
+            half[..., k] = np.where(r > 1e-12, slot_w[..., 2 * k + 1] / safe, 0.0)
+    return up, half
+
+
+def p_range(ss, tab: dict) -> tuple[float, float]:
+    """log P range covering the table's tau for every scattering channel."""
+    ss = [s for s in ss if s > 0]
+    if not ss:
+        return 0.0, 1.0
+    lo = math.log(tab["tau"][0] / max(ss))
+    hi = math.log(tab["tau"][-1] / min(ss))
+    return lo, max(hi, lo + 1e-3)
+
+
+def in_frame(sigma: np.ndarray, width: int, height: int) -> np.ndarray:
+    """Share of a Gaussian of `sigma` px centred in a width x height frame that lands in it."""
+    from math import erf
+
+    f = np.vectorize(lambda s, n: erf(n / (2.0 * math.sqrt(2.0) * s)) if s > 0 else 1.0, otypes=[float])
+    return f(sigma, width) * f(sigma, height)
+
+
+def build_lut(sa, ss, g: float, focal_px: float, spread_scale: float, levels: int, c: float,
+              half_var: float, tab: dict | None = None, frame: tuple[int, int] | None = None) -> np.ndarray:
+    """The device table: header, then up/half per (level, channel), the energy ratio per
+    channel, and the weight of each table Gaussian per channel (reference). float32.
+    frame: (width, height) with the open border. The top level is a single blur about as
+    wide as the frame; light of the table's wider Gaussians mostly leaves an open frame,
+    so of what reaches the top level only the share that such a Gaussian would leave in
+    the frame (centred, against the top level's own width) stays: `up` of the top level
+    is the share lost."""
+    tab = load_table() if tab is None else tab
+    lp0, lp1 = p_range(ss, tab)
+    P = np.exp(np.linspace(lp0, lp1, NP))
+    J = len(tab["sigma_u"])
+    sigma_px = tab["sigma_u"] * focal_px * spread_scale
+    slots = slot_widths(levels, c, half_var)
+    updown = np.zeros((levels + 1, 3, 2, NP))
+    ratio = np.zeros((3, NP))
+    shape = np.zeros((J, 3, NP))
+    lambert = np.ones((NC, 3, NP))
+    cos_grid = np.linspace(COS_MIN, 1.0, NC)
+    for ch in range(3):
+        if ss[ch] <= 0:
+            continue   # no scattering in this channel: nothing to spread
+        a = ss[ch] / (sa[ch] + ss[ch])
+        r, sh = spread(tab, g, a, ss[ch] * P)
+        v = to_slots(sh, sigma_px, slots)
+        up, half = fractions(v, levels)
+        if frame is not None:
+            wide = sigma_px > slots[-1]
+            keep = in_frame(sigma_px[wide], *frame) / in_frame(np.array([slots[-1]]), *frame)[0]
+            lost = (sh[:, wide] * (1.0 - np.minimum(keep, 1.0))).sum(-1)
+            top = np.maximum(v[:, -1], 1e-30)
+            up[:, levels] = np.clip(lost / top, 0.0, 1.0)
+        updown[:, ch, 0, :] = up.T
+        updown[:, ch, 1, :] = half.T
+        ratio[ch] = r
+        shape[:, ch, :] = sh.T
+        if "emit_mu" in tab:
+            lambert[:, ch, :] = lambert_weight(tab, g, a, ss[ch] * P, cos_grid).T
+    head = np.array([lp0, (NP - 1) / (lp1 - lp0), NP, levels + 1])
+    return np.concatenate([head, updown.ravel(), ratio.ravel(), shape.ravel(),
+                           lambert.ravel()]).astype(np.float32)
+
+
+def edge_tables(sizes: list[tuple[int, int]], c: float, half_var: float) -> tuple[np.ndarray, list[int]]:
+    """Open border: per level, the share of a Gaussian of the sharp slot's width, centred
+    on each level pixel, that lands in the frame along x (w_k values) and along y (h_k),
+    then the same for the half-blurred slot. The kernels multiply the x and y factors.
+    Returns the float32 table and each level's offset into it."""
+    from math import erf
+
+    W, H = sizes[0]
+    levels = len(sizes) - 1
+    slots = slot_widths(levels, c, half_var)
+    parts, offs, o = [], [], 0
+
+    def share(n_px: int, n0: int, scale: float, sigma: float) -> np.ndarray:
+        x0 = scale * (np.arange(n_px) + 0.5)
+        if sigma <= 0:
+            return np.ones(n_px)
+        k = 1.0 / (math.sqrt(2.0) * sigma)
+        return np.array([0.5 * (erf((n0 - v) * k) + erf(v * k)) for v in x0])
+
+    for k, (w, h) in enumerate(sizes):
+        sharp = slots[2 * k]
+        half = slots[2 * k + 1] if 2 * k + 1 < len(slots) else sharp
+        offs.append(o)
+        for sg in (sharp, half):
+            parts += [share(w, W, 2.0 ** k, sg), share(h, H, 2.0 ** k, sg)]
+        o += 2 * (w + h)
+    return np.concatenate(parts).astype(np.float32), offs
+
+
+def lut_offsets(levels: int, J: int) -> dict:
+    """Float offsets of the parts of build_lut's table (the kernels compute the same)."""
+    up = HEADER
+    ratio = up + (levels + 1) * 3 * 2 * NP
+    shape = ratio + 3 * NP
+    lambert = shape + J * 3 * NP
+    return {"updown": up, "ratio": ratio, "shape": shape, "lambert": lambert, "end": lambert + NC * 3 * NP}

@@ -1,0 +1,229 @@
+"""render.psf: apsf — the host's lookup table (fogcli.apsf) and the kernels that read it,
+against numpy oracles (tests/oracles.py). Tolerances: float32 kernels vs float64 oracles,
+2e-4 relative unless stated."""
+import math
+
+import numpy as np
+import pytest
+
+import oracles
+from conftest import plan_for
+from fogcli import apsf
+from fogcli.pipeline import Timings, read_chain
+
+FOG = ("medium.absorption=[0.02, 0.05, 0.1]", "medium.scattering=[0.3, 0.2, 0.25]", "medium.asymmetry=0.8",
+       "camera.fov=70", "camera.depth=distance", "camera.max_depth=300")
+
+
+def _download(plan, buf, ch):
+    out = plan.download(buf, ch, Timings())
+    plan.rt.queue.finish()
+    return out
+
+
+def _frame(rng, w, h):
+    img = rng.uniform(0, 2, (h, w, 4)).astype(np.float32)
+    img[h // 3, w // 4, :3] = 400.0             # a lamp
+    img[h - 2, w - 3, :3] = [900.0, 300.0, 50.0]  # a warm lamp by the border
+    depth = np.exp(rng.uniform(np.log(0.5), np.log(250), (h, w))).astype(np.float32)
+    depth[: h // 5] = np.inf                    # sky
+    depth[h // 2, :] = 0.05                     # a near row: thin medium
+    return img, depth
+
+
+def test_slot_mapping_keeps_energy_and_variance():
+    slots = apsf.slot_widths(6, 0.833, 2 / 3)
+    assert np.all(np.diff(slots) > 0)
+    sig = np.array([0.5, 1.3, 3.0, 7.7, 20.0, 45.0])   # inside the ladder
+    shape = np.array([[0.1, 0.2, 0.3, 0.15, 0.2, 0.05]])
+    v = apsf.to_slots(shape, sig, slots)
+    assert abs(v.sum() - 1) < 1e-12
+    assert abs((v * slots ** 2).sum() - (shape * sig ** 2).sum()) < 1e-9 * (shape * sig ** 2).sum()
+    # wider than the top level: all of it at the top; narrower than nothing: sharp
+    v = apsf.to_slots(np.array([[0.5, 0.5]]), np.array([0.0, 1e4]), slots)
+    assert v[0, 0] == 0.5 and v[0, -1] == 0.5
+
+
+def test_fractions_rebuild_the_slot_weights(rng):
+    """Passing `up` on and keeping `half` and the rest, level after level, deposits
+    exactly the slot weights."""
+    levels = 5
+    v = rng.uniform(0, 1, (7, 2 * levels + 1))
+    v[3, :4] = 0.0                      # nothing narrow
+    v /= v.sum(-1, keepdims=True)
+    up, half = apsf.fractions(v, levels)
+    carried = np.ones(7)
+    got = np.zeros_like(v)
+    for k in range(levels + 1):
+        got[:, 2 * k] = carried * (1 - up[:, k] - half[:, k])
+        if 2 * k + 1 < v.shape[1]:
+            got[:, 2 * k + 1] = carried * half[:, k]
+        carried = carried * up[:, k]
+    np.testing.assert_allclose(got, v, atol=1e-12)
+    assert np.all(carried < 1e-12)
+
+
+def test_preprocess_apsf_matches_oracle(rt, rng):
+    """Level 0 carries the thin-medium L_sc times the table's energy ratio, and log P."""
+    w, h = 37, 23
+    img, depth = _frame(rng, w, h)
+    plan, cfg = plan_for(rt, w, h, *FOG, "render.psf=apsf")
+    t = Timings()
+    plan.upload(img, depth, t)
+    plan.preprocess(t)
+    chains, _ = read_chain(plan)
+    focal = (w / 2) / math.tan(math.radians(70) / 2)
+    at, sc, _, _, P = oracles.preprocess(img, depth, cfg.medium.absorption, cfg.medium.scattering, 0.8, focal,
+                                         max_depth=300, z=False)
+    lut = plan.lut_host.astype(np.float64)
+    off = apsf.lut_offsets(len(plan.sizes) - 1, len(apsf.load_table()["sigma_u"]))
+    lp = np.log(P)
+    ratio = np.stack([oracles.lut_at(lut, off["ratio"] + c * apsf.NP, lp) for c in range(3)], -1)
+    np.testing.assert_allclose(chains[0][:, :, 3], lp, rtol=1e-5, atol=2e-6)
+    np.testing.assert_allclose(chains[0][:, :, :3], sc * ratio, rtol=2e-4, atol=1e-6)
+    # the table's ratio is the Monte Carlo energy over the thin form: in thin media, where
+    # light scatters once, the two agree to ~10 %
+    assert ratio.min() > 0
+    thin = (np.asarray(cfg.medium.scattering) * P[..., None]) < 0.05
+    assert thin.sum() > 10 and np.all(np.abs(ratio[thin] - 1) < 0.15), ratio[thin].max()
+
+
+@pytest.mark.parametrize("interp", ["linear-bilinear", "linear-bicubic"])
+@pytest.mark.parametrize("border", ["closed", "open"])
+@pytest.mark.parametrize("size", [(45, 29), (3, 2), (1, 1)])
+def test_apsf_collapse_matches_oracle(rt, rng, interp, border, size):
+    w, h = size
+    img, depth = _frame(rng, max(w, 4), max(h, 4))
+    img, depth = img[:h, :w].copy(), depth[:h, :w].copy()
+    depth[0, 0] = 12.0
+    plan, cfg = plan_for(rt, w, h, *FOG, "render.psf=apsf", f"render.interpolation={interp}",
+                         f"render.border={border}", aovs=("scattered",))
+    t = Timings()
+    plan.upload(img, depth, t)
+    plan.preprocess(t)
+    level0 = read_chain(plan)[0][0].astype(np.float64)
+    plan.pyramid(t, masked=True)
+    plan.collapse(t)
+    plan.composite_source(t)
+    got = _download(plan, plan.scat_aov, 4)[:, :, :3]
+    from fogcli.config import FILTERS
+
+    want = oracles.apsf_collapse(level0[:, :, :3], level0[:, :, 3], plan.lut_host.astype(np.float64),
+                                 len(plan.sizes) - 1, FILTERS[4], interp != "linear-bilinear",
+                                 plan.half_step(), border == "open",
+                                 apsf.slot_widths(len(plan.sizes) - 1, cfg.render.resolved()[0], 2 * plan.half_step()))
+    np.testing.assert_allclose(got, want, rtol=2e-4, atol=2e-5 * max(1.0, float(want.max())))
+    if border == "closed" and w > 2:
+        # each level's shares partition what reaches it: energy stays, up to the
+        # interpolated up-sampling at the border (here a 900-radiance lamp 2 px from a
+        # corner: +6 %)
+        assert abs(got.sum() / level0[:, :, :3].sum() - 1) < 0.08
+
+
+def _apsf_reference(sc, lp, lut, sigmas, open_border):
+    """Brute force: every pixel spreads each table Gaussian with its own weight."""
+    h, w = lp.shape
+    n = int(lut[2])
+    nlev = int(lut[3])
+    base = 4 + nlev * 6 * n + 3 * n
+    out = np.zeros((h, w, 3))
+    yy, xx = np.mgrid[0:h, 0:w]
+    for j, s in enumerate(sigmas):
+        wt = np.stack([oracles.lut_at(lut, base + (j * 3 + c) * n, lp) for c in range(3)], -1) * sc
+        if not wt.any():
+            continue
+        if s < 0.25:
+            out += wt
+            continue
+        R = int(math.ceil(4 * s))
+        d = np.arange(-R, R + 1)
+        g1 = np.exp(-d * d / (2 * s * s))
+        for j0 in range(h):
+            for i0 in range(w):
+                if not wt[j0, i0].any():
+                    continue
+                k = np.exp(-((xx - i0) ** 2 + (yy - j0) ** 2) / (2 * s * s))
+                k[np.abs(xx - i0) > R] = 0
+                k[np.abs(yy - j0) > R] = 0
+                norm = g1.sum() ** 2 if open_border else k.sum()
+                out += k[..., None] * wt[j0, i0] / norm
+    return out
+
+
+@pytest.mark.parametrize("border", ["closed", "open"])
+def test_apsf_reference_matches_brute_force(rt, rng, border):
+    w, h = 19, 13
+    img, depth = _frame(rng, w, h)
+    plan, cfg = plan_for(rt, w, h, *FOG, "render.psf=apsf", "render.method=reference",
+                         f"render.border={border}", "camera.fov=20", aovs=("scattered",))
+    t = Timings()
+    plan.upload(img, depth, t)
+    plan.preprocess(t)
+    level0 = read_chain(plan)[0][0].astype(np.float64)
+    from fogcli.reference import reference_into
+
+    reference_into(plan, t)
+    got = _download(plan, plan.scat_aov, 4)[:, :, :3]
+    sigmas = apsf.load_table()["sigma_u"] * cfg.camera.focal(w)
+    want = _apsf_reference(level0[:, :, :3], level0[:, :, 3], plan.lut_host.astype(np.float64), sigmas,
+                           border == "open")
+    np.testing.assert_allclose(got, want, rtol=1e-3, atol=1e-5 * float(want.max()))
+    if border == "closed":
+        assert abs(got.sum() / level0[:, :, :3].sum() - 1) < 1e-4
+    else:
+        assert got.sum() < level0[:, :, :3].sum()
+
+
+def test_lambert_weight_limits():
+    """Light that left the source towards the camera (mu0 = 1) sees no difference; light
+    that left in every direction alike sees the Lambertian mean, 1 / (4 cos)."""
+    tab = {k: v.copy() for k, v in apsf.load_table().items()}
+    cosv = np.array([0.1, 0.5, 1.0])
+    tab["emit_mu"][:] = 0.0
+    tab["emit_mu"][..., -1] = 1.0                          # mu0 in the last bin, ~0.95
+    w = apsf.lambert_weight(tab, 0.8, 0.9, np.array([1.0]), cosv)
+    mu = 0.95
+    # mu0 = 0.95: max(0, cos mu0 + sin sqrt(1 - mu0^2) cos phi) averages to cos mu0 where
+    # cos mu0 >= sin sqrt(1 - mu0^2)
+    np.testing.assert_allclose(w[0, 1:], mu, rtol=1e-9)
+    tab["emit_mu"][:] = 1.0 / tab["emit_mu"].shape[-1]     # uniform over the sphere
+    w = apsf.lambert_weight(tab, 0.8, 0.9, np.array([1.0]), cosv)
+    np.testing.assert_allclose(w[0], 1 / (4 * cosv), rtol=4e-3)   # 20 bins of mu0
+
+
+def test_lambertian_view_cosine_on_a_tilted_plane(rt, rng):
+    """A plane tilted about the vertical axis: the kernel's normal from the depth map gives
+    the analytic view cosine, and the scattered light is weighted by the table at it."""
+    w, h = 33, 21
+    fov = 70.0
+    f = (w / 2) / math.tan(math.radians(fov) / 2)
+    n = np.array([math.sin(0.9), 0.0, math.cos(0.9)])      # normal 52 degrees off the axis
+    x = (np.arange(w) + 0.5 - w / 2) / f
+    y = -(np.arange(h) + 0.5 - h / 2) / f
+    d = np.stack(np.broadcast_arrays(x[None, :], y[:, None], -np.ones((h, w))), -1)
+    t = 8.0 / -(d @ n)                                    # plane n . p = -8
+    p = d * t[..., None]
+    depth = (-p[..., 2]).astype(np.float32)               # planar z
+    img = rng.uniform(0.5, 2, (h, w, 4)).astype(np.float32)
+    sets = ("medium.absorption=0.02", "medium.scattering=0.3", "medium.asymmetry=0.8", f"camera.fov={fov}",
+            "render.psf=apsf")
+    plan_i, cfg = plan_for(rt, w, h, *sets)
+    plan_l, _ = plan_for(rt, w, h, *sets, "render.emission_profile=lambertian")
+    levels0 = []
+    for plan in (plan_i, plan_l):
+        tm = Timings()
+        plan.upload(img, depth, tm)
+        plan.preprocess(tm)
+        levels0.append(read_chain(plan)[0][0].astype(np.float64))
+    cos_true = np.abs((p / np.linalg.norm(p, axis=-1, keepdims=True)) @ n)
+    lut = plan_l.lut_host.astype(np.float64)
+    off = apsf.lut_offsets(len(plan_l.sizes) - 1, len(apsf.load_table()["sigma_u"]))
+    u = np.clip((cos_true - apsf.COS_MIN) / (1 - apsf.COS_MIN) * (apsf.NC - 1), 0, apsf.NC - 1.001)
+    ci = np.floor(u).astype(int)
+    fr = u - ci
+    lp = levels0[1][..., 3]
+    for c in range(3):
+        a = oracles.lut_at(lut, off["lambert"] + (ci * 3 + c) * apsf.NP, lp)
+        b = oracles.lut_at(lut, off["lambert"] + ((ci + 1) * 3 + c) * apsf.NP, lp)
+        want = levels0[0][..., c] * (a + (b - a) * fr)
+        np.testing.assert_allclose(levels0[1][..., c], want, rtol=2e-3)
