@@ -232,6 +232,48 @@ inline float4 up2_fetch4(__global const float4 *img, int w, int h, int x, int y)
 #endif
 }
 
+#ifdef PSF_APSF
+/* up2_fetch4 for the apsf chain: the same fixed-phase taps, zero outside the level, and
+ * each input pixel's weights scaled by ux[j] uy[i] so that it hands the level below
+ * exactly its energy (apsf.conservation_tables) */
+inline float4 up2_cons(__global const float4 *img, int w, int h, int x, int y,
+                       __global const float *ux, __global const float *uy)
+{
+#if INTERP == 0
+    const int NT = 2;
+    int x0 = (x >> 1) - 1 + (x & 1), y0 = (y >> 1) - 1 + (y & 1);
+    float fx = (x & 1) ? 0.25f : 0.75f, fy = (y & 1) ? 0.25f : 0.75f;
+    float wx[2] = {1.0f - fx, fx}, wy[2] = {1.0f - fy, fy};
+#else
+    const int NT = 4;
+    const float wo[4] = {0.0703125f, 0.61197917f, 0.31510417f, 0.00260417f};
+    const float we[4] = {0.00260417f, 0.31510417f, 0.61197917f, 0.0703125f};
+    int x0 = (x >> 1) - 2 + (x & 1), y0 = (y >> 1) - 2 + (y & 1);
+    float wx[4], wy[4];
+    for (int t = 0; t < 4; ++t) { wx[t] = (x & 1) ? wo[t] : we[t]; wy[t] = (y & 1) ? wo[t] : we[t]; }
+#endif
+    /* away from the edges every factor is 1: the plain fixed-tap fetch */
+    if (x0 >= 2 && y0 >= 2 && x0 + NT <= w - 2 && y0 + NT <= h - 2)
+        return up2_fetch4(img, w, h, x, y);
+    float4 acc = (float4)(0.0f);
+    for (int r = 0; r < NT; ++r) {
+        int jy = y0 + r;
+        if (jy < 0 || jy >= h) continue;
+        __global const float4 *row = img + jy * w;
+        float4 racc = (float4)(0.0f);
+        for (int t = 0; t < NT; ++t) {
+            int jx = x0 + t;
+            if (jx < 0 || jx >= w) continue;
+            racc += (wx[t] * ux[jx]) * row[jx];
+        }
+        acc += (wy[r] * uy[jy]) * racc;
+    }
+    return acc;
+}
+#define UP2_APSF(img, w, h, x, y, cons, base, lw, lh) \
+    up2_cons(img, w, h, x, y, (cons) + (base) + (lw) + (lh), (cons) + (base) + (lw) + (lh) + (w))
+#endif
+
 /* What level k keeps in the source collapse. The part of I^[k] that eq. 7 masks out of
  * level k+1 (W below T, the threshold of level k+1) stays at level k. Of it, the part with
  * W below T / sqrt(2) stays as it is (blur c 2^k); the part between T / sqrt(2) and T gets
@@ -336,17 +378,24 @@ inline int lut_ratio(int nlev, int ch) { return 4 + nlev * 6 * APSF_NP + ch * AP
 inline int lut_shape(int nlev, int j, int ch) { return 4 + nlev * 6 * APSF_NP + 3 * APSF_NP + (j * 3 + ch) * APSF_NP; }
 
 #ifdef EMISSION_LAMBERT
-/* Lambertian over isotropic scattered energy at log P and view cosine cosv (bilinear) */
-inline float lambert_at(__global const float *lut, int nlev, int ch, float cosv, float lp)
+/* Lambertian over isotropic scattered energy at the view cosine cosv, per channel, at the
+ * log-P sample (li, lf) of lut_pos: bilinear in (cosine, log P) */
+inline float lambert_ch(__global const float *lut, int base, int li, float lf, float f)
+{
+    float a = lut_get(lut, base, li, lf);
+    return a + (lut_get(lut, base + 3 * APSF_NP, li, lf) - a) * f;
+}
+inline void lambert_at(__global const float *lut, int nlev, int li, float lf, float cosv,
+                       float *w0, float *w1, float *w2)
 {
     float u = clampf_((cosv - APSF_COS_MIN) / (1.0f - APSF_COS_MIN) * (float)(APSF_NC - 1), 0.0f,
                       (float)APSF_NC - 1.001f);
     int ci = (int)u;
     float f = u - (float)ci;
-    int base = lut_shape(nlev, APSF_J, 0);   /* the table just after the Gaussians' weights */
-    float a = lut_at(lut, base + (ci * 3 + ch) * APSF_NP, lp);
-    float b = lut_at(lut, base + ((ci + 1) * 3 + ch) * APSF_NP, lp);
-    return a + (b - a) * f;
+    int base = lut_shape(nlev, APSF_J, 0) + ci * 3 * APSF_NP;   /* just after the Gaussians' weights */
+    *w0 = lambert_ch(lut, base, li, lf, f);
+    *w1 = lambert_ch(lut, base + APSF_NP, li, lf, f);
+    *w2 = lambert_ch(lut, base + 2 * APSF_NP, li, lf, f);
 }
 #endif
 

@@ -81,7 +81,8 @@ __kernel void composite_source(__global const float4 *direct, __global const flo
                                __global float4 *out, const int want_aov,
                                __global float *level_aov, __global float4 *scattered_aov,
                                __global const float4 *prep, __global const float *spread0,
-                               __global const float *edge)
+                               __global const float *edge, __global const float *cons,
+                               const int cons_up)
 {
     int i = get_global_id(0), j = get_global_id(1);
     int width = lv[0].y, height = lv[0].z;
@@ -90,8 +91,14 @@ __kernel void composite_source(__global const float4 *direct, __global const flo
     float4 v = chain[idx];
     float3 sc = v.xyz;
     if (kmax > 0)
-        sc = keep_px(v.xyz, prep[idx].xyz, half_img, width, height, i, j, a, edge, 0)
-           + up2_fetch4(chain + lv[1].x, lv[1].y, lv[1].z, i, j).xyz;
+    {
+#ifdef PSF_APSF
+        float4 up = UP2_APSF(chain + lv[1].x, lv[1].y, lv[1].z, i, j, cons, cons_up, width, height);
+#else
+        float4 up = up2_fetch4(chain + lv[1].x, lv[1].y, lv[1].z, i, j);
+#endif
+        sc = keep_px(v.xyz, prep[idx].xyz, half_img, width, height, i, j, a, edge, 0) + up.xyz;
+    }
     if (accumulate) {
         out[idx].xyz += sc;
         if (want_aov) scattered_aov[idx].xyz += sc;

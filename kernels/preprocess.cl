@@ -31,6 +31,12 @@ inline void cam_point(const camera_t *c, __global const float *depth, int w, int
     *x = dx * s; *y = dy * s; *z = -s;
 }
 
+/* Stage 1a (emission_profile: lambertian): the view cosine of every pixel, in a kernel of
+ * its own so that the neighbour reads and their branches do not keep the preprocess
+ * kernel from being vectorised. */
+__kernel void view_cosines(__global const float *depth, __global float *cosv, const int width,
+                           const int height, const camera_t cam);
+
 /* |cos| between the surface normal and the line to the camera. The normal comes from the
  * depth map with, along each axis, the one-sided difference whose depth step is smaller,
  * so that a depth edge does not tilt the surfaces on either side of it. Sky and anything
@@ -54,6 +60,17 @@ inline float view_cosine(const camera_t *c, __global const float *depth, int w, 
                / SQRT_((nx * nx + ny * ny + nz * nz) * (px * px + py * py + pz * pz));
     return (cosv == cosv && cosv <= 1.0f) ? cosv : 1.0f;   /* NaN (sky, flat zero) */
 }
+
+__kernel void view_cosines(__global const float *depth, __global float *cosv, const int width,
+                           const int height, const camera_t cam)
+{
+    int i = get_global_id(0), j = get_global_id(1);
+    if (i >= width || j >= height) return;
+    float wx, wy, wz;
+    float dist = pixel_ray(&cam, i, j, depth[j * width + i], &wx, &wy, &wz);
+    /* sky and anything at max_depth: a dome facing the camera */
+    cosv[j * width + i] = dist < cam.max_depth ? view_cosine(&cam, depth, width, height, i, j) : 1.0f;
+}
 #endif
 
 __kernel void preprocess(__global const float4 *image, __global const float *depth,
@@ -64,7 +81,8 @@ __kernel void preprocess(__global const float4 *image, __global const float *dep
                          const int width, const int height, const medium_t m,
                          __global float4 *prep0, const int source, const float thresh1,
                          const float eps, __global float4 *sep_chain0, __global float4 *sep_prep0,
-                         const int sep, const float4 sep_par, __global const float *lut)
+                         const int sep, const float4 sep_par, __global const float *lut,
+                         __global const float *cosines)
 {
     int i = get_global_id(0), j = get_global_id(1);
     if (i >= width || j >= height) return;
@@ -111,8 +129,9 @@ __kernel void preprocess(__global const float4 *image, __global const float *dep
     sc[1] *= lut_get(lut, lut_ratio(nlev, 1), li, lf);
     sc[2] *= lut_get(lut, lut_ratio(nlev, 2), li, lf);
 #ifdef EMISSION_LAMBERT
-    float cosv = dist < m.cam.max_depth ? view_cosine(&m.cam, depth, width, height, i, j) : 1.0f;
-    for (int c = 0; c < 3; ++c) sc[c] *= lambert_at(lut, nlev, c, cosv, lp);
+    float lw0, lw1, lw2;
+    lambert_at(lut, nlev, li, lf, cosines[idx], &lw0, &lw1, &lw2);
+    sc[0] *= lw0; sc[1] *= lw1; sc[2] *= lw2;
 #endif
     float wv = lp;
 #else

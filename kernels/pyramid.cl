@@ -64,7 +64,8 @@ __kernel void reduce_level_source(__global float4 *chain, __global float4 *prep,
                                   const int dst_off, const int dw, const int dh,
                                   const float thresh_next, const float eps,
                                   __global const float *lut, const int level,
-                                  __global const float *edge, const int edge_off)
+                                  __global const float *edge, const int edge_off,
+                                  __global const float *cons, const int cons_off)
 {
     int x = get_global_id(0), y = get_global_id(1);
     if (x >= dw || y >= dh) return;
@@ -75,7 +76,15 @@ __kernel void reduce_level_source(__global float4 *chain, __global float4 *prep,
     float3 acc_c = (float3)(0.0f);
     float acc_g = 0.0f, acc_yw = 0.0f, acc_y = 0.0f, acc_lw = 0.0f;
     int n = 0;
-    if (x0 >= 0 && y0 >= 0 && x0 + FILTER_TAPS <= sw && y0 + FILTER_TAPS <= sh) {
+#ifdef PSF_APSF
+    /* energy-conserving borders: each source pixel's taps scaled by its own factor
+     * (apsf.conservation_tables; 1 away from the edges, where the fast path runs) */
+    __global const float *rnx = cons + cons_off, *rny = cons + cons_off + sw;
+    const int margin = FILTER_TAPS / 2;
+#else
+    const int margin = 0;
+#endif
+    if (x0 >= margin && y0 >= margin && x0 + FILTER_TAPS <= sw - margin && y0 + FILTER_TAPS <= sh - margin) {
         /* interior (almost every pixel): no bounds tests in the taps */
         for (int ty = 0; ty < FILTER_TAPS; ++ty) {
             __global const float4 *row = src + (y0 + ty) * sw + x0;
@@ -98,7 +107,11 @@ __kernel void reduce_level_source(__global float4 *chain, __global float4 *prep,
             int sx = x0 + tx;
             if (sx < 0 || sx >= sw) continue;
             float4 p = src[sy * sw + sx];
+#ifdef PSF_APSF
+            float wg = filter_w[tx] * filter_w[ty] * rnx[sx] * rny[sy];
+#else
             float wg = filter_w[tx] * filter_w[ty];
+#endif
             acc_c += wg * p.xyz;
             acc_g += wg;
             float yl = luminance(p.xyz);
@@ -108,8 +121,9 @@ __kernel void reduce_level_source(__global float4 *chain, __global float4 *prep,
             ++n;
         }
     }
-#if defined(BORDER_OPEN) && !defined(PSF_APSF)
-    acc_g = 1.0f;
+#if defined(BORDER_OPEN) || defined(PSF_APSF)
+    acc_g = 1.0f;   /* open: light filtered across the edge is lost; apsf: the taps are
+                     * already normalised per source */
 #endif
     float3 c = acc_c / acc_g;
     float lw = acc_y > 1e-30f ? acc_yw / acc_y : acc_lw / (float)n;
@@ -169,14 +183,19 @@ __kernel void split_level(__global const float4 *chain, const int off, const int
 __kernel void collapse_level(__global float4 *chain, const int off, const int w, const int h,
                              __global const float4 *half_img, const int up_off, const int uw,
                              const int uh, const float a, __global const float4 *prep,
-                             __global const float *edge, const int edge_off)
+                             __global const float *edge, const int edge_off,
+                             __global const float *cons, const int cons_up)
 {
     int x = get_global_id(0), y = get_global_id(1);
     if (x >= w || y >= h) return;
     int d = off + y * w + x;
     float4 v = chain[d];
-    float3 e = keep_px(v.xyz, prep[d].xyz, half_img, w, h, x, y, a, edge, edge_off)
-             + up2_fetch4(chain + up_off, uw, uh, x, y).xyz;
+#ifdef PSF_APSF
+    float4 up = UP2_APSF(chain + up_off, uw, uh, x, y, cons, cons_up, w, h);
+#else
+    float4 up = up2_fetch4(chain + up_off, uw, uh, x, y);
+#endif
+    float3 e = keep_px(v.xyz, prep[d].xyz, half_img, w, h, x, y, a, edge, edge_off) + up.xyz;
     chain[d] = (float4)(e, v.w);
 }
 

@@ -193,12 +193,28 @@ def apsf_shares(lut, k, lp, rgb, q):
     return np.stack([lut_at(lut, _updown(k, c, q, n), lp) * rgb[..., c] for c in range(3)], axis=-1)
 
 
+def _src_share(n_src, n_dst, taps):
+    """Per source pixel along an axis: the share of its filter weights landing on the
+    n_dst outputs (1/2 away from the edges)."""
+    T = len(taps)
+    got = np.zeros(n_src)
+    for x in range(n_dst):
+        for t in range(T):
+            s = 2 * x - T // 2 + 1 + t
+            if 0 <= s < n_src:
+                got[s] += taps[t]
+    return got
+
+
 def apsf_reduce(prep, taps, open_border):
     """One level of the apsf chain from the level below's prep (passed colour, log P): the
-    filtered colour and the log P weighted by the luminance of what moves up."""
+    filtered colour, every source's taps scaled to hand on exactly its energy, and the log
+    P weighted by the luminance of what moves up."""
     h, w = prep.shape[:2]
     n = len(taps)
     dh, dw = (h + 1) // 2, (w + 1) // 2
+    fx = 0.5 / _src_share(w, dw, taps)
+    fy = 0.5 / _src_share(h, dh, taps)
     col = np.zeros((dh, dw, 3))
     lp = np.zeros((dh, dw))
     for y in range(dh):
@@ -215,7 +231,7 @@ def apsf_reduce(prep, taps, open_border):
                     if not 0 <= sx < w:
                         continue
                     v = prep[sy, sx]
-                    wg = taps[tx] * taps[ty]
+                    wg = taps[tx] * taps[ty] * fx[sx] * fy[sy]
                     c += wg * v[:3]
                     gsum += wg
                     lum = LUM @ v[:3]
@@ -223,7 +239,7 @@ def apsf_reduce(prep, taps, open_border):
                     ysum += lum
                     lsum += v[3]
                     cnt += 1
-            col[y, x] = c / (1.0 if open_border else gsum)
+            col[y, x] = c
             lp[y, x] = yw / ysum if ysum > 1e-30 else lsum / cnt
     return col, lp
 
@@ -280,8 +296,25 @@ def apsf_collapse(sc, lp0, lut, levels, taps, cubic, a, open_border=False, slots
             keep = _blur3(hs, a) + (cols[k] - preps[k][..., :3] - half) * share(k, 0)
         else:
             keep = _blur3(half, a) + cols[k] - preps[k][..., :3] - half
-        h, w = keep.shape[:2]
-        up = np.array([[sample(E, (x + 0.5) * 0.5 - 0.5, (y + 0.5) * 0.5 - 0.5, cubic) for x in range(w)]
-                       for y in range(h)])
-        E = keep + up
+        E = keep + _up2_conserving(E, keep.shape[0], keep.shape[1], cubic)
     return E
+
+
+def _up2_conserving(E, h, w, cubic):
+    """Factor-2 up-sampling to (h, w): the B-spline (or tent) weights of an output centre,
+    zero outside the level, and each input pixel's weights scaled so that they sum to 2
+    per axis over the outputs (it hands on exactly its energy)."""
+    def weights(n_out, n_in):
+        M = np.zeros((n_out, n_in))
+        for y in range(n_out):
+            src = (y + 0.5) * 0.5 - 0.5
+            i0 = math.floor(src)
+            f = src - i0
+            ws = _bspline(f) if cubic else np.array([1 - f, f])
+            first = i0 - 1 if cubic else i0
+            for t, wt in enumerate(ws):
+                if 0 <= first + t < n_in:
+                    M[y, first + t] += wt
+        return M * (2.0 / np.maximum(M.sum(axis=0), 1e-12))[None, :]
+    My, Mx = weights(h, E.shape[0]), weights(w, E.shape[1])
+    return np.einsum("yi,xj,ijc->yxc", My, Mx, E)

@@ -255,6 +255,61 @@ def edge_tables(sizes: list[tuple[int, int]], c: float, half_var: float) -> tupl
     return np.concatenate(parts).astype(np.float32), offs
 
 
+UP_TENT = ((0.25, 0.75), (0.75, 0.25))   # (even, odd) output: weights of taps t = 0, 1
+UP_BSPLINE = ((0.00260417, 0.31510417, 0.61197917, 0.0703125),
+              (0.0703125, 0.61197917, 0.31510417, 0.00260417))
+
+
+def up2_taps(n_out: int, cubic: bool):
+    """(first input index, weights) of the factor-2 up-sampling of every output pixel (the
+    fixed-phase taps of up2_fetch4 in kernels/common.h)."""
+    for y in range(n_out):
+        if cubic:
+            yield (y >> 1) - 2 + (y & 1), UP_BSPLINE[y & 1]
+        else:
+            yield (y >> 1) - 1 + (y & 1), UP_TENT[y & 1]
+
+
+def conservation_tables(sizes: list[tuple[int, int]], taps, cubic: bool) -> tuple[np.ndarray, list[int]]:
+    """Energy-conserving borders for the apsf chain. The plain filters keep a constant
+    image constant at the border but not its energy (a bright source near the edge of a
+    small level gains up to tens of per cent). Here each SOURCE pixel's weights are
+    normalised instead: in the reduce, each level-(k-1) pixel hands on exactly its energy
+    (1 / the share of its filter weights that land on level-k pixels), and in the
+    up-sampling, each level-k pixel hands level k-1 exactly its energy (taps outside are
+    zero, 2 / its weights that land). Per level k >= 1 and axis: the reduce factors of
+    level k-1's pixels, then the up-sampling factors of level k's pixels.
+    Returns the float32 table and each level's offset (index k; level 0 has none)."""
+    taps = np.asarray(taps, np.float64)
+    T = len(taps)
+    parts, offs, o = [], [0], 0
+
+    def reduce_norm(n_src: int, n_dst: int) -> np.ndarray:
+        got = np.zeros(n_src)
+        for x in range(n_dst):
+            for t in range(T):
+                s = 2 * x - T // 2 + 1 + t
+                if 0 <= s < n_src:
+                    got[s] += taps[t]
+        return 0.5 / got
+
+    def up_norm(n_in: int, n_out: int) -> np.ndarray:
+        got = np.zeros(n_in)
+        for j0, w in up2_taps(n_out, cubic):
+            for t, wt in enumerate(w):
+                if 0 <= j0 + t < n_in:
+                    got[j0 + t] += wt
+        return 2.0 / np.maximum(got, 1e-12)
+
+    for k in range(1, len(sizes)):
+        (sw, sh), (dw, dh) = sizes[k - 1], sizes[k]
+        offs.append(o)
+        part = [reduce_norm(sw, dw), reduce_norm(sh, dh), up_norm(dw, sw), up_norm(dh, sh)]
+        parts += part
+        o += sum(len(p) for p in part)
+    return (np.concatenate(parts) if parts else np.zeros(1)).astype(np.float32), offs
+
+
 def lut_offsets(levels: int, J: int) -> dict:
     """Float offsets of the parts of build_lut's table (the kernels compute the same)."""
     up = HEADER

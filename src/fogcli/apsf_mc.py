@@ -162,7 +162,8 @@ class Tally:
 
 def simulate(g: float, tau, photons: int, seed: int, *, axes: int = 2, r_max: float | None = None,
              r_cut: float = 12.0, rr_order: int = 30, rr_keep: float = 0.1, max_order: int | None = None,
-             eps_frac: float = 0.05, eps_max: float = 0.3, batch: int = 50_000, th_edges=None, x_edges=None) -> Tally:
+             eps_frac: float = 0.05, eps_max: float = 0.3, batch: int = 50_000, th_edges=None, x_edges=None,
+             ball: str = "line", axes_far: int | None = None, tau_far: float = 1.0) -> Tally:
     """Run `photons` photons for asymmetry g and score cameras at distances `tau` on
     `axes` axes (1: +z, 2: +-z, 3..6: +-z, +-x, +-y). max_order limits the scattering
     orders scored (1 = single scattering, for checks against quadrature)."""
@@ -171,7 +172,12 @@ def simulate(g: float, tau, photons: int, seed: int, *, axes: int = 2, r_max: fl
     x_edges = excess_edges() if x_edges is None else x_edges
     r_max = float(3 * tau.max()) if r_max is None else r_max
     nT, nb, nx = len(tau), len(th_edges) - 1, len(x_edges) - 1
-    axis_list = [(2, 1.0), (2, -1.0), (0, 1.0), (0, -1.0), (1, 1.0), (1, -1.0)][:axes]
+    axes_far = axes if axes_far is None else max(axes_far, axes)
+    axis_list = [(2, 1.0), (2, -1.0), (0, 1.0), (0, -1.0), (1, 1.0), (1, -1.0)][:axes_far]
+    far = tau >= tau_far
+    # cameras scored per axis: all distances on the first `axes`, only tau >= tau_far on the rest
+    axis_cams = [np.arange(nT) if i < axes else np.nonzero(far)[0] for i in range(len(axis_list))]
+    n_axes = np.where(far, len(axis_list), axes)
     eps = np.minimum(eps_frac * tau, eps_max)
     lx0, lx1 = math.log(x_edges[1]), math.log(x_edges[-1])
     x_scale = (nx - 1) / (lx1 - lx0)
@@ -218,27 +224,36 @@ def simulate(g: float, tau, photons: int, seed: int, *, axes: int = 2, r_max: fl
             x2 = np.einsum("ij,ij->i", pos, pos)
             near = np.nonzero(x2 < reach2)[0]          # vertices within r_cut of some camera
             dx = np.einsum("ij,ij->i", pos[near], d[near])
-            for ax, sgn in axis_list:
+            for (ax, sgn), cams in zip(axis_list, axis_cams):
                 # camera at sgn * tau along axis ax: everything reduces to the vertex's
                 # component xe along the axis and its distance from the axis
                 xe = sgn * pos[near, ax]
                 de = sgn * d[near, ax]
-                r2 = x2[near, None] - 2 * xe[:, None] * tau[None, :] + tau[None, :] ** 2
+                tc = tau[cams]
+                r2 = x2[near, None] - 2 * xe[:, None] * tc[None, :] + tc[None, :] ** 2
                 iv, it = np.nonzero(r2 < r_cut * r_cut)
                 if not len(iv):
                     continue
+                r = np.sqrt(r2[iv, it])
+                it = cams[it]
                 stats["pairs"] += len(iv)
                 dd = tau[it]
-                r = np.sqrt(r2[iv, it])
                 along = dd - xe[iv]                           # component towards the source
                 gv = near[iv]                                 # global photon index
                 perp = np.sqrt(np.maximum(x2[gv] - xe[iv] ** 2, 0.0))
                 theta = np.arctan2(perp, along)
                 cmu = (dd * de[iv] - dx[iv]) / np.maximum(r, 1e-300)
                 ep = eps[it]
-                att = np.where(r > ep, 1.0 / np.maximum(r * r, 1e-300), 3.0 / (ep * ep)) * np.exp(-r)
+                inb = r <= ep
+                if ball == "line":
+                    # inside the ball: r -> eps (r / eps)^3, uniform on [0, eps] for a uniform
+                    # vertex density, used in exp(-r) and in the path length (absorption)
+                    rl = np.where(inb, ep * (r / np.where(inb, ep, 1.0)) ** 3, r)
+                else:
+                    rl = r
+                att = np.where(inb, 3.0 / (ep * ep), 1.0 / np.maximum(r * r, 1e-300)) * np.exp(-rl)
                 val = w[gv] * hg_phase(cmu, g) * att
-                ex = np.maximum(length[gv] + r - dd, 0.0)
+                ex = np.maximum(length[gv] + rl - dd, 0.0)
                 ix = np.where(ex < x_edges[1], 0,
                               np.clip(np.floor((np.log(np.maximum(ex, 1e-300)) - lx0) * x_scale) + 1,
                                       1, nx - 1)).astype(np.int64)
@@ -269,7 +284,7 @@ def simulate(g: float, tau, photons: int, seed: int, *, axes: int = 2, r_max: fl
             d = rotate(d, hg_sample(rng, g, len(w)), rng)
     flush()
     # f per steradian = sum * 4 pi d^2 / (photons * axes * bin solid angle)
-    norm = 4 * math.pi * tau ** 2 / (photons * len(axis_list))
+    norm = 4 * math.pi * tau ** 2 / (photons * n_axes)
     return Tally(g, tau, th_edges, x_edges, photons,
                  np.stack([a.reshape(nT, nb, nx) for a in m]),
                  np.stack([a.reshape(nT, N_MU, nx) for a in e]), norm, stats,

@@ -253,7 +253,7 @@ class Render:
     separation: Separation = field(default_factory=Separation)
     psf: str = "apsf"                 # apsf (radiative transfer, apsf.py) | gaussian (SPEC 4.3)
     border: str = "open"              # open: scattered light leaves the frame | closed: it stays (docs/physics.md)
-    emission_profile: str = "isotropic"   # isotropic | lambertian (normals from the depth map)
+    emission_profile: str = "lambertian"  # lambertian (normals from the depth map) | isotropic; docs/physics.md
 
     def resolved(self) -> tuple[float, float, float]:
         """(c, epsilon, threshold) with `auto` replaced by the derived c and the calibrated

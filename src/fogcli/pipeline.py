@@ -182,6 +182,17 @@ class Plan:
             self._lut_key = None
             self.edge_off = [0] * len(self.sizes)
             self.edge = B(16)
+            self.lambert = self.apsf and cfg.render.emission_profile == "lambertian"
+            self.cosines = B(4 * n if self.lambert else 16)
+            self.cons_off = [0] * (len(self.sizes) + 1)
+            self.cons = B(16)
+            if self.apsf and self.source:
+                from .apsf import conservation_tables
+
+                tab, offs = conservation_tables(self.sizes, FILTERS[cfg.render.kernel],
+                                                cfg.render.interpolation != "linear-bilinear")
+                self.cons_off = offs + [0]
+                self.cons = cl.Buffer(rt.ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=tab)
             if self.apsf and cfg.render.border == "open":
                 from .apsf import edge_tables
 
@@ -190,7 +201,8 @@ class Plan:
         except cl.Error as exc:
             raise ProcessingError(f"cannot allocate device buffers for {width}x{height}: {exc}") from exc
         d = defines(cfg)
-        self.k_pre = rt.program("preprocess", **d).preprocess
+        self.k_pre_prog = rt.program("preprocess", **d)
+        self.k_pre = self.k_pre_prog.preprocess
         self.k_density = rt.program("density", **d)
         pyr = rt.program("pyramid", **d)
         self.k_reduce, self.k_reduce_src = pyr.reduce_level, pyr.reduce_level_source
@@ -247,12 +259,16 @@ class Plan:
         eps = self.cfg.render.resolved()[1]
         self.upload_lut(t)
         self.optical_depth(t)
+        if self.lambert:
+            t.add("preprocess", self.k_pre_prog.view_cosines(
+                q, *self.rt.nd(self.w, self.h), self.depth, self.cosines, np.int32(self.w), np.int32(self.h),
+                camera_struct(self.cfg, self.w, self.h)))
         t.add("preprocess", self.k_pre(
             q, *self.rt.nd(self.w, self.h), self.image, self.depth, self.direct, self.chain, self.spread,
             self.medium, self.trans, np.int32("transmittance" in self.aovs), np.int32(self.split_medium),
             np.int32(self.w), np.int32(self.h), medium_struct(self.cfg, self.w, self.h),
             self.prep, np.int32(self.source), np.float32(self.threshold(1)), np.float32(eps),
-            self.chain2, self.prep2, np.int32(self.sep), self.sep_params(), self.lut))
+            self.chain2, self.prep2, np.int32(self.sep), self.sep_params(), self.lut, self.cosines))
 
     def sep_params(self) -> np.ndarray:
         s = self.cfg.render.separation
@@ -269,7 +285,7 @@ class Plan:
                     q, *self.rt.nd(dw, dh), chain, prep,
                     np.int32(so), np.int32(sw), np.int32(sh), np.int32(do), np.int32(dw), np.int32(dh),
                     np.float32(self.threshold(k + 1)), np.float32(eps), self.lut, np.int32(k),
-                    self.edge, np.int32(self.edge_off[k])))
+                    self.edge, np.int32(self.edge_off[k]), self.cons, np.int32(self.cons_off[k])))
             return
         spread = self.spread2 if second else self.spread
         for k in range(1, len(self.sizes)):
@@ -305,7 +321,7 @@ class Plan:
             t.add("composite", self.k_collapse(
                 q, *self.rt.nd(w, h), chain, np.int32(o), np.int32(w), np.int32(h), half,
                 np.int32(uo), np.int32(uw), np.int32(uh), np.float32(a), prep, self.edge,
-                np.int32(self.edge_off[k])))
+                np.int32(self.edge_off[k]), self.cons, np.int32(self.cons_off[k + 1])))
 
     def composite_source(self, t: Timings, second: bool = False) -> None:
         top = len(self.sizes) - 1
@@ -317,7 +333,8 @@ class Plan:
             self.lv_buf, np.int32(top), np.float32(self.cfg.render.resolved()[0]),
             np.float32(self.half_step()), np.int32(second), np.int32(self.split_medium), self.out,
             np.int32(bool(self.aovs)),
-            self.level_aov, self.scat_aov, prep, self.spread, self.edge))
+            self.level_aov, self.scat_aov, prep, self.spread, self.edge, self.cons,
+            np.int32(self.cons_off[1])))
 
     def composite_separated(self, t: Timings) -> None:
         """Iser eq. 4.26-4.28 on the receiver fetch: level k_ssc = separation.level * K."""
