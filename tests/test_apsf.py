@@ -227,3 +227,31 @@ def test_lambertian_view_cosine_on_a_tilted_plane(rt, rng):
         b = oracles.lut_at(lut, off["lambert"] + ((ci + 1) * 3 + c) * apsf.NP, lp)
         want = levels0[0][..., c] * (a + (b - a) * fr)
         np.testing.assert_allclose(levels0[1][..., c], want, rtol=2e-3)
+
+
+def test_apsf_with_heterogeneous_media_separation_emission_and_every_aov():
+    """The default point spread with ground fog and a smoke ball (tau = ss P), pixel
+    separation, emission and ambient: every AOV comes out, the scattered AOV is what the
+    image adds to the direct and medium light, and separation keeps the scattered energy."""
+    from fogcli import apply
+    from fogcli.api import make_config
+    from fogcli.pipeline import AOV_NAMES
+    from fogcli.scenes import scene
+
+    rgb, z, fov = scene(96, 64, seed=21, night=True)
+    sets = [f"camera.fov={fov}", "medium.emission=[0.002, 0.002, 0.003]", "medium.ambient=[0.05, 0.05, 0.08]",
+            "medium.density=[{type: homogeneous, factor: 0.3}, {type: exponential, factor: 1.0, falloff: 0.3},"
+            " {type: sphere, factor: 2.0, center: [0, 0, -15], radius: 4}]"]
+    out, planes = apply(rgb, z, make_config("fog", sets=sets), aovs=AOV_NAMES, return_aovs=True)
+    sep, planes2 = apply(rgb, z, make_config("fog", sets=sets + ["render.separation.enabled=true"]),
+                         aovs=("scattered",), return_aovs=True)
+    assert np.isfinite(out).all() and np.isfinite(sep).all()
+    for name in AOV_NAMES:
+        keys = [k for k in planes if k == name or k.startswith(name + ".")]
+        assert keys, name
+    rgb_of = lambda p, n: np.stack([p[f"{n}.{c}"] for c in "RGB"], -1)  # noqa: E731
+    np.testing.assert_allclose(out, rgb_of(planes, "direct") + rgb_of(planes, "emission") + rgb_of(planes, "scattered"),
+                               rtol=1e-4, atol=1e-5)
+    assert rgb_of(planes, "scattered").sum() > 0.01 * out.sum()
+    e1, e2 = rgb_of(planes, "scattered").sum(), rgb_of(planes2, "scattered").sum()
+    assert abs(e2 / e1 - 1) < 0.02

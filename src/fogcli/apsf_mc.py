@@ -163,7 +163,8 @@ class Tally:
 def simulate(g: float, tau, photons: int, seed: int, *, axes: int = 2, r_max: float | None = None,
              r_cut: float = 12.0, rr_order: int = 30, rr_keep: float = 0.1, max_order: int | None = None,
              eps_frac: float = 0.05, eps_max: float = 0.3, batch: int = 50_000, th_edges=None, x_edges=None,
-             ball: str = "line", axes_far: int | None = None, tau_far: float = 1.0) -> Tally:
+             ball: str = "line", axes_far: int | None = None, tau_far: float = 1.0,
+             split: int = 1, margin: float = 4.0) -> Tally:
     """Run `photons` photons for asymmetry g and score cameras at distances `tau` on
     `axes` axes (1: +z, 2: +-z, 3..6: +-z, +-x, +-y). max_order limits the scattering
     orders scored (1 = single scattering, for checks against quadrature)."""
@@ -188,6 +189,7 @@ def simulate(g: float, tau, photons: int, seed: int, *, axes: int = 2, r_max: fl
     buf_m, buf_e = [], []
     esc_w, esc_l, esc_mu = [np.zeros(0)], [np.zeros(0)], [np.zeros(0)]   # weight, path length, emission z of photons dropped at r_max
     reach2 = (tau.max() + r_cut) ** 2
+    reg_r2, reg_z = (r_cut + margin) ** 2, tau.max() + r_cut + margin   # the scoring region (split)
     nbuf = 0
 
     def flush():
@@ -210,6 +212,7 @@ def simulate(g: float, tau, photons: int, seed: int, *, axes: int = 2, r_max: fl
         length = np.zeros(n)
         first = True
         order = 0
+        in_a = np.ones(n, bool)                        # the source is in the region that scores
         while len(w):
             if first:
                 step, wf = first_step(rng, len(w))
@@ -269,6 +272,28 @@ def simulate(g: float, tau, photons: int, seed: int, *, axes: int = 2, r_max: fl
                 nbuf = 0
             if max_order is not None and order >= max_order:
                 break
+            if split > 1:
+                # weight window by region (importance 1 near the camera axes, 1/split
+                # elsewhere): leaving the region, Russian roulette keeps 1/split (weight
+                # x split); coming back, the photon is split into `split` copies (weight
+                # / split). Unbiased; photons that can score keep their weight.
+                now_a = np.zeros(len(w), bool)
+                for ax, _ in axis_list[::2] if len(axis_list) > 1 else axis_list:
+                    pa2 = x2 - pos[:, ax] ** 2
+                    now_a |= (pa2 < reg_r2) & (np.abs(pos[:, ax]) < reg_z)
+                leave = in_a & ~now_a
+                back = ~in_a & now_a
+                dead = leave & (rng.random(len(w)) >= 1.0 / split)
+                w = np.where(leave, w * split, w)
+                w = np.where(back, w / split, w)
+                stats["rouletted"] += int(dead.sum())
+                stats["split"] = stats.get("split", 0) + int(back.sum())
+                rep = np.where(dead, 0, np.where(back, split, 1))
+                if rep.sum() != len(w) or dead.any():
+                    ii = np.repeat(np.arange(len(w)), rep)
+                    pos, d, d0, length, w, x2 = pos[ii], d[ii], d0[ii], length[ii], w[ii], x2[ii]
+                    now_a = now_a[ii]
+                in_a = now_a
             # photons beyond r_max are dropped (see the module docstring for what it costs)
             keep = x2 < r_max * r_max
             stats["escaped"] += int((~keep).sum())
@@ -281,6 +306,7 @@ def simulate(g: float, tau, photons: int, seed: int, *, axes: int = 2, r_max: fl
                 keep &= surv
                 w = w / rr_keep
             pos, d, d0, length, w = pos[keep], d[keep], d0[keep], length[keep], w[keep]
+            in_a = in_a[keep]
             d = rotate(d, hg_sample(rng, g, len(w)), rng)
     flush()
     # f per steradian = sum * 4 pi d^2 / (photons * axes * bin solid angle)
