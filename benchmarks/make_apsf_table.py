@@ -30,20 +30,22 @@ ALBEDO = np.array([0.02, 0.05, 0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.85, 0.9
 TAU = np.geomspace(0.01, 30.0, 30)
 SEED = 20261201
 R_MAX = 2 * TAU[-1]            # photons dropped beyond (their light added in diffusion theory)
-SECONDS_PER_G = 50.0           # photon counts are set for about this per g on one core
+SECONDS_PER_G = 75.0           # photon counts are set for about this per g on one core
 
 
 def photons_for(g: float, scale: float) -> int:
     """Photon count per g for about the same time per g: low g photons diffuse longer
-    (measured cost about 0.3 + 0.37 (1 - g) ms per photon on this machine's core)."""
-    ms = 0.3 + 0.37 * (1 - g)
+    (measured cost about 0.26 + 0.68 (1 - g)^1.5 ms per photon on this machine's core with
+    the weight window and no early roulette)."""
+    ms = 0.26 + 0.68 * (1 - g) ** 1.5
     return max(1000, int(round(SECONDS_PER_G * 1e3 / ms * scale, -3)))
 
 
 def rr_order_for(g: float) -> int:
-    """Russian roulette after this many scatterings: forward phases need more orders to
-    cross the same distance, and their photons are cheap."""
-    return int(30 / math.sqrt(1 - g))
+    """Russian roulette (keep 1/2) after this many scatterings, a bound on the time of the
+    longest diffusers only (the weight window of apsf_mc does the work): forward phases need
+    more orders to cross the same distance."""
+    return int(120 / math.sqrt(1 - g))
 
 
 def run_g(g: float, photons: int, seed: int, tau=TAU, r_max=R_MAX):
@@ -105,6 +107,7 @@ def main(argv=None) -> int:
     ap.add_argument("--doc", default=str(ROOT / "docs/apsf-table.md"))
     ap.add_argument("--scale", type=float, default=None, help=argparse.SUPPRESS)   # smoke runs
     ap.add_argument("--doc-only", action="store_true", help="re-render the doc from /tmp/apsf_checks.pkl")
+    ap.add_argument("--before", default=None, help="checks pickle of a previous run: its noise table is shown too")
     args = ap.parse_args(argv)
     if args.doc_only:
         import pickle
@@ -202,7 +205,16 @@ def main(argv=None) -> int:
     t_total = time.time() - t_start
 
     # ---- doc ----
+    if args.before:
+        import pickle
+        with open(args.before, "rb") as fh:
+            old = pickle.load(fh)
+        noise_before = dict(noise=old["noise"], photons=old["photons"], t_table=old["t_table"],
+                            secs=old["secs"])
+    else:
+        noise_before = None
     ctx = dict(stack=stack, photons=photons, secs=secs, t_table=t_table, t_total=t_total,
+               noise_before=noise_before,
                ss_rows=ss_rows, noise=noise, noise_g=noise_g, th_edges=th_edges, g_off=g_off,
                a_off=a_off, tau_off=tau_off, interp_rows=interp_rows, trunc=trunc, quick=args.quick)
     import pickle
@@ -253,16 +265,25 @@ def write_doc(ctx: dict, doc: str | None) -> None:
       "with the first three moments per bin so exp(-sa x) is averaged within a bin): one run per g "
       "serves every albedo.")
     L("* Point (next-event) estimator at every vertex, w p_HG(mu) exp(-r) / r^2, to cameras at all "
-      "30 distances on +z and -z at once. Inside a ball of radius eps = min(0.05 d, 0.3) around the "
-      "camera 1/r^2 is replaced by its ball average 3/eps^2 (same expectation for a uniform "
-      "collision density; bounded variance). Pairs farther than 12 mfp are not scored.")
+      "30 distances on +z and -z at once. Inside a ball of radius eps = min(0.1 d, 0.6) around the "
+      "camera a vertex at r is scored as if at r' = eps (r/eps)^3 on the same ray with 1/r^2 -> 3/eps^2 "
+      "(r' uniform on [0, eps] for a uniform vertex density: exact per direction, exp(-r) and "
+      "absorption included; bounded variance; a density gradient moves ~ eps/4 |grad ln n| of the "
+      "ball's share between directions, no total). Pairs farther than 8 mfp are not scored "
+      "(last free path > 8: probability 3e-4).")
     L("* Importance sampling with bounded weights: the emission direction (1/3 isotropic, 2/3 "
       "concentrated around +-z) and the first free path (1/2 exponential, 1/2 log-uniform on "
       "[1e-5, 60]) so that small tau and forward phases get photons.")
     L(f"* Truncation: photons are dropped beyond r_max = {R_MAX:g} mfp; their later light is added as "
       "an isotropic radiance from diffusion theory (shell theorem for the Yukawa kernel, each "
-      "dropped photon weighted by exp(-sa l)). Russian roulette (keep 1/10) after "
-      "30 / sqrt(1 - g) scatterings.")
+      "dropped photon weighted by exp(-sa l)).")
+    L("* Weight window by region instead of the older order-based roulette (keep 1/10 after "
+      "30 / sqrt(1 - g) scatterings, which put weight-10 photons next to the far cameras: the main "
+      "source of the large-tau noise). Region R = within 12 mfp of the camera axis (|z| < 42): a "
+      "photon leaving R is kept with probability 1/10 (weight x 10), one coming back is split into "
+      "10 copies (weight / 10). Vertices outside R cannot score (> 8 mfp from every camera), so the "
+      "photons near the cameras keep their weight and the time saved outside R pays for them. "
+      "Unbiased. A last roulette (keep 1/2) after 120 / sqrt(1 - g) scatterings bounds the time.")
     L("* Fit: NNLS on the ring energies (the profile weighted by u du) and the cumulative energy, "
       "with sum(w) = energy imposed exactly. Light narrower than sigma_0 goes to w_0.")
     L("")
@@ -295,6 +316,42 @@ def write_doc(ctx: dict, doc: str | None) -> None:
               f"{pct(de[:, sel], 100):.3f} | {pct(dl[:, sel], 50):.3f} | {pct(dl[:, sel], 90):.3f} | "
               f"{pct(dl[:, sel], 100):.3f} |")
     L("")
+    L("The same for albedo >= 0.9 only (fog: the light that matters in thick media):")
+    L("")
+    L("| g | tau range | energy median | p90 | max | shape L1 median | p90 | max |")
+    L("|---|---|---|---|---|---|---|---|")
+    hia = ALBEDO >= 0.9
+    for g in noise_g:
+        de, dl = noise[g]
+        de, dl = de[hia], dl[hia]
+        for lo, hi in ((0, 1.0), (1.0, 5.0), (5.0, 31)):
+            sel = (TAU >= lo) & (TAU < hi)
+            L(f"| {g:g} | [{lo:g}, {hi:g}) | {pct(de[:, sel], 50):.3f} | {pct(de[:, sel], 90):.3f} | "
+              f"{pct(de[:, sel], 100):.3f} | {pct(dl[:, sel], 50):.3f} | {pct(dl[:, sel], 90):.3f} | "
+              f"{pct(dl[:, sel], 100):.3f} |")
+    L("")
+    nb = ctx.get("noise_before")
+    if nb:
+        L("Before / after: the same two-seed measure of the previous estimator (ball 3/eps^2 with "
+          "eps = min(0.05 d, 0.3), r_cut 12, roulette keep 1/10 after 30 / sqrt(1 - g) scatterings, "
+          f"no weight window; its table took {nb['t_table'] / 60:.1f} min with photons per g "
+          f"{min(nb['photons'])}-{max(nb['photons'])}; this one {t_table / 60:.1f} min with "
+          f"{min(photons)}-{max(photons)}). Energy median / p90, shape L1 median / p90, before -> after:")
+        L("")
+        L("| g | tau range | albedos | energy median | energy p90 | shape median | shape p90 |")
+        L("|---|---|---|---|---|---|---|")
+        for g in noise_g:
+            for aname, asel in (("all", np.ones(len(ALBEDO), bool)), (">= 0.9", hia)):
+                for lo, hi in ((0, 1.0), (1.0, 5.0), (5.0, 31)):
+                    sel = (TAU >= lo) & (TAU < hi)
+                    cells = []
+                    for k in (0, 1):
+                        for q in (50, 90):
+                            b = pct(nb["noise"][g][k][asel][:, sel], q)
+                            a_ = pct(noise[g][k][asel][:, sel], q)
+                            cells.append(f"{b:.3f} -> {a_:.3f}")
+                    L(f"| {g:g} | [{lo:g}, {hi:g}) | {aname} | " + " | ".join(cells) + " |")
+        L("")
     L("## Projection on the Gaussians")
     L("")
     fe = stack["fit_error"]
@@ -375,7 +432,7 @@ def write_doc(ctx: dict, doc: str | None) -> None:
       "(within a few per cent for g >= 0.9 below tau ~1; 1.0-1.2 for g = 0.85 up to tau ~2.5). "
       "At large tau and a near 1 diffusion makes it grow (fluence ~ 3 (1 - g) tau relative to "
       "I / d^2); for small albedo absorption along the longer scattered paths makes it fall. "
-      "Beyond tau ~1 the entries carry the noise of the noise table (tens of per cent).")
+      "Beyond tau ~1 the entries carry the noise of the noise table above.")
     L("")
     L("## Fraction of the forward energy beyond 30 degrees")
     L("")
@@ -417,17 +474,24 @@ def write_doc(ctx: dict, doc: str | None) -> None:
     ir_ = np.array(interp_rows)
     small = ir_[ir_[:, 2] < 0.3]
     worst = ir_[ir_[:, 2] < 1.0][np.argmax(np.abs(ir_[ir_[:, 2] < 1.0, 3]))]
-    L("* The variance of the point estimator is heavy-tailed (vertices close to the camera whose "
-      "photon heads at it, p_HG up to ~100 per sr for g = 0.96, with roulette weights): single "
-      "events dominate beyond tau ~1. Example: the worst interpolation point below tau 1 "
+    big = np.concatenate([noise[g][0][:, TAU >= 5].ravel() for g in noise_g])
+    big_hi = np.concatenate([noise[g][0][ALBEDO >= 0.9][:, TAU >= 5].ravel() for g in noise_g])
+    L("* The variance of the point estimator is still heavy-tailed (few vertices near a far camera; "
+      "vertices close to the camera whose photon heads at it, p_HG up to ~100 per sr for g = 0.96; "
+      "for small albedo at large tau only rare near-straight paths count). Beyond tau 5 the "
+      f"seed-to-seed energy difference is median {pct(big, 50):.3f}, p90 {pct(big, 90):.3f} over all "
+      f"albedos and the three g of the noise table ({pct(big_hi, 50):.3f} / {pct(big_hi, 90):.3f} for "
+      "albedo >= 0.9). Example: the worst interpolation point below tau 1 "
       f"(g {worst[0]:g}, a {worst[1]:g}, tau {worst[2]:.3g}: energy {worst[3]:+.2f}, shape L1 {worst[4]:.2f}) "
       "is one event in the direct run, which shifts all its albedos >= 0.45 alike.")
     L(f"* The 1 % interpolation target is NOT demonstrated: below tau 0.3 the interpolated-vs-direct "
       f"energy differs by median {pct(np.abs(small[:, 3]), 50):.3f}, p90 {pct(np.abs(small[:, 3]), 90):.3f} "
       f"(shape L1 median {pct(small[:, 4], 50):.3f}), the same size as the seed-to-seed noise, so the "
-      "check is noise-limited; beyond tau ~1 the table itself is noisy at the 10-100 % level. "
+      "check is noise-limited; beyond tau ~1 the table itself has the noise above. "
       "Reaching 1 % needs far more photons at large tau, or a lower-variance estimator there "
-      "(e.g. track length in a small sphere around the camera).")
+      "(e.g. a track-length estimator binned by direction of arrival in a ball around far cameras, "
+      "more camera axes with emission sampled towards each, or nested weight-window regions around "
+      "the far cameras).")
     L("* Infinite homogeneous medium: no boundaries, no ground.")
     if doc:
         Path(doc).write_text("\n".join(lines) + "\n")

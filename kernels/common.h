@@ -233,9 +233,9 @@ inline float4 up2_fetch4(__global const float4 *img, int w, int h, int x, int y)
 }
 
 #ifdef PSF_APSF
-/* up2_fetch4 for the apsf chain: the same fixed-phase taps, zero outside the level, and
- * each input pixel's weights scaled by ux[j] uy[i] so that it hands the level below
- * exactly its energy (apsf.conservation_tables) */
+/* up2_fetch4 for the apsf chain: the same fixed-phase taps, clamp-to-edge (closed) or zero
+ * outside (open), and each input pixel's weights scaled by ux[j] uy[i] so that it hands
+ * the level below exactly its energy (apsf.conservation_tables) */
 inline float4 up2_cons(__global const float4 *img, int w, int h, int x, int y,
                        __global const float *ux, __global const float *uy)
 {
@@ -257,13 +257,18 @@ inline float4 up2_cons(__global const float4 *img, int w, int h, int x, int y,
         return up2_fetch4(img, w, h, x, y);
     float4 acc = (float4)(0.0f);
     for (int r = 0; r < NT; ++r) {
-        int jy = y0 + r;
-        if (jy < 0 || jy >= h) continue;
+#ifdef BORDER_OPEN
+        /* open: zero outside (apsf.conservation_tables) */
+        if (y0 + r < 0 || y0 + r >= h) continue;
+#endif
+        int jy = clampi_(y0 + r, 0, h - 1);
         __global const float4 *row = img + jy * w;
         float4 racc = (float4)(0.0f);
         for (int t = 0; t < NT; ++t) {
-            int jx = x0 + t;
-            if (jx < 0 || jx >= w) continue;
+#ifdef BORDER_OPEN
+            if (x0 + t < 0 || x0 + t >= w) continue;
+#endif
+            int jx = clampi_(x0 + t, 0, w - 1);
             racc += (wx[t] * ux[jx]) * row[jx];
         }
         acc += (wy[r] * uy[jy]) * racc;

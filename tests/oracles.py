@@ -296,14 +296,14 @@ def apsf_collapse(sc, lp0, lut, levels, taps, cubic, a, open_border=False, slots
             keep = _blur3(hs, a) + (cols[k] - preps[k][..., :3] - half) * share(k, 0)
         else:
             keep = _blur3(half, a) + cols[k] - preps[k][..., :3] - half
-        E = keep + _up2_conserving(E, keep.shape[0], keep.shape[1], cubic)
+        E = keep + _up2_conserving(E, keep.shape[0], keep.shape[1], cubic, open_border)
     return E
 
 
-def _up2_conserving(E, h, w, cubic):
+def _up2_conserving(E, h, w, cubic, open_border=False):
     """Factor-2 up-sampling to (h, w): the B-spline (or tent) weights of an output centre,
-    zero outside the level, and each input pixel's weights scaled so that they sum to 2
-    per axis over the outputs (it hands on exactly its energy)."""
+    clamp-to-edge (zero outside with the open border), and each input pixel's weights
+    scaled so that they sum to 2 per axis over the outputs (it hands on exactly its energy)."""
     def weights(n_out, n_in):
         M = np.zeros((n_out, n_in))
         for y in range(n_out):
@@ -313,8 +313,9 @@ def _up2_conserving(E, h, w, cubic):
             ws = _bspline(f) if cubic else np.array([1 - f, f])
             first = i0 - 1 if cubic else i0
             for t, wt in enumerate(ws):
-                if 0 <= first + t < n_in:
-                    M[y, first + t] += wt
+                if open_border and not 0 <= first + t < n_in:
+                    continue   # open: zero outside
+                M[y, min(max(first + t, 0), n_in - 1)] += wt
         return M * (2.0 / np.maximum(M.sum(axis=0), 1e-12))[None, :]
     My, Mx = weights(h, E.shape[0]), weights(w, E.shape[1])
     return np.einsum("yi,xj,ijc->yxc", My, Mx, E)

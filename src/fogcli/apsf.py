@@ -270,7 +270,8 @@ def up2_taps(n_out: int, cubic: bool):
             yield (y >> 1) - 1 + (y & 1), UP_TENT[y & 1]
 
 
-def conservation_tables(sizes: list[tuple[int, int]], taps, cubic: bool) -> tuple[np.ndarray, list[int]]:
+def conservation_tables(sizes: list[tuple[int, int]], taps, cubic: bool,
+                        open_border: bool = False) -> tuple[np.ndarray, list[int]]:
     """Energy-conserving borders for the apsf chain. The plain filters keep a constant
     image constant at the border but not its energy (a bright source near the edge of a
     small level gains up to tens of per cent). Here each SOURCE pixel's weights are
@@ -297,8 +298,9 @@ def conservation_tables(sizes: list[tuple[int, int]], taps, cubic: bool) -> tupl
         got = np.zeros(n_in)
         for j0, w in up2_taps(n_out, cubic):
             for t, wt in enumerate(w):
-                if 0 <= j0 + t < n_in:
-                    got[j0 + t] += wt
+                if open_border and not 0 <= j0 + t < n_in:
+                    continue
+                got[min(max(j0 + t, 0), n_in - 1)] += wt
         return 2.0 / np.maximum(got, 1e-12)
 
     for k in range(1, len(sizes)):

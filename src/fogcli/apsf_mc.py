@@ -24,14 +24,19 @@ anti-correlated halves of each photon's vertices, which halves the variance at n
 propagation).
 
 Near the camera 1/r^2 has infinite variance. Inside a ball of radius eps(d) around the
-camera the estimator is replaced by the ball average 3 / eps^2: for a collision density
-that is uniform across the ball this has the same expectation (int_0^eps 4 pi r^2 / r^2 dr
-= 3 / eps^2 * 4/3 pi eps^3) and it is bounded. A linear density gradient changes nothing in
-the total (its odd part averages out); it moves (1/4) eps |grad n| / n of the ball's share
-of the light between directions (the ball's share along a ray is ~ eps / min(d, 1)).
-eps = min(0.05 d, 0.3): at most ~2 % of the light is moved in angle in the worst case
-(d >~ 6, gradients on the scale of 1 mfp), nothing in total; at small d the single
-scattering checks against quadrature (tests, docs) show no bias at the 1 % level.
+camera a vertex at distance r is scored as if it were at r' = eps (r / eps)^3 along the same
+direction, with 1/r^2 replaced by 3 / eps^2: for a vertex density that is uniform across the
+ball r' is uniform on [0, eps], so per direction the ball gives int_0^eps exp(-(1 + sa) r') dr',
+exactly the point estimator's int_0^eps exp(-(1 + sa) r) dr (r' is used in exp(-r) and in
+the path length, so every albedo is exact). The older variant (3 / eps^2 exp(-r) with the true
+r) was low by ~ eps / 4 of the ball's share (1.5-2 % at eps = 0.3). What is left is a density
+gradient across the ball: a linear gradient changes no total (its odd part averages out); it
+moves ~ (1/4) eps |grad n| / n of the ball's share of the light between directions (the ball's
+share along a ray is ~ 1 - exp(-eps)). eps = min(0.1 d, 0.6): at d >= 6, where eps = 0.6, the
+field varies on the scale of the transport length (>~ 3 mfp for g <= 0.5 at a >= 0.9, more
+for forward phases), i.e. ~ 0.6 / 4 / 3 * 0.45 ~ 2 % moved in angle in the worst case,
+nothing in total; at small d the single scattering checks against quadrature (tests, docs)
+bound it.
 
 Truncation. Without absorption photons never die. A photon is dropped when it is further
 than `r_max` from the source. The light of the dropped photons is not lost: `profiles` adds
@@ -39,13 +44,23 @@ it as an isotropic radiance from diffusion theory (shell theorem for the Yukawa 
 each dropped photon weighted by exp(-sa l) at the drop). Without that tail the loss would be
 a fraction ~ d / r_max of the fluence at a = 1 and ~exp(-(r_max - d) / L_diff) of that with
 absorption; `make_apsf_table.py` reports the tail's share, which bounds the error of this
-approximation. Pairs with vertex-camera distance beyond `r_cut` are not scored: such a
-vertex reaches the camera unscattered with probability < exp(-r_cut) = 6e-6; in units of
-the thin-medium energy exp(-sa d)(1 - exp(-d)) the dropped part is at most ~ d exp(-r_cut)
-(straight forward paths, whose vertices are spread evenly along the line of sight).
+approximation. Pairs with vertex-camera distance beyond `r_cut` = 8 are not scored: the last
+free path of a scattered photon exceeds r_cut with probability exp(-r_cut) = 3e-4, the
+order of the light dropped (in units of the thin-medium energy exp(-sa d)(1 - exp(-d)) the
+unscattered-from-far part is at most ~ d exp(-d) exp(-r_cut)).
+
+Weight window. Vertices farther than r_cut from every camera score nothing, and at large tau
+most of a diffusing photon's scatterings happen there. The space is split into the region
+R within r_cut + `margin` of the camera axes (|coordinate along the axis| < max tau + r_cut +
+margin) and the rest: a photon leaving R is kept with probability 1 / `split` (weight x
+split); a photon coming back into R is split into `split` copies (weight / split each).
+Unbiased (importance ratios exact); photons near the cameras keep their weight (the older
+order-based roulette, keep 1/10 after 30 / sqrt(1 - g) scatterings, put weight-10 photons
+next to the far cameras, the main source of the large-tau noise), and the time saved outside
+R pays for the photons kept inside. The margin keeps a photon entering R from scoring with
+its large weight (it would have to fly > margin mfp unscattered to reach scoring distance).
 After `rr_order` scatterings Russian roulette keeps a photon with probability `rr_keep`
-(weight 1 / rr_keep): unbiased, it trades the variance of the high orders (which matter at
-large tau only) for time.
+(weight 1 / rr_keep): unbiased, a bound on the time of the very long diffusers.
 """
 from __future__ import annotations
 
@@ -161,13 +176,20 @@ class Tally:
 
 
 def simulate(g: float, tau, photons: int, seed: int, *, axes: int = 2, r_max: float | None = None,
-             r_cut: float = 12.0, rr_order: int = 30, rr_keep: float = 0.1, max_order: int | None = None,
-             eps_frac: float = 0.05, eps_max: float = 0.3, batch: int = 50_000, th_edges=None, x_edges=None,
+             r_cut: float = 8.0, rr_order: int = 30, rr_keep: float = 0.5, max_order: int | None = None,
+             eps_frac: float = 0.1, eps_max: float = 0.6, batch: int = 50_000, th_edges=None, x_edges=None,
              ball: str = "line", axes_far: int | None = None, tau_far: float = 1.0,
-             split: int = 1, margin: float = 4.0) -> Tally:
+             split: int = 10, margin: float = 4.0) -> Tally:
     """Run `photons` photons for asymmetry g and score cameras at distances `tau` on
-    `axes` axes (1: +z, 2: +-z, 3..6: +-z, +-x, +-y). max_order limits the scattering
-    orders scored (1 = single scattering, for checks against quadrature)."""
+    `axes` axes (1: +z, 2: +-z, 3..6: +-z, +-x, +-y; with axes_far > axes the extra axes
+    score only the cameras at tau >= tau_far). max_order limits the scattering orders
+    scored (1 = single scattering, for checks against quadrature).
+    ball: "line" (default) maps r -> eps (r / eps)^3 inside the near-camera ball (exact for a
+    uniform vertex density, exponentials and absorption included), "avg" the older 3 / eps^2
+    with the true r in exp(-r) (biased low by ~ eps / 4 of the ball's share).
+    split: weight window by region (see the module docstring); 1 switches it off.
+    The previous estimator is ball="avg", r_cut=12, eps_frac=0.05, eps_max=0.3, split=1,
+    rr_keep=0.1."""
     tau = np.asarray(tau, np.float64)
     th_edges = theta_edges() if th_edges is None else th_edges
     x_edges = excess_edges() if x_edges is None else x_edges

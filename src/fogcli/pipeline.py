@@ -190,7 +190,8 @@ class Plan:
                 from .apsf import conservation_tables
 
                 tab, offs = conservation_tables(self.sizes, FILTERS[cfg.render.kernel],
-                                                cfg.render.interpolation != "linear-bilinear")
+                                                cfg.render.interpolation != "linear-bilinear",
+                                                cfg.render.border == "open")
                 self.cons_off = offs + [0]
                 self.cons = cl.Buffer(rt.ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=tab)
             if self.apsf and cfg.render.border == "open":
