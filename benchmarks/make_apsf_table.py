@@ -492,6 +492,13 @@ def write_doc(ctx: dict, doc: str | None) -> None:
       "(e.g. a track-length estimator binned by direction of arrival in a ball around far cameras, "
       "more camera axes with emission sampled towards each, or nested weight-window regions around "
       "the far cameras).")
+    r_ = stack["ratio"][:, ALBEDO >= 0.9]
+    spike = r_[..., 1:-1] / np.sqrt(np.maximum(r_[..., :-2] * r_[..., 2:], 1e-300))
+    ig_, ia_, it_ = np.unravel_index(np.argmax(np.abs(np.log(np.maximum(spike, 1e-300)))), spike.shape)
+    L("* Single events are still visible as spikes along tau: the largest, for albedo >= 0.9, is "
+      f"g {G[ig_]:g}, tau {TAU[it_ + 1]:.3g}: ratio {spike[ig_, ia_, it_]:.2f} x the geometric mean of its "
+      "two tau neighbours (the same event at every albedo). fogcli interpolates linearly in log tau, "
+      "so it reaches the output around that distance.")
     L("* Infinite homogeneous medium: no boundaries, no ground.")
     if doc:
         Path(doc).write_text("\n".join(lines) + "\n")
