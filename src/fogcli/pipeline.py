@@ -385,7 +385,8 @@ _PLANS: dict = {}
 def get_plan(rt: Runtime, width: int, height: int, cfg: Config, aovs=()) -> Plan:
     """Reuse buffers across images of one size and one compile-time configuration."""
     key = (id(rt), width, height, tuple(sorted(defines(cfg).items())), cfg.render.levels, tuple(aovs),
-           cfg.render.method == "pyramid" and cfg.render.fetch == "source", cfg.render.separation.enabled)
+           cfg.render.method == "pyramid" and cfg.render.fetch == "source", cfg.render.separation.enabled,
+           cfg.render.border)   # a plan's edge tables depend on the border policy
     plan = _PLANS.get(key)
     if plan is None:
         if len(_PLANS) > 4:
