@@ -31,12 +31,6 @@ inline void cam_point(const camera_t *c, __global const float *depth, int w, int
     *x = dx * s; *y = dy * s; *z = -s;
 }
 
-/* Stage 1a (emission_profile: lambertian): the view cosine of every pixel, in a kernel of
- * its own so that the neighbour reads and their branches do not keep the preprocess
- * kernel from being vectorised. */
-__kernel void view_cosines(__global const float *depth, __global float *cosv, const int width,
-                           const int height, const camera_t cam);
-
 /* |cos| between the surface normal and the line to the camera. The normal comes from the
  * depth map with, along each axis, the one-sided difference whose depth step is smaller,
  * so that a depth edge does not tilt the surfaces on either side of it. Sky and anything
@@ -61,6 +55,9 @@ inline float view_cosine(const camera_t *c, __global const float *depth, int w, 
     return (cosv == cosv && cosv <= 1.0f) ? cosv : 1.0f;   /* NaN (sky, flat zero) */
 }
 
+/* Stage 1a (emission_profile: lambertian): the view cosine of every pixel, in a kernel of
+ * its own so that the neighbour reads and their branches do not keep the preprocess
+ * kernel from being vectorised. */
 __kernel void view_cosines(__global const float *depth, __global float *cosv, const int width,
                            const int height, const camera_t cam)
 {

@@ -82,18 +82,12 @@ def spread(tab: dict, g: float, albedo: float, tau: np.ndarray) -> tuple[np.ndar
     where the shape has settled: the single-scattering shape below, the diffuse one above).
     Interpolated linearly in log tau, albedo and g; the ratio rather than the energy,
     because it varies slowly where the energy itself changes by orders of magnitude."""
-    tgrid = np.log(tab["tau"])
-    ratio_t = _slice_ga(tab, "ratio", g, albedo)
-    shape_t = _slice_ga(tab, "shape", g, albedo)
-    lt = np.clip(np.log(np.maximum(np.asarray(tau, np.float64), 1e-300)), tgrid[0], tgrid[-1])
-    i = np.clip(np.searchsorted(tgrid, lt) - 1, 0, len(tgrid) - 2)
-    t = (lt - tgrid[i]) / (tgrid[i + 1] - tgrid[i])
-    ratio = (1 - t) * ratio_t[i] + t * ratio_t[i + 1]
-    shape = (1 - t)[..., None] * shape_t[i] + t[..., None] * shape_t[i + 1]
-    return ratio, shape
+    ratio = _along_tau(tab, _slice_ga(tab, "ratio", g, albedo)[:, None], tau)[..., 0]
+    return ratio, _along_tau(tab, _slice_ga(tab, "shape", g, albedo), tau)
 
 
 def _along_tau(tab: dict, per_tau: np.ndarray, tau: np.ndarray) -> np.ndarray:
+    """per_tau (T, ...) interpolated linearly in log tau at tau, clamped to the grid."""
     tgrid = np.log(tab["tau"])
     lt = np.clip(np.log(np.maximum(np.asarray(tau, np.float64), 1e-300)), tgrid[0], tgrid[-1])
     i = np.clip(np.searchsorted(tgrid, lt) - 1, 0, len(tgrid) - 2)
@@ -174,12 +168,21 @@ def p_range(ss, tab: dict) -> tuple[float, float]:
     return lo, max(hi, lo + 1e-3)
 
 
+def frame_share(x0, n0: int, sigma: float) -> np.ndarray:
+    """Along one axis, the share of a Gaussian of `sigma` px centred at x0 (level-0 px)
+    that lands in [0, n0]."""
+    x0 = np.asarray(x0, np.float64)
+    if sigma <= 0:
+        return np.ones_like(x0)
+    k = 1.0 / (math.sqrt(2.0) * sigma)
+    erf = np.vectorize(math.erf, otypes=[float])
+    return 0.5 * (erf((n0 - x0) * k) + erf(x0 * k))
+
+
 def in_frame(sigma: np.ndarray, width: int, height: int) -> np.ndarray:
     """Share of a Gaussian of `sigma` px centred in a width x height frame that lands in it."""
-    from math import erf
-
-    f = np.vectorize(lambda s, n: erf(n / (2.0 * math.sqrt(2.0) * s)) if s > 0 else 1.0, otypes=[float])
-    return f(sigma, width) * f(sigma, height)
+    return np.array([float(frame_share(width / 2, width, s) * frame_share(height / 2, height, s))
+                     for s in np.atleast_1d(sigma)])
 
 
 def build_lut(sa, ss, g: float, focal_px: float, spread_scale: float, levels: int, c: float,
@@ -231,26 +234,17 @@ def edge_tables(sizes: list[tuple[int, int]], c: float, half_var: float) -> tupl
     on each level pixel, that lands in the frame along x (w_k values) and along y (h_k),
     then the same for the half-blurred slot. The kernels multiply the x and y factors.
     Returns the float32 table and each level's offset into it."""
-    from math import erf
-
     W, H = sizes[0]
     levels = len(sizes) - 1
     slots = slot_widths(levels, c, half_var)
     parts, offs, o = [], [], 0
-
-    def share(n_px: int, n0: int, scale: float, sigma: float) -> np.ndarray:
-        x0 = scale * (np.arange(n_px) + 0.5)
-        if sigma <= 0:
-            return np.ones(n_px)
-        k = 1.0 / (math.sqrt(2.0) * sigma)
-        return np.array([0.5 * (erf((n0 - v) * k) + erf(v * k)) for v in x0])
-
     for k, (w, h) in enumerate(sizes):
         sharp = slots[2 * k]
         half = slots[2 * k + 1] if 2 * k + 1 < len(slots) else sharp
         offs.append(o)
+        xs, ys = 2.0 ** k * (np.arange(w) + 0.5), 2.0 ** k * (np.arange(h) + 0.5)   # level-0 centres
         for sg in (sharp, half):
-            parts += [share(w, W, 2.0 ** k, sg), share(h, H, 2.0 ** k, sg)]
+            parts += [frame_share(xs, W, sg), frame_share(ys, H, sg)]
         o += 2 * (w + h)
     return np.concatenate(parts).astype(np.float32), offs
 

@@ -246,11 +246,11 @@ class Plan:
 
         m, r = self.cfg.medium, self.cfg.render
         frame = (self.w, self.h) if r.border == "open" else None
-        key = (m.absorption, m.scattering, m.asymmetry, self.cfg.camera.focal(self.w), r.spread_scale,
-               r.resolved()[0], id(table), frame)
+        focal, c = self.cfg.camera.focal(self.w), r.resolved()[0]
+        key = (m.absorption, m.scattering, m.asymmetry, focal, r.spread_scale, c, id(table), frame)
         if key != self._lut_key:
-            self.lut_host = build_lut(m.absorption, m.scattering, m.asymmetry, key[3], r.spread_scale,
-                                      len(self.sizes) - 1, key[5], 2.0 * self.half_step(), table, frame)
+            self.lut_host = build_lut(m.absorption, m.scattering, m.asymmetry, focal, r.spread_scale,
+                                      len(self.sizes) - 1, c, 2.0 * self.half_step(), table, frame)
             t.add("upload", self.rt.cl.enqueue_copy(self.rt.queue, self.lut, self.lut_host))
             self._lut_key = key
         return self.lut_host
@@ -278,7 +278,7 @@ class Plan:
     def pyramid(self, t: Timings, masked: bool, second: bool = False) -> None:
         eps = self.cfg.render.resolved()[1]
         q = self.rt.queue
-        chain, prep = (self.chain2, self.prep2) if second else (self.chain, self.prep)
+        chain, _, prep = self.source_bufs(second)
         if self.source:
             for k in range(1, len(self.sizes)):
                 (so, sw, sh, _), (do, dw, dh, _) = self.lv[k - 1], self.lv[k]
@@ -310,12 +310,19 @@ class Plan:
             np.float32(self.threshold(k + 1)), np.float32(self.cfg.render.resolved()[1]),
             self.lut, np.int32(k), np.int32(w), self.edge, np.int32(self.edge_off[k])))
 
+    def source_bufs(self, second: bool) -> tuple:
+        """(colour chain, half-octave scratch, prep chain) of the main or the separated
+        source collapse; the main one's scratch is the input buffer, free after preprocess."""
+        if second:
+            return self.chain2, self.half2, self.prep2
+        return self.chain, self.image, self.prep
+
     def collapse(self, t: Timings, second: bool = False) -> None:
         """Source collapse of levels K-1 .. 1, in place over the colour chain (level 0 is
         fused into composite_source). The input buffer, free after preprocess, is the
         scratch for the half-octave shares."""
         q, a = self.rt.queue, self.half_step()
-        chain, half, prep = (self.chain2, self.half2, self.prep2) if second else (self.chain, self.image, self.prep)
+        chain, half, prep = self.source_bufs(second)
         for k in range(len(self.sizes) - 2, 0, -1):
             (o, w, h, _), (uo, uw, uh, _) = self.lv[k], self.lv[k + 1]
             self.split(t, k, chain, half)
@@ -326,7 +333,7 @@ class Plan:
 
     def composite_source(self, t: Timings, second: bool = False) -> None:
         top = len(self.sizes) - 1
-        chain, half, prep = (self.chain2, self.half2, self.prep2) if second else (self.chain, self.image, self.prep)
+        chain, half, prep = self.source_bufs(second)
         if top > 0:
             self.split(t, 0, chain, half)
         t.add("composite", self.k_comp_src(

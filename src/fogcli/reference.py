@@ -74,7 +74,7 @@ def reference_into(plan, t) -> None:
         for j, sj in enumerate(sigmas):
             if shape[j].max() <= 0.0:
                 continue   # no pixel of this medium has light in this Gaussian
-            R = blur.norms(max(float(sj), 1e-3)) if sj >= S0 else blur.norms(1e-3)
+            R = blur.norms(float(sj) if sj >= S0 else 1e-3)   # sharper than S0: a delta
             t.add("reference", blur.prog.ref_apsf_source(q, *rt.nd(w, h), plan.chain, plan.lut, np.int32(w),
                                                          np.int32(h), np.int32(j), blur.nx, blur.ny, blur.src))
             blur.blur_add(R)
