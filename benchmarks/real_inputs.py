@@ -158,7 +158,7 @@ def windows(tmp: Path):
     p = tmp / "win.exr"
     write_img(p, np.dstack([rgb, a, z]), ["R", "G", "B", "A", "Z"], window=(17, 23), display=(0, 0, 200, 150),
               attrs=[("camera:lens", "35mm")])
-    r = fogcli("apply", p, "-o", tmp / "win_out.exr", "--set", "output.half=true")
+    r = fogcli("apply", p, "-o", tmp / "win_out.exr", "--set", "output.type=half", "--set", "camera.empty_depth=0")
     spec, px = read(tmp / "win_out.exr")
     kept = ((spec.x, spec.y, spec.width, spec.height) == (17, 23, 90, 70)
             and (spec.full_x, spec.full_y, spec.full_width, spec.full_height) == (0, 0, 200, 150)

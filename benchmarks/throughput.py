@@ -76,9 +76,9 @@ def profile(frame: Path, single: bool) -> dict:
         t.append(time.perf_counter())
         d, _ = D.prepare(D.decode(fr.depth, cfg.camera, "z", fr.rgb.shape[1]), fr.rgb, "z")
         t.append(time.perf_counter())
-        out, planes = run(fr.rgb, d, cfg, alpha=fr.alpha)
+        out, alpha, planes = run(fr.rgb, d, cfg, alpha=fr.alpha)
         t.append(time.perf_counter())
-        outputs.write(frame.with_name("profile_out.exr"), out, fr.alpha, planes, fr, False, 0.0)
+        outputs.write(frame.with_name("profile_out.exr"), out, alpha, planes, fr)
         t.append(time.perf_counter())
         for name, a, b in zip(("read", "depth", "device", "write"), t, t[1:]):
             best[name] = min(best.get(name, 1e9), (b - a) * 1e3)

@@ -164,3 +164,46 @@ __kernel void preprocess(__global const float4 *image, __global const float *dep
     if (source) store_prep(prep0, idx, sc[0], sc[1], sc[2], sigma, thresh1, eps);
 #endif
 }
+
+/* Stage 1b (inputs with alpha): the output alpha of a premultiplied pixel. Its uncovered
+ * part (1 - alpha) looks at camera.empty_depth; a plate composited there afterwards reaches
+ * the camera as the model carries a source at that depth: transmitted plus scattered
+ * (the scattered energy x the point-spread ratio, a surface facing the camera), weighted by
+ * luminance. So out.a = 1 - (1 - a) t_e, and compositing the result over a smooth plate
+ * equals processing the plate at that depth. P_empty: the heterogeneous primitives' optical
+ * depth to empty_depth (has_p), else the homogeneous part alone. */
+__kernel void coverage(__global float4 *direct, __global const float *P_empty, const int has_p,
+                       const int width, const int height, const medium_t m, const float empty_depth,
+                       __global const float *lut)
+{
+    int i = get_global_id(0), j = get_global_id(1);
+    if (i >= width || j >= height) return;
+    int idx = j * width + i;
+    float4 d = direct[idx];
+    if (d.w >= 1.0f) return;
+    float wx, wy, wz;
+    float dist = pixel_ray(&m.cam, i, j, empty_depth, &wx, &wy, &wz);
+    float P = m.homogeneous * dist + (has_p ? P_empty[idx] : 0.0f);
+    float sa[3] = {m.sa.x, m.sa.y, m.sa.z}, ss[3] = {m.ss.x, m.ss.y, m.ss.z};
+    float lum[3] = {0.2126f, 0.7152f, 0.0722f};
+    float r[3] = {1.0f, 1.0f, 1.0f};
+#ifdef PSF_APSF
+    float lp = log_pos(P > 1e-30f ? P : 1e-30f);
+    int nlev = (int)lut[3];
+    float lf;
+    int li = lut_pos(lut, lp, &lf);
+    for (int c = 0; c < 3; ++c) r[c] = lut_get(lut, lut_ratio(nlev, c), li, lf);
+#ifdef EMISSION_LAMBERT
+    float lw[3];
+    lambert_at(lut, nlev, li, lf, 1.0f, &lw[0], &lw[1], &lw[2]);
+    for (int c = 0; c < 3; ++c) r[c] *= lw[c];
+#endif
+#endif
+    float te = 0.0f;
+    for (int c = 0; c < 3; ++c) {
+        float t_all = exp_poly(-(sa[c] + ss[c]) * P);
+        te += lum[c] * (t_all + (exp_poly(-sa[c] * P) - t_all) * r[c]);
+    }
+    te = te < 1.0f ? te : 1.0f;
+    direct[idx].w = 1.0f - (1.0f - d.w) * te;
+}

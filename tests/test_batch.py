@@ -129,7 +129,7 @@ def test_killed_batch_resumes_with_skip_existing(tmp_path):
     written = [f.name for f in out.iterdir() if not f.name.startswith(".")]
     assert 4 <= len(written) < 40
     for name in written:                 # whatever carries an output's name is whole
-        assert read(out / name)[1].shape == (256, 384, 3)
+        assert read(out / name)[1].shape == (256, 384, 4)   # R, G, B and the copied Z
     report = tmp_path / "r.json"
     r = fogcli("batch", src, out, "--jobs", "2", "--skip-existing", "--report", report)
     assert r.returncode == 0, r.stderr

@@ -77,9 +77,10 @@ def test_apply_exr_with_embedded_z_and_timings(rgbz, tmp_path):
     code, text, _ = run("apply", p, "-o", out, "--medium", "fog", "--timings")
     assert code == 0, text
     spec, px = read(out)
-    assert spec.channelnames[:3] == ("R", "G", "B")
-    assert np.isfinite(px).all() and px.shape == (45, 61, 3)
-    assert not np.allclose(px, rgb)
+    assert spec.channelnames == ("R", "G", "B", "Z")      # the input's Z passed through
+    assert np.isfinite(px[:, :, :3]).all() and px.shape == (45, 61, 4)
+    np.testing.assert_array_equal(px[:, :, 3], z)
+    assert not np.allclose(px[:, :, :3], rgb)
     t = json.loads(text.strip().splitlines()[-1])
     assert set(t) == {"stages", "kernel_ms", "io_ms", "total_ms", "device", "pixels"}
     assert t["pixels"] == 45 * 61
@@ -114,15 +115,16 @@ def test_windows_alpha_metadata_and_half(tmp_path):
     write_img(p, data, ["R", "G", "B", "A", "Z"], window=(5, 7), display=(0, 0, 64, 48),
               attrs=[("studio:shot", "sh010"), ("Copyright", "vfx")])
     out = tmp_path / "win_out.exr"
-    code, text, _ = run("apply", p, "-o", out, "--set", "output.half=true")
+    code, text, _ = run("apply", p, "-o", out, "--set", "output.type=half", "--set", "camera.empty_depth=0")
     assert code == 0, text
     spec, px = read(out)
     assert (spec.x, spec.y, spec.width, spec.height) == (5, 7, w, h)
     assert (spec.full_x, spec.full_y, spec.full_width, spec.full_height) == (0, 0, 64, 48)
     assert spec.getattribute("studio:shot") == "sh010" and spec.getattribute("Copyright") == "vfx"
-    assert str(spec.format) == "half"
+    fmts = dict(zip(spec.channelnames, map(str, spec.channelformats)))
+    assert fmts == {"R": "half", "G": "half", "B": "half", "A": "half", "Z": "float"}   # Z copied exactly
     a = px[:, :, list(spec.channelnames).index("A")]
-    np.testing.assert_allclose(a, data[:, :, 3], atol=1e-3)    # half precision
+    np.testing.assert_allclose(a, data[:, :, 3], atol=1e-3)    # nothing in front of the plate; half
     assert spec.getattribute("compression") == "zip"
     out2 = tmp_path / "piz.exr"
     assert run("apply", p, "-o", out2, "--set", "output.compression=piz")[0] == 0
@@ -196,7 +198,9 @@ def test_nan_depth_is_filled_and_counted(rgbz, tmp_path):
     code, text, _ = run("apply", q, "-o", tmp_path / "o.exr")
     assert code == 0
     assert "10 invalid depth pixel(s)" in text
-    assert np.isfinite(read(tmp_path / "o.exr")[1]).all()
+    spec, px = read(tmp_path / "o.exr")
+    assert np.isfinite(px[:, :, :3]).all()
+    np.testing.assert_array_equal(px[:, :, 3], z2)      # the file's Z is copied, not the filled one
 
 
 def test_bad_inputs_exit_2_with_one_line(rgbz, tmp_path):
@@ -237,7 +241,7 @@ def test_output_replaced_atomically_and_input_untouched(rgbz, tmp_path):
     out.write_text("old")
     assert run("apply", p, "-o", out)[0] == 0
     assert p.read_bytes() == before
-    assert read(out)[1].shape == (45, 61, 3)
+    assert read(out)[1].shape == (45, 61, 4)
     assert not [f for f in tmp_path.iterdir() if ".tmp" in f.name]
     mask = os.umask(0)
     os.umask(mask)

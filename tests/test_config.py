@@ -51,7 +51,7 @@ def _err(tmp_path, text):
     ("medium:\n  density:\n    - {type: exponential, direction: [0, 0, 0]}\n", 3, "non-zero direction"),
     ("medium:\n  density:\n    - type: sphere\n      radius: 0\n", 4, "radius"),
     ("render:\n  method: fast\n", 2, "render.method"),
-    ("output:\n  half: 3\n", 2, "output.half: expected true or false"),
+    ("output:\n  type: 3\n", 2, "output.type: expected one of"),
     ("foo: 1\n", 1, "foo: unknown key"),
     ("medium: [1, 2\n", None, "invalid YAML"),
 ])

@@ -1,11 +1,15 @@
 """fogcli: physically based participating media for images with depth.
 
-The Python API is :func:`apply`; the command line (``fogcli``) is a thin layer over it.
+The Python API is :func:`apply` with the helpers :func:`read_image`, :func:`read_depth`,
+:func:`read_camera`, :func:`make_config` and :func:`write_image`; the command line
+(``fogcli``) is a thin layer over the same code.
 """
 from __future__ import annotations
 
 __version__ = "0.1.0"
 
-from .api import apply  # noqa: E402
+from .api import apply, make_config, read_camera, read_depth, read_image, write_image  # noqa: E402
+from .errors import UserError  # noqa: E402
 
-__all__ = ["apply", "__version__"]
+__all__ = ["apply", "make_config", "read_camera", "read_depth", "read_image", "write_image", "UserError",
+           "__version__"]

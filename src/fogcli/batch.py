@@ -81,7 +81,7 @@ def output_is_whole(path: Path) -> bool:
 
 def discover(input_dir: Path, output_dir: Path, depth_pattern: str | None, recursive: bool,
              fmt: str | None, skip_existing: bool, layer: str | None = None, view: str | None = None,
-             depth_dir: Path | None = None) -> Plan:
+             depth_dir: Path | None = None, drop_channels: bool = False) -> Plan:
     if not input_dir.is_dir():
         raise UserError(f"{input_dir}: not a folder (INPUT_DIR)")
     if output_dir.exists() and not output_dir.is_dir():
@@ -125,7 +125,7 @@ def discover(input_dir: Path, output_dir: Path, depth_pattern: str | None, recur
             dpath = input_dir / drel
             depth = str(dpath) if dpath.is_file() else None   # missing: try the embedded Z
         saved = str(depth_dir / rel.parent / f"{rel.stem}.exr") if depth_dir else None
-        plan.jobs.append(Job(str(src), str(out), depth, layer, view, saved))
+        plan.jobs.append(Job(str(src), str(out), depth, layer, view, saved, drop_channels))
     if not (plan.jobs or plan.skipped or plan.failed):
         hint = "" if recursive else "; --recursive looks in sub-folders"
         raise UserError(f"{input_dir}: no images found (EXR, HDR, TIFF, PNG, JPEG, camera RAW){hint}")
@@ -358,7 +358,8 @@ def _dask(jobs, cfg, aovs, device, scheduler, progress, collect):
 
 def run_batch(input_dir: Path, output_dir: Path, cfg, *, depth_pattern=None, recursive=False, fmt=None,
               jobs=1, skip_existing=False, scheduler=None, aovs=(), device=None, quiet=False,
-              report: Path | None = None, layer=None, view=None, save_depth: Path | None = None) -> Summary:
+              report: Path | None = None, layer=None, view=None, save_depth: Path | None = None,
+              drop_channels: bool = False) -> Summary:
     t0 = time.perf_counter()
     if aovs and (fmt or "exr").lower().lstrip(".") != "exr":
         raise UserError(f"--aov needs EXR outputs, got --format {fmt}")
@@ -366,7 +367,8 @@ def run_batch(input_dir: Path, output_dir: Path, cfg, *, depth_pattern=None, rec
         fmt = "exr"
     if save_depth is not None and save_depth.resolve() == output_dir.resolve():
         raise UserError(f"--save-depth {save_depth}: use a folder other than OUTPUT_DIR (it holds only outputs)")
-    plan = discover(input_dir, output_dir, depth_pattern, recursive, fmt, skip_existing, layer, view, save_depth)
+    plan = discover(input_dir, output_dir, depth_pattern, recursive, fmt, skip_existing, layer, view, save_depth,
+                    drop_channels)
     output_dir.mkdir(parents=True, exist_ok=True)
     if save_depth is not None:
         save_depth.mkdir(parents=True, exist_ok=True)

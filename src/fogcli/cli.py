@@ -55,6 +55,8 @@ def medium_options(fn):
         click.option("--layer", metavar="NAME", help="EXR part or channel layer to read (e.g. ViewLayer.Combined)."),
         click.option("--view", metavar="NAME", help="EXR view to read (multi-view files; default: the first)."),
         click.option("--aov", "aovs", multiple=True, type=click.Choice(AOV_NAMES), help="Extra EXR channels."),
+        click.option("--drop-channels", is_flag=True,
+                     help="EXR: write only R, G, B, (A) and the AOVs, not the input's other channels, parts and views."),
         click.option("--device", metavar="SPEC", help="OpenCL device (P:D, cpu, gpu or a name); env FOGCLI_DEVICE."),
     ]):
         fn = opt(fn)
@@ -69,8 +71,8 @@ def medium_options(fn):
 @click.option("--save-depth", metavar="PATH", help="Also write the cleaned metric depth used (EXR/TIFF channel Z, or NPY).")
 @click.option("--timings", is_flag=True, help="Print a JSON line of stage times on stderr.")
 @guarded
-def apply(input, depth_path, medium, config_file, camera_file, sets, layer, view, aovs, device, output,
-          save_depth, timings):
+def apply(input, depth_path, medium, config_file, camera_file, sets, layer, view, aovs, drop_channels, device,
+          output, save_depth, timings):
     """Apply a medium to INPUT."""
     from . import outputs
     from .job import Job, run_job
@@ -82,7 +84,7 @@ def apply(input, depth_path, medium, config_file, camera_file, sets, layer, view
     src = Path(input)
     out_path = Path(output) if output else src.with_name(f"{src.stem}.fog{outputs.default_ext(src)}")
     t = Timings()
-    res = run_job(Job(str(src), str(out_path), depth_path, layer, view, save_depth), cfg,
+    res = run_job(Job(str(src), str(out_path), depth_path, layer, view, save_depth, drop_channels), cfg,
                   aovs=tuple(dict.fromkeys(aovs)), device=device, timings=t)
     for w in res.warnings:
         click.echo(f"fogcli: warning: {w}", err=True)
@@ -115,7 +117,7 @@ def apply(input, depth_path, medium, config_file, camera_file, sets, layer, view
 @click.option("-q", "--quiet", is_flag=True, help="No progress output.")
 @guarded
 def batch(input_dir, output_dir, depth_pattern, medium, config_file, camera_file, sets, layer, view, aovs,
-          device, fmt, recursive, jobs, skip_existing, scheduler, report, save_depth, quiet):
+          drop_channels, device, fmt, recursive, jobs, skip_existing, scheduler, report, save_depth, quiet):
     """Apply a medium to every image of INPUT_DIR, writing OUTPUT_DIR/<stem>.<format>.
     Exit 0 when all were written (or skipped), 3 when some failed."""
     from .batch import run_batch
@@ -125,7 +127,7 @@ def batch(input_dir, output_dir, depth_pattern, medium, config_file, camera_file
     s = run_batch(Path(input_dir), Path(output_dir), cfg, depth_pattern=depth_pattern, recursive=recursive,
                   fmt=fmt, jobs=jobs, skip_existing=skip_existing, layer=layer, view=view, scheduler=scheduler, aovs=aovs,
                   device=device, quiet=quiet, report=Path(report) if report else None,
-                  save_depth=Path(save_depth) if save_depth else None)
+                  save_depth=Path(save_depth) if save_depth else None, drop_channels=drop_channels)
     for f in s.failed:
         why = f["reason"] if f["reason"].startswith(f["input"]) else f"{f['input']}: {f['reason']}"
         click.echo(f"fogcli: failed: {why}", err=True)

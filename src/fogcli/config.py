@@ -193,6 +193,7 @@ class Camera:
     depth: str = "z"            # z | distance | disparity | inverse
     depth_scale: float = 1.0
     max_depth: float = 1000.0
+    empty_depth: float = 0.0          # where pixels with alpha 0 look (m): 0 = no medium (the plate behind has its own); inf = open sky
     focal_px_y: float | None = None   # vertical focal length; default = the horizontal one
     cx: float | None = None           # principal point in pixels; default the image centre
     cy: float | None = None
@@ -268,8 +269,8 @@ class Render:
 @dataclass
 class Output:
     exposure: float = 0.0
-    half: bool = False
-    compression: str = "zip"    # EXR: lossless none | rle | zip | zips | piz; lossy pxr24 | b44 | dwaa | dwab
+    type: str = "auto"          # EXR pixel type: auto (the input's; float otherwise) | half | float
+    compression: str = "auto"   # EXR: auto (the input's; zip otherwise) | lossless none | rle | zip | zips | piz; lossy pxr24 | b44 | dwaa | dwab
 
 
 EXR_COMPRESSION = ["none", "rle", "zip", "zips", "piz", "pxr24", "b44", "b44a", "dwaa", "dwab"]
@@ -370,12 +371,12 @@ _DENSITY_KEYS = {
 }
 _CAMERA_KEYS = dict.fromkeys(["fov", "focal_px", "position", "yaw", "pitch", "roll", "depth",
                               "depth_scale", "max_depth", "focal_px_y", "cx", "cy", "baseline",
-                              "near", "far", "encoding", "calibrated_size"])
+                              "near", "far", "encoding", "calibrated_size", "empty_depth"])
 _RENDER_KEYS = dict.fromkeys(["method", "spread_model", "spread_scale", "kernel", "interpolation",
                               "c", "epsilon", "threshold", "levels", "fetch", "separation",
                               "psf", "border", "emission_profile"])
 _SEP_KEYS = dict.fromkeys(["enabled", "luminance", "luminance_width", "depth", "depth_width", "level"])
-_OUTPUT_KEYS = dict.fromkeys(["exposure", "half", "compression"])
+_OUTPUT_KEYS = dict.fromkeys(["exposure", "type", "compression"])
 _SECTIONS = {"medium": _MEDIUM_KEYS, "camera": _CAMERA_KEYS, "render": _RENDER_KEYS, "output": _OUTPUT_KEYS}
 
 
@@ -480,6 +481,13 @@ def _camera(ck: _Checker, sec: dict) -> Camera:
         c.depth_scale = ck.number(sec["depth_scale"], "camera.depth_scale", lo=0.0, lo_open=True) or 1.0
     if "max_depth" in sec:
         c.max_depth = ck.number(sec["max_depth"], "camera.max_depth", lo=0.0, lo_open=True) or c.max_depth
+    if "empty_depth" in sec:
+        v = sec["empty_depth"]
+        if v in ("inf", "sky") or (isinstance(v, float) and v == math.inf):
+            c.empty_depth = math.inf
+        else:
+            x = ck.number(v, "camera.empty_depth", lo=0.0)
+            c.empty_depth = c.empty_depth if x is None else x
     for k in ("focal_px_y", "baseline", "near", "far"):
         if k in sec:
             setattr(c, k, ck.number(sec[k], f"camera.{k}", lo=0.0, lo_open=True))
@@ -564,10 +572,10 @@ def _output(ck: _Checker, sec: dict) -> Output:
     o = Output()
     if "exposure" in sec:
         o.exposure = ck.number(sec["exposure"], "output.exposure") or 0.0
-    if "half" in sec:
-        o.half = bool(ck.boolean(sec["half"], "output.half"))
+    if "type" in sec:
+        o.type = ck.choice(sec["type"], "output.type", ["auto", "half", "float"]) or o.type
     if "compression" in sec:
-        o.compression = ck.choice(sec["compression"], "output.compression", EXR_COMPRESSION) or o.compression
+        o.compression = ck.choice(sec["compression"], "output.compression", ["auto"] + EXR_COMPRESSION) or o.compression
     return o
 
 

@@ -174,8 +174,13 @@ def prepare(metric: np.ndarray, rgb: np.ndarray, source: str) -> tuple[np.ndarra
     return out.astype(np.float32), rep
 
 
-def metric_depth(raw: np.ndarray, rgb: np.ndarray, cam: Camera, source: str) -> tuple[np.ndarray, DepthReport]:
+def metric_depth(raw: np.ndarray, rgb: np.ndarray, cam: Camera, source: str,
+                 alpha: np.ndarray | None = None) -> tuple[np.ndarray, DepthReport]:
     """A depth file's values to the metric depth the kernels take, at the image's size:
-    intrinsics scaled to the image (calibrated_size), decoded, holes filled, resampled."""
+    intrinsics scaled to the image (calibrated_size), decoded, holes filled, resampled.
+    Pixels with alpha 0 are empty, not holes: they look at camera.empty_depth."""
     h, w = rgb.shape[:2]
-    return prepare(decode(raw, cam.for_size(w, h), source, w), rgb, source)
+    metric = decode(raw, cam.for_size(w, h), source, w)
+    if alpha is not None and metric.shape == alpha.shape:
+        metric[alpha <= 0.0] = cam.empty_depth
+    return prepare(metric, rgb, source)

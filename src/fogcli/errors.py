@@ -1,8 +1,9 @@
 """Errors that the command line reports as one line with a fixed exit code."""
 
 
-class UserError(Exception):
-    """Bad usage, config or input: exit 2, one line, no traceback."""
+class UserError(ValueError):
+    """Bad usage, config or input: exit 2, one line, no traceback. A ValueError for the
+    Python API."""
 
     exit_code = 2
 

@@ -13,6 +13,9 @@ from .colour import srgb_to_linear
 from .errors import UserError
 
 DEPTH_NAMES = ("z", "depth", "distance")
+# Brighter than any scene (the sun is about 1e9 cd/m^2): beyond it the kernels' float sums
+# over a frame could overflow.
+MAX_RADIANCE = 1e20
 
 
 def _oiio():
@@ -33,6 +36,12 @@ class Frame:
     display: tuple = (0, 0, 0, 0)   # display window (x, y, width, height)
     attributes: list = field(default_factory=list)  # (name, type, value) passed through
     is_exr: bool = False
+    # where the colour came from, for an EXR output that keeps everything else (exr_out)
+    part: int = 0                   # subimage index
+    rgb_names: tuple = ()           # the part's channel names read as R, G, B
+    alpha_name: str | None = None
+    view_prefix: str = ""           # "right." when a non-default view of a single-part file
+    pixel_type: str = "float"       # the colour channels' type in the file (half, float, uint8...)
 
 
 def _open(path: Path):
@@ -86,6 +95,10 @@ def _is_depth_name(name: str) -> bool:
     if layer in ("pz", "depth", "zdepth", "distance"):     # a one-channel layer: Pz.Y, depth.V
         return last in ("z", "y", "v", "r")
     return last == "z" and layer in ("", "z")
+
+
+def _is_alpha_name(name: str) -> bool:
+    return name.lower().rsplit(".", 1)[-1] in ("a", "alpha")
 
 
 def _colour_channels(names: list[str]) -> tuple[list[int], int | None]:
@@ -185,6 +198,7 @@ def read_image(path: str | Path, layer: str | None = None, view: str | None = No
     if len(parts) == 1 and view:
         sel_names = [n[len(view) + 1:] if n.startswith(view + ".") else n for n in sel_names]
     px = px[:, :, keep]
+    orig = [names[i] for i in keep]       # the file's names of the columns of px
     if layer and not by_name:
         # a channel layer (Blender ViewLayer.Combined, Nuke diffuse): its R, G, B, A
         pre = [n for n in {n.rsplit(".", 1)[0] for n in sel_names if "." in n}
@@ -197,6 +211,7 @@ def read_image(path: str | Path, layer: str | None = None, view: str | None = No
         depth_cols = [i for i, n in enumerate(sel_names) if _is_depth_name(n)]
         pick = lay + [i for i in depth_cols if i not in lay]
         px = px[:, :, pick]
+        orig = [orig[i] for i in pick]
         sel_names = [sel_names[i].rsplit(".", 1)[-1] if i in lay else sel_names[i] for i in pick]
     attributes = [(a.name, a.type, a.value) for a in spec.extra_attribs]
     fmt_name = str(spec.format)
@@ -214,25 +229,40 @@ def read_image(path: str | Path, layer: str | None = None, view: str | None = No
                 depth = np.ascontiguousarray(_read_pixels(inp, path, "float", i)[:, :, cand[0]], dtype=np.float32)
                 break
     inp.close()
-    if rgb_idx:
-        rgb = px[:, :, rgb_idx]
-    elif len(sel_names) in (1, 2):
-        grey = [i for i in range(len(sel_names)) if i != depth_idx][:1] or [0]
-        rgb = np.repeat(px[:, :, grey], 3, axis=2)
-        a_idx = 1 if len(sel_names) == 2 and depth_idx is None else None
-    elif len(sel_names) >= 3:
-        rgb = px[:, :, :3]
-        a_idx = 3 if len(sel_names) >= 4 and 3 != depth_idx else None
-    else:
-        raise UserError(f"{path}: no colour channels (have: {', '.join(names)})")
-    rgb = np.ascontiguousarray(rgb, dtype=np.float32)
+    if not rgb_idx:
+        # no R, G, B: a grey channel (Y, L, an unnamed one), never alpha, depth, or a
+        # component of a vector pass
+        colour = [i for i, n in enumerate(sel_names)
+                  if i != depth_idx and not _is_depth_name(n) and not _is_alpha_name(n)]
+        if not colour:
+            raise UserError(f"{path}: no colour channels (have: {', '.join(names)}); expected R, G, B "
+                            "(or a layer's R, G, B, or one grey channel)")
+        rgb_idx = colour[:3] if len(colour) >= 3 else [colour[0]] * 3
+        a_idx = next((i for i, n in enumerate(sel_names) if _is_alpha_name(n)), None)
+        if a_idx is None and len(sel_names) in (2, 4) and depth_idx is None and len(colour) == len(sel_names):
+            a_idx = len(sel_names) - 1      # grey + alpha, RGBA, by position when unnamed
+            rgb_idx = [i if i != a_idx else rgb_idx[0] for i in rgb_idx]
+    rgb = np.ascontiguousarray(px[:, :, rgb_idx], dtype=np.float32)
     rgb = _to_linear(rgb, spec, fmt_name)
     if not np.isfinite(rgb).all():
         bad = int((~np.isfinite(rgb)).any(axis=2).sum())
         raise UserError(f"{path}: {bad} pixel(s) hold NaN or infinite colour values")
-    alpha = np.ascontiguousarray(px[:, :, a_idx], dtype=np.float32) if a_idx is not None else None
+    big = float(np.abs(rgb).max(initial=0.0))
+    if big > MAX_RADIANCE:
+        raise UserError(f"{path}: colour values up to {big:.3g}; scene-linear radiance above "
+                        f"{MAX_RADIANCE:.0e} is not supported (would overflow the float sums)")
+    alpha = None
+    if a_idx is not None:
+        # premultiplied coverage in [0, 1]; NaN (no coverage information) counts as opaque
+        alpha = np.clip(np.nan_to_num(px[:, :, a_idx], nan=1.0, posinf=1.0, neginf=0.0), 0.0, 1.0)
+        alpha = np.ascontiguousarray(alpha, dtype=np.float32)
+    formats = [str(t) for t in spec.channelformats] if len(spec.channelformats) else [fmt_name] * len(names)
+    prefix = view + "." if (len(parts) == 1 and view and any(n.startswith(view + ".") for n in names)) else ""
     return Frame(path, rgb, alpha, depth, (spec.x, spec.y),
-                 (spec.full_x, spec.full_y, spec.full_width, spec.full_height), attributes, is_exr)
+                 (spec.full_x, spec.full_y, spec.full_width, spec.full_height), attributes, is_exr,
+                 part=sub, rgb_names=tuple(orig[i] for i in rgb_idx),
+                 alpha_name=orig[a_idx] if a_idx is not None else None, view_prefix=prefix,
+                 pixel_type=formats[names.index(orig[rgb_idx[0]])])
 
 
 def read_raw(path: Path) -> Frame:

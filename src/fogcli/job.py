@@ -23,6 +23,7 @@ class Job:
     layer: str | None = None
     view: str | None = None
     save_depth: str | None = None     # write the cleaned metric depth used here
+    drop_channels: bool = False       # EXR: write only what fogcli produces
 
 
 @dataclass
@@ -60,7 +61,7 @@ def run_job(job: Job, cfg: Config, aovs=(), device=None, timings: Timings | None
         raise UserError(f"{src}: no depth channel (Z, *.Z or *depth); pass --depth FILE")
     res.io_ms += (time.perf_counter() - t0) * 1e3
     h, w = frame.rgb.shape[:2]
-    clean, rep = depth_mod.metric_depth(raw, frame.rgb, cfg.camera, str(dsrc))
+    clean, rep = depth_mod.metric_depth(raw, frame.rgb, cfg.camera, str(dsrc), frame.alpha)
     if rep.resampled_from:
         res.warnings.append(f"{dsrc}: depth {rep.resampled_from[0]}x{rep.resampled_from[1]} upsampled "
                             f"edge-aware to {w}x{h}")
@@ -73,11 +74,11 @@ def run_job(job: Job, cfg: Config, aovs=(), device=None, timings: Timings | None
         outputs.refuse_overwrite(target, "--save-depth", out_path, what="the output")
         save_depth(target, clean)
 
-    rgb, planes = run(frame.rgb, clean, cfg, alpha=frame.alpha, aovs=aovs, device=device,
+    rgb, alpha, planes = run(frame.rgb, clean, cfg, alpha=frame.alpha, aovs=aovs, device=device,
                       timings=timings if timings is not None else Timings())
     t0 = time.perf_counter()
-    outputs.write(out_path, rgb, frame.alpha, planes, frame, cfg.output.half, cfg.output.exposure,
-                  cfg.output.compression)
+    outputs.write(out_path, rgb, alpha, planes, frame, cfg.output.type, cfg.output.exposure,
+                  cfg.output.compression, job.drop_channels)
     res.io_ms += (time.perf_counter() - t0) * 1e3
     res.pixels = w * h
     return res

@@ -36,7 +36,8 @@ def _medium_source(name: str) -> Path:
 
 
 def assemble(medium: str | None = None, config_file: str | None = None,
-             sets: tuple[str, ...] = (), camera_file: str | None = None) -> C.Config:
+             sets: tuple[str, ...] = (), camera_file: str | None = None,
+             camera_section: dict | None = None) -> C.Config:
     """Merge the sources in order (preset < --medium < --config < --camera < --set) and
     validate once."""
     locs: dict = {}
@@ -48,6 +49,8 @@ def assemble(medium: str | None = None, config_file: str | None = None,
         from .intrinsics import load
 
         data = C.merge(data, load(camera_file))
+    if camera_section:
+        data = C.merge(data, {"camera": dict(camera_section)})
     for item in sets:
         data = C.merge(data, C.parse_set(item, locs))
     return C.build(data, locs)

@@ -83,13 +83,21 @@ def write_plane(path: Path, plane: np.ndarray, channel: str) -> None:
     atomic_write(path, _write)
 
 
-def write(path: Path, rgb: np.ndarray, alpha: np.ndarray | None, aovs: dict, frame, half: bool,
-          exposure: float, compression: str = "zip") -> None:
-    """rgb (h, w, 3) scene-linear; aovs: channel name -> (h, w) array."""
+def write(path: Path, rgb: np.ndarray, alpha: np.ndarray | None, aovs: dict, frame, out_type: str = "auto",
+          exposure: float = 0.0, compression: str = "auto", drop_channels: bool = False) -> None:
+    """rgb (h, w, 3) scene-linear; aovs: channel name -> (h, w) array. An EXR input to an
+    EXR output keeps everything fogcli does not produce (exr.write_passthrough) unless
+    drop_channels. out_type auto: the input colour's pixel type where it was half or float
+    (EXR), else float; compression auto: the input EXR's, else zip."""
     import OpenImageIO as oiio
 
     ext = path.suffix.lower()
     h, w = rgb.shape[:2]
+    if ext == ".exr" and frame.is_exr and not drop_channels:
+        from .exr import write_passthrough
+
+        atomic_write(path, lambda tmp: write_passthrough(path, tmp, frame, rgb, alpha, aovs, out_type, compression))
+        return
     if ext in LINEAR_EXT:
         planes = [rgb[:, :, 0], rgb[:, :, 1], rgb[:, :, 2]]
         names = ["R", "G", "B"]
@@ -101,7 +109,9 @@ def write(path: Path, rgb: np.ndarray, alpha: np.ndarray | None, aovs: dict, fra
                 planes.append(plane)
                 names.append(name)
         data = np.ascontiguousarray(np.stack(planes, axis=2), dtype=np.float32)
-        fmt = "half" if (half and ext == ".exr") else "float"
+        if out_type == "auto":
+            out_type = frame.pixel_type if frame.is_exr and frame.pixel_type in ("half", "float") else "float"
+        fmt = out_type if ext == ".exr" else "float"
         spec = oiio.ImageSpec(w, h, data.shape[2], fmt)
         spec.channelnames = tuple(names)
         if alpha is not None:
@@ -113,11 +123,14 @@ def write(path: Path, rgb: np.ndarray, alpha: np.ndarray | None, aovs: dict, fra
             spec.full_width, spec.full_height = (fw or w), (fh or h)
             if frame.is_exr:
                 for name, typ, value in frame.attributes:
-                    if not name.startswith(_DROP):
+                    if not name.startswith(_DROP) and name not in ("multiView", "view", "name"):
                         try:
                             spec.attribute(name, typ, value)
                         except Exception:
                             pass
+            if compression == "auto":
+                compression = next((str(v) for n, _, v in frame.attributes if n == "compression"), "zip") \
+                    if frame.is_exr else "zip"
             spec.attribute("compression", compression)
         spec.attribute("Software", "fogcli")
     else:

@@ -218,14 +218,31 @@ class Plan:
         t.add("upload", cl.enqueue_copy(self.rt.queue, self.image, np.ascontiguousarray(rgba, np.float32)))
         t.add("upload", cl.enqueue_copy(self.rt.queue, self.depth, np.ascontiguousarray(depth, np.float32)))
 
-    def optical_depth(self, t: Timings) -> None:
+    def optical_depth(self, t: Timings, depth=None, out=None) -> None:
         """P of the non-homogeneous primitives, summed into the spread buffer (level 0),
         which preprocess reads before it writes the spread there."""
         cam = camera_struct(self.cfg, self.w, self.h)
         for k, (name, args) in enumerate(primitive_launches(self.cfg)):
             t.add("preprocess", getattr(self.k_density, name)(
-                self.rt.queue, *self.rt.nd(self.w, self.h), self.depth, self.spread,
-                np.int32(self.w), np.int32(self.h), cam, *args, np.int32(k > 0)))
+                self.rt.queue, *self.rt.nd(self.w, self.h), self.depth if depth is None else depth,
+                self.spread if out is None else out, np.int32(self.w), np.int32(self.h), cam, *args,
+                np.int32(k > 0)))
+
+    def coverage(self, t: Timings, empty_depth: float) -> None:
+        """Output alpha of an input with alpha: the medium in front of each pixel's uncovered
+        part (kernel `coverage`). Two planes more, only for heterogeneous media."""
+        cl, q, n = self.rt.cl, self.rt.queue, self.w * self.h
+        ms = medium_struct(self.cfg, self.w, self.h)
+        p_empty = self.spread        # not read unless has_p
+        if int(ms["has_p"]):
+            mf = cl.mem_flags
+            d_empty = cl.Buffer(self.rt.ctx, mf.READ_WRITE, 4 * n)
+            p_empty = cl.Buffer(self.rt.ctx, mf.READ_WRITE, 4 * n)
+            cl.enqueue_fill_buffer(q, d_empty, np.float32(empty_depth), 0, 4 * n)
+            self.optical_depth(t, d_empty, p_empty)
+        t.add("preprocess", self.k_pre_prog.coverage(
+            q, *self.rt.nd(self.w, self.h), self.direct, p_empty, ms["has_p"], np.int32(self.w),
+            np.int32(self.h), ms, np.float32(min(empty_depth, 3e38)), self.lut))
 
     def threshold(self, k: int) -> float:
         """Masking threshold of level k (Elek eq. 7, scaled): threshold * c * 2^(k-1)."""
@@ -404,9 +421,10 @@ def get_plan(rt: Runtime, width: int, height: int, cfg: Config, aovs=()) -> Plan
 
 
 def run(rgb: np.ndarray, depth: np.ndarray, cfg: Config, alpha=None, aovs=(), device=None,
-        timings: Timings | None = None) -> tuple[np.ndarray, dict]:
+        timings: Timings | None = None) -> tuple[np.ndarray, np.ndarray | None, dict]:
     """Process one frame on the device. depth: metric (depth.decode / depth.prepare), at the
-    image's size, holes filled. Returns (rgb out (h, w, 3), aov planes)."""
+    image's size, holes filled; alpha: premultiplied coverage or None. Returns (rgb out
+    (h, w, 3), alpha out (h, w) or None, aov planes)."""
     import dataclasses
 
     h, w = depth.shape
@@ -430,6 +448,8 @@ def run(rgb: np.ndarray, depth: np.ndarray, cfg: Config, alpha=None, aovs=(), de
     rgba[:, :, 3] = 1.0 if alpha is None else alpha
     plan.upload(rgba, depth, t)
     plan.preprocess(t)
+    if alpha is not None and cfg.camera.empty_depth > 0:   # at 0 the alpha is the input's
+        plan.coverage(t, cfg.camera.empty_depth)
     method = cfg.render.method
     if method == "reference":
         from .reference import reference_into
@@ -452,7 +472,7 @@ def run(rgb: np.ndarray, depth: np.ndarray, cfg: Config, alpha=None, aovs=(), de
     out = plan.download(plan.out, 4, t)
     planes = plan.aov_planes(t)
     rt.queue.finish()
-    return out[:, :, :3], planes
+    return out[:, :, :3], (np.ascontiguousarray(out[:, :, 3]) if alpha is not None else None), planes
 
 
 def kernel_ms(t: Timings) -> tuple[dict, float]:

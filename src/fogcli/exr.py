@@ -1,0 +1,124 @@
+"""EXR output that a compositing pipeline can take back: every part, view and channel of
+the input EXR that fogcli does not produce is copied through with its pixel type, data and
+display windows and attributes; the colour (and alpha) that fogcli read are replaced by its
+result and the AOVs are added to that part. Pixels are streamed in strips of scanlines
+(or tile rows), so copying through costs no more memory than a strip."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from .errors import ProcessingError, UserError
+
+# the old file's encoding, not the picture: dropped or rewritten by the writer
+_ENCODING = ("openexr:chunkCount", "openexr:lineOrder", "oiio:subimages", "oiio:BitsPerSample",
+             "tiledesc", "openexr:levelmode", "openexr:roundingmode", "textureformat", "wrapmodes")
+_FLOATS = ("half", "float", "double")
+STRIP = 64
+
+
+def _fmt(t) -> str:
+    return str(t)
+
+
+def _strip_reader(inp, sub: int, spec, nch: int, fmt: str):
+    """Yields (y0, y1, pixels (y1-y0, w, nch)) over the part's data window; tile rows for
+    tiled files (OpenEXR refuses scanline access to them)."""
+    ys, ye = spec.y, spec.y + spec.height
+    step = spec.tile_height if spec.tile_width else STRIP
+    for y0 in range(ys, ye, step):
+        y1 = min(y0 + step, ye)
+        if spec.tile_width:
+            px = inp.read_tiles(sub, 0, spec.x, spec.x + spec.width, y0, y1, spec.z, spec.z + max(spec.depth, 1),
+                                0, nch, fmt)
+        else:
+            inp.seek_subimage(sub, 0)
+            px = inp.read_scanlines(sub, 0, y0, y1, spec.z, 0, nch, fmt)
+        if px is None:
+            raise UserError(f"{inp.geterror().strip().splitlines()[0] if inp.has_error else 'read failed'}")
+        yield y0, y1, np.asarray(px).reshape(y1 - y0, spec.width, nch)
+
+
+def _out_type(in_type: str, override: str) -> str:
+    """A written channel's type: the input's, unless output.type names a float type."""
+    return override if override in ("half", "float") and in_type in _FLOATS else in_type
+
+
+def write_passthrough(path: Path, tmp: str, frame, rgb: np.ndarray, alpha: np.ndarray | None,
+                      aovs: dict, out_type: str, compression: str) -> None:
+    """Write `tmp` (renamed to `path` by the caller): the input EXR with the processed
+    part's colour (and alpha) replaced and the AOVs added to it."""
+    import OpenImageIO as oiio
+
+    inp = oiio.ImageInput.open(str(frame.path))
+    if inp is None:
+        raise ProcessingError(f"{frame.path}: cannot reopen the input to copy its other channels")
+    try:
+        specs = []
+        i = 0
+        while inp.seek_subimage(i, 0):
+            specs.append(oiio.ImageSpec(inp.spec()))
+            i += 1
+        outs, plans = [], []
+        for i, spec in enumerate(specs):
+            names = list(spec.channelnames)
+            in_fmts = [_fmt(t) for t in spec.channelformats] if len(spec.channelformats) else [_fmt(spec.format)] * len(names)
+            o = oiio.ImageSpec(spec)
+            for a in _ENCODING:
+                o.erase_attribute(a)
+            o.tile_width = o.tile_height = o.tile_depth = 0
+            replace: dict[int, np.ndarray] = {}
+            extra_names, extra_planes = [], []
+            if i == frame.part:
+                for c, name in enumerate(frame.rgb_names):
+                    replace.setdefault(names.index(name), rgb[:, :, c])
+                if frame.alpha_name is not None and alpha is not None:
+                    replace[names.index(frame.alpha_name)] = alpha
+                for name, plane in aovs.items():
+                    full = frame.view_prefix + name
+                    if full in names:
+                        raise UserError(f"{frame.path}: has a channel {full}; --aov {name.split('.')[0]} would replace it")
+                    extra_names.append(full)
+                    extra_planes.append(plane)
+            # output.type applies to what fogcli writes; copied channels keep their type exactly
+            fmts = [_out_type(f, out_type) if c in replace else f for c, f in enumerate(in_fmts)] + [out_type if out_type in ("half", "float") else "float"] * len(extra_names)
+            o.nchannels = len(names) + len(extra_names)
+            o.channelnames = tuple(names + extra_names)
+            o.channelformats = tuple(oiio.TypeDesc(f) for f in fmts)
+            o.attribute("compression", compression if compression != "auto" else
+                        str(spec.getattribute("compression") or "zip"))
+            o.attribute("Software", "fogcli")
+            outs.append(o)
+            read_fmt = "float" if all(f in _FLOATS for f in in_fmts) and not any(f == "double" for f in in_fmts) else "double"
+            plans.append((len(names), read_fmt, replace, extra_planes))
+        out = oiio.ImageOutput.create(tmp)
+        if out is None:
+            raise ProcessingError(f"{path}: cannot write ({oiio.geterror().strip() or 'no EXR writer'})")
+        if len(outs) > 1 and not out.supports("multiimage"):
+            raise ProcessingError(f"{path}: this OpenImageIO cannot write multi-part EXR")
+        ok = out.open(tmp, tuple(outs)) if len(outs) > 1 else out.open(tmp, outs[0])
+        for i, (spec, o, (nch, read_fmt, replace, extra)) in enumerate(zip(specs, outs, plans)):
+            if i > 0:
+                ok = ok and out.open(tmp, o, "AppendSubimage")
+            if not ok:
+                break
+            for y0, y1, px in _strip_reader(inp, i, spec, nch, read_fmt):
+                r0, r1 = y0 - spec.y, y1 - spec.y
+                if replace or extra:
+                    px = np.array(px, copy=True)
+                    for c, plane in replace.items():
+                        px[:, :, c] = plane[r0:r1]
+                    if extra:
+                        px = np.concatenate([px] + [p[r0:r1, :, None].astype(px.dtype) for p in extra], axis=2)
+                if not out.write_scanlines(y0, y1, spec.z, np.ascontiguousarray(px)):
+                    ok = False
+                    break
+        err = out.geterror()
+        out.close()
+        if not ok:
+            raise ProcessingError(f"{path}: cannot write ({(err or 'write failed').strip().splitlines()[0]})")
+    except UserError as exc:
+        raise UserError(str(exc) if str(exc).startswith(str(frame.path)) else f"{frame.path}: {exc}") from None
+    finally:
+        inp.close()

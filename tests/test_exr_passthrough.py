@@ -1,0 +1,178 @@
+"""EXR in, EXR out as a compositing pipeline expects (issue 9): every channel, part and view
+fogcli does not produce is copied exactly, pixel types, windows, attributes and the
+compression follow the input, and only the colour read (and its alpha) is replaced."""
+import numpy as np
+import OpenImageIO as oiio
+import pytest
+
+from test_cli import run
+
+# a beachball-like single-part stereo file: 19 channels, the left view unprefixed
+NAMES = ["R", "G", "B", "A", "Z", "disparityL.x", "disparityL.y", "forward.u", "forward.v", "whitebarmask.mask",
+         "right.R", "right.G", "right.B", "right.A", "right.Z", "right.disparityR.x", "right.disparityR.y",
+         "right.forward.u", "right.forward.v"]
+H, W = 36, 52
+
+
+def _data(names, seed=0):
+    rng = np.random.default_rng(seed)
+    d = rng.uniform(0, 1, (H, W, len(names))).astype(np.float32)
+    for i, n in enumerate(names):
+        if n.endswith("Z"):
+            d[:, :, i] = rng.uniform(3, 80, (H, W))
+        if n.endswith("A"):
+            d[:, :, i] = 1.0
+    return d
+
+
+def _spec(names, fmt_of, window=(11, 4), display=(0, 0, 80, 50)):
+    spec = oiio.ImageSpec(W, H, len(names), "half")
+    spec.channelnames = tuple(names)
+    spec.channelformats = tuple(oiio.TypeDesc(fmt_of(n)) for n in names)
+    spec.x, spec.y = window
+    spec.full_x, spec.full_y, spec.full_width, spec.full_height = display
+    spec.attribute("compression", "piz")
+    spec.attribute("studio:shot", "bb010")
+    return spec
+
+
+def _fmt(n):
+    return "float" if n.endswith("Z") else ("uint" if n.endswith("mask") else "half")
+
+
+def _read_all(path):
+    """[(spec, {channel: float64 plane})] of every part."""
+    inp = oiio.ImageInput.open(str(path))
+    parts, i = [], 0
+    while inp.seek_subimage(i, 0):
+        s = oiio.ImageSpec(inp.spec())
+        px = np.asarray(inp.read_image(i, 0, 0, s.nchannels, "double")).reshape(s.height, s.width, s.nchannels)
+        parts.append((s, {n: px[:, :, k] for k, n in enumerate(s.channelnames)}))
+        i += 1
+    inp.close()
+    return parts
+
+
+def _formats(spec):
+    fmts = list(map(str, spec.channelformats)) or [str(spec.format)] * spec.nchannels
+    return dict(zip(spec.channelnames, fmts))
+
+
+@pytest.fixture
+def stereo(tmp_path):
+    p = tmp_path / "singlepart.exr"
+    data = _data(NAMES)
+    ids = np.arange(H * W).reshape(H, W) * 7919 + 16_777_219          # above 2^24: not exact in float32
+    data = data.astype(np.float64)
+    data[:, :, NAMES.index("whitebarmask.mask")] = ids / 4294967295.0   # OpenImageIO normalises uint
+    spec = _spec(NAMES, _fmt)
+    spec.attribute("multiView", oiio.TypeDesc("string[2]"), ("left", "right"))
+    out = oiio.ImageOutput.create(str(p))
+    assert out.open(str(p), spec)
+    assert out.write_image(data)
+    out.close()
+    return p
+
+
+@pytest.mark.parametrize("view", [None, "left", "right"])
+def test_stereo_single_part_keeps_every_channel_and_view(stereo, tmp_path, view):
+    out = tmp_path / "out.exr"
+    args = ["apply", stereo, "-o", out] + (["--view", view] if view else [])
+    code, text, _ = run(*args)
+    assert code == 0, text
+    (si, ci), = _read_all(stereo)
+    (so, co), = _read_all(out)
+    assert sorted(so.channelnames) == sorted(si.channelnames) and len(co) == 19
+    assert _formats(so) == _formats(si)                           # half stays half, uint stays uint
+    assert (so.x, so.y, so.width, so.height) == (si.x, si.y, si.width, si.height)
+    assert (so.full_x, so.full_y, so.full_width, so.full_height) == (0, 0, 80, 50)
+    assert tuple(so.getattribute("multiView")) == ("left", "right")
+    assert so.getattribute("compression") == "piz" and so.getattribute("studio:shot") == "bb010"
+    prefix = "right." if view == "right" else ""
+    changed = {prefix + c for c in "RGB"}
+    for n in ci:
+        if n in changed:
+            assert np.abs(co[n] - ci[n]).max() > 1e-3, n         # fogged
+        else:
+            np.testing.assert_array_equal(co[n], ci[n], err_msg=n)  # copied bit for bit
+    mask = NAMES.index("whitebarmask.mask")
+    raw = [_uint_channel(f, "whitebarmask.mask") for f in (stereo, out)]
+    np.testing.assert_array_equal(raw[0], raw[1])                  # ids beyond float32's integers survive
+    assert raw[0].min() > 2 ** 24 and mask >= 0
+
+
+def _uint_channel(path, name):
+    inp = oiio.ImageInput.open(str(path))
+    c = list(inp.spec().channelnames).index(name)
+    px = np.asarray(inp.read_image(0, 0, c, c + 1, "uint"))
+    inp.close()
+    return px
+
+
+def test_multipart_views_and_tiles(tmp_path):
+    """Two parts (one per view, `view` attributes) and a depth part, tiled (OpenEXR has no
+    scanline access to them): --view right replaces the right part's colour; everything else
+    is copied."""
+    p = tmp_path / "multipart.exr"
+    rgbaz = ["R", "G", "B", "A", "Z"]
+    specs = []
+    for name, view in (("left", "left"), ("right", "right")):
+        s = _spec(rgbaz, _fmt)
+        s.attribute("name", name)
+        s.attribute("view", view)
+        specs.append(s)
+    sd = _spec(["depth.Z"], lambda n: "float")
+    sd.attribute("name", "depth")
+    specs.append(sd)
+    for s in specs:
+        s.tile_width, s.tile_height = 16, 8
+    datas = [_data(rgbaz, 1), _data(rgbaz, 2), _data(["depth.Z"], 3) + 10]
+    out = oiio.ImageOutput.create(str(p))
+    assert out.open(str(p), tuple(specs))
+    for i, (s, d) in enumerate(zip(specs, datas)):
+        if i:
+            assert out.open(str(p), s, "AppendSubimage")
+        assert out.write_image(d)
+    out.close()
+    o = tmp_path / "o.exr"
+    code, text, _ = run("apply", p, "--view", "right", "-o", o, "--aov", "transmittance")
+    assert code == 0, text
+    pin, pout = _read_all(p), _read_all(o)
+    assert [s.getattribute("name") for s, _ in pout] == ["left", "right", "depth"]
+    assert [s.getattribute("view") for s, _ in pout] == ["left", "right", None]
+    for (si, ci), (so, co) in zip(pin, pout):
+        assert (so.x, so.y, so.width, so.height) == (si.x, si.y, si.width, si.height)
+        for n in ci:
+            assert _formats(so)[n] == _formats(si)[n]
+            if si.getattribute("name") == "right" and n in "RGB":
+                assert np.abs(co[n] - ci[n]).max() > 1e-3
+            else:
+                np.testing.assert_array_equal(co[n], ci[n], err_msg=f"{si.getattribute('name')}.{n}")
+    assert {"transmittance.R", "transmittance.G", "transmittance.B"} <= set(pout[1][1])   # AOVs join the part read
+    assert "transmittance.R" not in pout[0][1]
+
+
+def test_drop_channels_and_output_type(stereo, tmp_path):
+    o = tmp_path / "o.exr"
+    code, text, _ = run("apply", stereo, "-o", o, "--drop-channels", "--set", "output.type=float",
+                        "--set", "output.compression=zips")
+    assert code == 0, text
+    (so, co), = _read_all(o)
+    assert list(so.channelnames) == ["R", "G", "B", "A"]
+    assert set(_formats(so).values()) == {"float"} and so.getattribute("compression") == "zips"
+    assert so.getattribute("multiView") is None
+    assert (so.x, so.y) == (11, 4)
+    o2 = tmp_path / "o2.exr"
+    code, text, _ = run("apply", stereo, "-o", o2, "--set", "output.type=float")
+    assert code == 0, text
+    f = _formats(_read_all(o2)[0][0])
+    assert f["R"] == "float" and f["right.R"] == "half" and f["whitebarmask.mask"] == "uint"
+
+
+@pytest.mark.parametrize("names", [["A"], ["Z"], ["depth.Z"], ["A", "Z"]])
+def test_exr_without_colour_is_refused(tmp_path, names):
+    from test_cli import assert_one_line_error, write_img
+
+    p = tmp_path / "nocolour.exr"
+    write_img(p, np.full((8, 9, len(names)), 3.0), names)
+    assert_one_line_error(*run("apply", p, "--depth", p, "-o", tmp_path / "o.exr")[:2], "no colour channels")
