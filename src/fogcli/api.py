@@ -137,7 +137,12 @@ def apply(image: np.ndarray, depth: np.ndarray, config: Config | str | None = No
         d = d[:, :, 0]
     if d.ndim != 2 or not (np.issubdtype(d.dtype, np.number) or d.dtype == bool):
         raise UserError(f"depth: expected an (h, w) numeric array, got shape {d.shape} {d.dtype}")
-    dm, _ = depth_mod.metric_depth(d, img, cfg.camera, "depth", alpha)
+    dm, rep = depth_mod.metric_depth(d, img, cfg.camera, "depth", alpha)
+    if rep.notes:
+        import warnings
+
+        for n in rep.notes:
+            warnings.warn(n, UserWarning, stacklevel=2)
     out, a_out, planes = run(img, dm, cfg, alpha=alpha, aovs=aovs, device=device, timings=timings)
     if a_out is not None:
         out = np.concatenate([out, a_out[:, :, None]], axis=2)

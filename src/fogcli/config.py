@@ -68,6 +68,51 @@ class _Loc:
 
 # ----------------------------------------------------------------------------- loading
 
+# Config files are small: deeper nesting or more nodes (after aliases are expanded) than
+# this is an attack or a mistake (billion laughs), refused before it costs time or memory.
+MAX_DEPTH, MAX_NODES = 32, 20000
+_PLAIN_TAGS = {f"tag:yaml.org,2002:{t}" for t in ("str", "int", "float", "bool", "null", "map", "seq")}
+
+
+def _screen(text: str, source: str) -> None:
+    """Depth, alias expansion and tags checked on the event stream (iterative, so a
+    5000-deep flow list cannot exhaust Python's recursion before we refuse it)."""
+    depth, anchors, stack = 0, {}, []     # stack: [anchor name, expanded size so far]
+    total = 0
+    for ev in yaml.parse(text, Loader=_Loader):
+        line = ev.start_mark.line + 1
+        tag = getattr(ev, "tag", None)
+        if tag and tag not in _PLAIN_TAGS and tag not in ("!", "?"):
+            raise UserError(f"{source}:{line}: invalid YAML: tag {tag} is not allowed (plain values only)")
+        size = 0
+        if isinstance(ev, yaml.AliasEvent):
+            if ev.anchor not in anchors:
+                raise UserError(f"{source}:{line}: invalid YAML: alias *{ev.anchor} is recursive or undefined")
+            size = anchors[ev.anchor]
+        elif isinstance(ev, yaml.ScalarEvent):
+            size = 1
+            if ev.anchor:
+                anchors[ev.anchor] = 1
+        elif isinstance(ev, (yaml.MappingStartEvent, yaml.SequenceStartEvent)):
+            depth += 1
+            if depth > MAX_DEPTH:
+                raise UserError(f"{source}:{line}: invalid YAML: nested deeper than {MAX_DEPTH} levels")
+            stack.append([ev.anchor, 1])
+            continue
+        elif isinstance(ev, (yaml.MappingEndEvent, yaml.SequenceEndEvent)):
+            depth -= 1
+            anchor, size = stack.pop()
+            if anchor:
+                anchors[anchor] = size
+        else:
+            continue
+        if stack:
+            stack[-1][1] += size
+        total += size if not stack else 0
+        if (stack and stack[-1][1] > MAX_NODES) or total > MAX_NODES:
+            raise UserError(f"{source}:{line}: invalid YAML: expands to more than {MAX_NODES} values (aliases)")
+
+
 def _node_to_py(node, source: str, path: str, locs: dict):
     locs[path] = _Loc(source, node.start_mark.line + 1)
     if isinstance(node, yaml.MappingNode):
@@ -86,6 +131,10 @@ def _node_to_py(node, source: str, path: str, locs: dict):
 def load_yaml(path: str | Path, locs: dict) -> dict:
     """Parse a YAML file into plain data, recording each key's line in ``locs``."""
     p = Path(path)
+    if p.exists() and not p.is_file():
+        raise UserError(f"{p}: not a regular file, expected a YAML config file")
+    if p.is_file() and p.stat().st_size > 1_000_000:
+        raise UserError(f"{p}: {p.stat().st_size} bytes; expected a small YAML config file")
     try:
         text = p.read_text()
     except FileNotFoundError:
@@ -93,17 +142,30 @@ def load_yaml(path: str | Path, locs: dict) -> dict:
     except (OSError, UnicodeDecodeError) as exc:
         raise UserError(f"{p}: cannot read config file ({exc.__class__.__name__})") from None
     try:
+        _screen(text, str(p))
         node = yaml.compose(text, Loader=_Loader)
     except yaml.YAMLError as exc:
         mark = getattr(exc, "problem_mark", None)
-        line = f":{mark.line + 1}" if mark else ""
         problem = getattr(exc, "problem", None) or str(exc).splitlines()[0]
+        ctx, cmark = getattr(exc, "context", None) or "", getattr(exc, "context_mark", None)
+        if cmark is not None and "flow" in ctx:
+            # an unclosed [ or {: the parser notices on a later line; point at the bracket
+            mark, problem = cmark, f"{ctx[len('while parsing a '):] if ctx.startswith('while parsing a ') else ctx} " \
+                f"opened here is not closed ({problem})"
+        line = f":{mark.line + 1}" if mark else ""
         raise UserError(f"{p}{line}: invalid YAML: {problem}") from None
+    except RecursionError:
+        raise UserError(f"{p}: invalid YAML: nested too deeply") from None
     if node is None:
         return {}
     if not isinstance(node, yaml.MappingNode):
         raise UserError(f"{p}:{node.start_mark.line + 1}: expected a mapping of sections (medium, camera, render, output)")
-    return _node_to_py(node, str(p), "", locs)
+    try:
+        return _node_to_py(node, str(p), "", locs)
+    except (yaml.YAMLError, ValueError) as exc:   # a scalar YAML cannot convert (4300+ digit integers)
+        if isinstance(exc, UserError):
+            raise
+        raise UserError(f"{p}: invalid YAML value ({str(exc).splitlines()[0][:80]})") from None
 
 
 def parse_set(item: str, locs: dict) -> dict:
@@ -113,11 +175,14 @@ def parse_set(item: str, locs: dict) -> dict:
     key, value = item.split("=", 1)
     parts = key.strip().split(".")
     if not all(parts):
-        raise UserError(f"--set {item!r}: empty key part")
+        raise UserError(f"--set {item[:60]!r}: empty key part")
+    if len(item) > 10_000:
+        raise UserError(f"--set {key[:60]}: value of {len(value)} characters; expected a short YAML value")
     try:
+        _screen(value, f"--set {key.strip()}")
         val = yaml.load(value, Loader=_Loader) if value.strip() else None
-    except yaml.YAMLError:
-        raise UserError(f"--set {item!r}: value is not valid YAML") from None
+    except (yaml.YAMLError, ValueError):   # ValueError: an integer of more than 4300 digits
+        raise UserError(f"--set {key.strip()}: value is not valid YAML") from None
     out: dict = {}
     cur = out
     for p in parts[:-1]:
@@ -191,7 +256,7 @@ class Camera:
     pitch: float = 0.0
     roll: float = 0.0
     depth: str = "z"            # z | distance | disparity | inverse
-    depth_scale: float = 1.0
+    depth_scale: float | str = "auto"   # metres per stored unit; auto: 0.001 for 16/32-bit integer files (mm), else 1
     max_depth: float = 1000.0
     empty_depth: float = 0.0          # where pixels with alpha 0 look (m): 0 = no medium (the plate behind has its own); inf = open sky
     focal_px_y: float | None = None   # vertical focal length; default = the horizontal one
@@ -478,7 +543,9 @@ def _camera(ck: _Checker, sec: dict) -> Camera:
     if "depth" in sec:
         c.depth = ck.choice(sec["depth"], "camera.depth", ["z", "distance", "disparity", "inverse"]) or c.depth
     if "depth_scale" in sec:
-        c.depth_scale = ck.number(sec["depth_scale"], "camera.depth_scale", lo=0.0, lo_open=True) or 1.0
+        v = sec["depth_scale"]
+        c.depth_scale = "auto" if v == "auto" else (
+            ck.number(v, "camera.depth_scale", lo=0.0, lo_open=True) or c.depth_scale)
     if "max_depth" in sec:
         c.max_depth = ck.number(sec["max_depth"], "camera.max_depth", lo=0.0, lo_open=True) or c.max_depth
     if "empty_depth" in sec:

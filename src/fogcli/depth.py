@@ -20,14 +20,28 @@ from .config import Camera
 from .errors import UserError
 
 
+# Metric depths outside this range are not measurements: below, holes; above, sky (renderers
+# write 1e10 or FLT_MAX where nothing was hit).
+MIN_DEPTH, MAX_METRIC = 1e-6, 1e7
+
+
+def scale_of(raw: np.ndarray, cam: Camera) -> float:
+    """camera.depth_scale, `auto` resolved by the file's type: integer depth of 16 bits or
+    more is millimetres (Kinect, RealSense, Azure Kinect, most RGB-D datasets), else metres."""
+    if cam.depth_scale != "auto":
+        return float(cam.depth_scale)
+    dt = np.asarray(raw).dtype
+    return 0.001 if np.issubdtype(dt, np.integer) and dt.itemsize >= 2 else 1.0
+
+
 def decode(raw: np.ndarray, cam: Camera, source: str, width: int) -> np.ndarray:
     """Metric depth (z for z/disparity/inverse, ray length for distance); NaN = no value."""
     v = np.asarray(raw, np.float64)
-    if cam.encoding == "cityscapes":           # (p - 1) / 256, p = 0: no measurement
-        v = np.where(v > 0, (v - 1.0) / 256.0, np.nan)
-    else:
-        v = v * cam.depth_scale
-    with np.errstate(divide="ignore", invalid="ignore"):
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        if cam.encoding == "cityscapes":           # (p - 1) / 256, p = 0: no measurement
+            v = np.where(v > 0, (v - 1.0) / 256.0, np.nan)
+        else:
+            v = v * scale_of(raw, cam)
         if cam.depth == "disparity":
             v = np.where(v > 0, cam.baseline * cam.focal(width) / v, np.nan)
         elif cam.depth == "inverse":
@@ -39,7 +53,27 @@ def decode(raw: np.ndarray, cam: Camera, source: str, width: int) -> np.ndarray:
             v = 1.0 / (1.0 / cam.far + t * (1.0 / cam.near - 1.0 / cam.far))
         else:
             v = np.where(v > 0, v, np.nan)
+        v = np.where(v > MAX_METRIC, np.inf, np.where(v < MIN_DEPTH, np.nan, v))   # -inf, tiny: holes
     return v.astype(np.float32)
+
+
+def notes(raw: np.ndarray, cam: Camera, metric: np.ndarray, source: str) -> list[str]:
+    """Warnings about a depth that decodes to an implausible scene, with the fix."""
+    out = []
+    raw = np.asarray(raw)
+    if cam.depth_scale == "auto" and cam.encoding == "linear" and scale_of(raw, cam) != 1.0 \
+            and cam.depth in ("z", "distance"):
+        out.append(f"{source}: {raw.dtype} depth read as millimetres (camera.depth_scale: auto); "
+                   "set camera.depth_scale if the unit differs (TUM RGB-D: 0.0002)")
+    ok = metric[np.isfinite(metric)]
+    if ok.size and cam.encoding == "linear" and cam.depth in ("z", "distance"):
+        med = float(np.median(ok))
+        # whole numbers in the thousands: millimetre codes stored as they came from a sensor
+        vals = np.asarray(raw, np.float64)[np.isfinite(metric)]
+        if med > 0.5 * cam.max_depth and np.array_equal(vals, np.round(vals)) and len(np.unique(vals[:4096])) >= 16:
+            out.append(f"{source}: median depth {med:.4g} m (whole numbers, beyond half of camera.max_depth "
+                       f"{cam.max_depth:g} m) looks like millimetres: set camera.depth_scale=0.001")
+    return out
 
 
 # The domain transform's colour sigma, guide in [0, 1]. Chosen on three synthetic scenes
@@ -54,6 +88,7 @@ SIGMA_COLOUR = 0.3
 class DepthReport:
     holes: int = 0            # pixels without a measurement, filled
     resampled_from: tuple | None = None
+    notes: list | None = None  # warnings about the decoded scale (depth.notes)
 
 
 def _guide(rgb: np.ndarray) -> np.ndarray:
@@ -181,6 +216,9 @@ def metric_depth(raw: np.ndarray, rgb: np.ndarray, cam: Camera, source: str,
     Pixels with alpha 0 are empty, not holes: they look at camera.empty_depth."""
     h, w = rgb.shape[:2]
     metric = decode(raw, cam.for_size(w, h), source, w)
+    found = notes(raw, cam, metric, source)
     if alpha is not None and metric.shape == alpha.shape:
         metric[alpha <= 0.0] = cam.empty_depth
-    return prepare(metric, rgb, source)
+    out, rep = prepare(metric, rgb, source)
+    rep.notes = found
+    return out, rep

@@ -44,16 +44,43 @@ class Frame:
     pixel_type: str = "float"       # the colour channels' type in the file (half, float, uint8...)
 
 
-def _open(path: Path):
-    oiio = _oiio()
+def check_regular(path: Path, what: str = "an image file") -> None:
+    """Exists and is a regular file (a FIFO or a device would block or never end)."""
     if not path.exists():
         raise UserError(f"{path}: file not found")
     if path.is_dir():
-        raise UserError(f"{path}: is a directory, expected an image file")
+        raise UserError(f"{path}: is a directory, expected {what}")
+    if not path.is_file():
+        raise UserError(f"{path}: not a regular file (a pipe or a device), expected {what}")
+
+
+# Frames larger than this are refused before any pixel is read (a header may claim any
+# size): one float4 plane of it is 2 GiB, PoCL's largest single allocation.
+MAX_PIXELS = 2**31 // 16
+
+
+def _check_size(path: Path, inp) -> None:
+    i = 0
+    while inp.seek_subimage(i, 0):
+        s = inp.spec()
+        if s.width <= 0 or s.height <= 0 or s.nchannels <= 0:
+            raise UserError(f"{path}: empty image ({s.width}x{s.height}, {s.nchannels} channels)")
+        if s.width * s.height > MAX_PIXELS or s.width * s.height * s.nchannels > 8 * MAX_PIXELS:
+            raise UserError(f"{path}: {s.width}x{s.height} with {s.nchannels} channels is beyond fogcli's limit "
+                            f"of {MAX_PIXELS / 1e6:.0f} MPx (a 2 GiB float4 device buffer) and {8 * MAX_PIXELS / 1e6:.0f} M samples")
+        i += 1
+    inp.seek_subimage(0, 0)
+    inp.geterror()
+
+
+def _open(path: Path):
+    oiio = _oiio()
+    check_regular(path)
     inp = oiio.ImageInput.open(str(path))
     if inp is None:
         msg = oiio.geterror().strip().splitlines()
         raise UserError(f"{path}: cannot read image ({msg[0] if msg else 'unknown format'})")
+    _check_size(path, inp)
     return inp
 
 
@@ -144,6 +171,7 @@ def _parts(inp) -> list:
         out.append((i, spec, name, str(spec.getattribute("view") or "")))
         i += 1
     inp.seek_subimage(0, 0)
+    inp.geterror()      # the failed seek past the last part leaves an error set: clear it
     return out
 
 
@@ -271,8 +299,7 @@ def read_raw(path: Path) -> Frame:
     [0, 1] of the white level (no highlight reconstruction beyond it)."""
     import rawpy
 
-    if not path.is_file():
-        raise UserError(f"{path}: file not found")
+    check_regular(path)
     try:
         with rawpy.imread(str(path)) as raw:
             px = raw.postprocess(use_camera_wb=True, no_auto_bright=True, gamma=(1, 1),
@@ -288,17 +315,25 @@ def read_depth(path: str | Path) -> np.ndarray:
     """Raw depth values of a separate depth file (EXR, TIFF, PNG16, NPY)."""
     path = Path(path)
     if path.suffix.lower() == ".npy":
-        if not path.is_file():
-            raise UserError(f"{path}: file not found")
+        check_regular(path, "a depth file")
         try:
-            arr = np.load(path, allow_pickle=False)
+            arr = np.load(path, allow_pickle=False, mmap_mode="r")
+            if arr.size > MAX_PIXELS:
+                raise UserError(f"{path}: {arr.shape} is beyond fogcli's limit of {MAX_PIXELS / 1e6:.0f} MPx")
+            arr = np.array(arr)
+        except UserError:
+            raise
         except Exception as exc:
             raise UserError(f"{path}: cannot read NPY depth ({exc.__class__.__name__}: {exc})") from None
         if arr.ndim == 3 and arr.shape[2] == 1:
             arr = arr[:, :, 0]
-        if arr.ndim != 2 or not np.issubdtype(arr.dtype, np.number):
-            raise UserError(f"{path}: expected a 2-D numeric array of depths, got shape {arr.shape} {arr.dtype}")
-        return np.ascontiguousarray(arr, dtype=np.float32)
+        if (arr.ndim != 2 or arr.size == 0 or not np.issubdtype(arr.dtype, np.number)
+                or np.issubdtype(arr.dtype, np.complexfloating)):
+            raise UserError(f"{path}: expected a non-empty 2-D real array of depths, got shape {arr.shape} {arr.dtype}")
+        if np.issubdtype(arr.dtype, np.integer):
+            return np.ascontiguousarray(arr)
+        with np.errstate(over="ignore"):
+            return np.ascontiguousarray(arr, dtype=np.float32)     # beyond float32: inf, i.e. sky
 
     inp = _open(path)
     spec = inp.spec()
@@ -318,4 +353,6 @@ def read_depth(path: str | Path) -> np.ndarray:
         ch = 0  # grey + alpha, or a grey image saved as RGB(A)
     else:
         raise UserError(f"{path}: no usable depth channel (expected Z, *.Z, *depth or a single channel; have: {', '.join(names)})")
-    return np.ascontiguousarray(px[:, :, ch], dtype=np.float32)
+    plane = px[:, :, ch]
+    # integer codes keep their type (camera.depth_scale: auto reads 16-bit as millimetres)
+    return np.ascontiguousarray(plane if np.issubdtype(plane.dtype, np.integer) else plane.astype(np.float32))

@@ -35,6 +35,10 @@ def _matrix(m, path: Path) -> tuple[float, float, float, float]:
 def load(path: str | Path) -> dict:
     """The camera section the file describes."""
     p = Path(path)
+    if p.exists() and not p.is_file():
+        raise UserError(f"--camera {p}: not a regular file")
+    if p.is_file() and p.stat().st_size > 1_000_000:
+        raise UserError(f"--camera {p}: {p.stat().st_size} bytes; expected a small JSON file")
     try:
         data = json.loads(p.read_text())
     except FileNotFoundError:
@@ -43,6 +47,8 @@ def load(path: str | Path) -> dict:
         raise UserError(f"--camera {p}: cannot read ({exc.__class__.__name__})") from None
     except json.JSONDecodeError as exc:
         raise UserError(f"{p}:{exc.lineno}: not valid JSON ({exc.msg})") from None
+    except (RecursionError, ValueError) as exc:   # nested too deep; integers of 4300+ digits
+        raise UserError(f"--camera {p}: not a camera file ({exc.__class__.__name__})") from None
     if not isinstance(data, dict):
         raise UserError(f"{p}: expected a JSON object of camera intrinsics")
     cam: dict = {}

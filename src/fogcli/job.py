@@ -62,6 +62,7 @@ def run_job(job: Job, cfg: Config, aovs=(), device=None, timings: Timings | None
     res.io_ms += (time.perf_counter() - t0) * 1e3
     h, w = frame.rgb.shape[:2]
     clean, rep = depth_mod.metric_depth(raw, frame.rgb, cfg.camera, str(dsrc), frame.alpha)
+    res.warnings += rep.notes or []
     if rep.resampled_from:
         res.warnings.append(f"{dsrc}: depth {rep.resampled_from[0]}x{rep.resampled_from[1]} upsampled "
                             f"edge-aware to {w}x{h}")
