@@ -108,3 +108,109 @@ def test_psf_border_and_emission_profile_keys():
         make_config("fog", sets=["render.psf=gaussian", "render.emission_profile=lambertian"])
     with pytest.raises(UserError, match="render.border: expected one of open, closed"):
         make_config("fog", sets=["render.border=mirror"])
+
+
+# ---------------------------------------------------------------- typed model (issue 9)
+
+VALID = [
+    "", "medium:\n  visibility: 40\n", "medium:\n  visibility: 40\n  albedo: 0.5\n",
+    "medium:\n  absorption: 0.1\n  scattering: [0.1, 0.2, 0.3]\n", "medium:\n  ambient: auto\n",
+    "medium:\n  density:\n    - {type: sphere, radius: 3, center: [0, 0, -5]}\n",
+    "medium:\n  density:\n    - {type: exponential, falloff: 0.1}\n    - {type: homogeneous, factor: 0.2}\n",
+    "camera:\n  depth: disparity\n  baseline: 0.2\n", "camera:\n  depth: inverse\n  near: 1\n  far: 50\n",
+    "camera:\n  empty_depth: inf\n", "camera:\n  depth_scale: 0.001\n", "camera:\n  calibrated_size: [640, 480]\n",
+    "camera:\n  focal_px: null\n  cx: 3\n", "render:\n  method: naive\n", "render:\n  fetch: receiver\n",
+    "render:\n  method: reference\n", "render:\n  kernel: 6\n  c: 0.8\n  epsilon: 0\n  levels: 5\n",
+    "render:\n  separation: {enabled: true}\n", "render:\n  psf: gaussian\n  emission_profile: isotropic\n",
+    "output:\n  type: half\n  compression: piz\n", "output:\n  exposure: -2\n", "medium:\n  asymmetry: 0\n",
+]
+INVALID = [
+    ("medium:\n  visibility: 0\n", 2), ("medium:\n  visibility: 10\n  absorption: 1\n", None),
+    ("medium:\n  albedo: 1.5\n", None), ("medium:\n  absorption: [1, 2]\n", 2), ("medium:\n  scattering: -1\n", 2),
+    ("medium:\n  asymmetry: -0.1\n", 2), ("medium:\n  ambient: bright\n", 2), ("medium:\n  density: []\n", 2),
+    ("medium:\n  density:\n    - {type: cube}\n", 3), ("medium:\n  density:\n    - {type: sphere, radius: -1}\n", 3),
+    ("medium:\n  density:\n    - {type: homogeneous, falloff: 1}\n", 3), ("medium: 3\n", 1),
+    ("camera:\n  fov: 180\n", 2), ("camera:\n  fov: true\n", 2), ("camera:\n  depth: disparity\n", None),
+    ("camera:\n  depth: inverse\n  near: 5\n  far: 1\n", None), ("camera:\n  depth_scale: 0\n", 2),
+    ("camera:\n  calibrated_size: [640]\n", 2), ("camera:\n  calibrated_size: [640.5, 480]\n", 2),
+    ("camera:\n  empty_depth: -1\n", 2), ("camera:\n  position: [0, 0]\n", 2), ("camera:\n  max_depth: .nan\n", 2),
+    ("render:\n  method: naive\n  psf: apsf\n", None), ("render:\n  psf: gaussian\n  emission_profile: lambertian\n", None),
+    ("render:\n  method: naive\n  separation: {enabled: true}\n", None), ("render:\n  kernel: 8\n", 2),
+    ("render:\n  levels: 0\n", 2), ("render:\n  levels: 2.5\n", 2), ("render:\n  c: -1\n", 2),
+    ("render:\n  separation: {level: 2}\n", 2), ("render:\n  separation: yes please\n", 2), ("output:\n  type: int\n", 2),
+    ("output:\n  compression: lzma\n", 2), ("output:\n  exposure: [1]\n", 2), ("outptu:\n  type: half\n", 1),
+]
+
+
+@pytest.mark.parametrize("text", VALID + [t for t, _ in INVALID])
+def test_check_and_apply_agree(tmp_path, text):
+    """check and apply run the same validation: ok for one is ok for the other, and apply's
+    message is check's first problem (57 configs, valid and invalid)."""
+    p = tmp_path / "c.yaml"
+    p.write_text(text)
+    problems = check_file(str(p))
+    try:
+        assemble("fog", str(p))
+        applied = None
+    except UserError as exc:
+        applied = str(exc)
+    assert (problems == []) == (applied is None) == (text in VALID), (problems, applied)
+    if problems:
+        assert applied.startswith(problems[0])
+        line = dict(INVALID)[text]
+        if line:
+            assert problems[0].startswith(f"{p}:{line}:"), problems[0]
+
+
+def test_messages_sorted_by_line_and_unclosed_bracket_at_its_line(tmp_path):
+    p = tmp_path / "c.yaml"
+    p.write_text("render:\n  kernel: 3\nmedium:\n  asymmetry: 2\ncamera:\n  fov: 0\noutput:\n  type: x\n")
+    lines = [int(q.split(":")[1]) for q in check_file(str(p))]
+    assert lines == [2, 4, 6, 8]
+    p.write_text("medium:\n  absorption: [1, 2\nrender:\n  kernel: 4\n")
+    assert check_file(str(p))[0].startswith(f"{p}:2: invalid YAML: flow sequence opened here is not closed")
+
+
+def test_docs_key_reference_is_generated_and_valid(tmp_path):
+    import sys
+
+    from test_cli import ROOT
+
+    sys.path.insert(0, str(ROOT / "docs"))
+    import make_config_doc
+
+    text = (ROOT / "docs" / "config.md").read_text()
+    assert make_config_doc.reference() in text, "docs/config.md is stale: run python docs/make_config_doc.py"
+    block = make_config_doc.reference().split("```yaml\n", 1)[1].rsplit("```", 1)[0]
+    (tmp_path / "ref.yaml").write_text(block)
+    assert check_file(str(tmp_path / "ref.yaml")) == []
+    from pydantic import BaseModel
+
+    from fogcli.config import Config
+
+    def keys(model, pre=""):
+        for name, f in model.model_fields.items():
+            sub = f.annotation if isinstance(f.annotation, type) and issubclass(f.annotation, BaseModel) else None
+            yield from keys(sub, f"{pre}{name}.") if sub else [f"{pre}{name}"]
+    documented, stack = [], []
+    for ln in block.splitlines():
+        if ln.strip().startswith(("#", "-")):
+            continue
+        depth = (len(ln) - len(ln.lstrip())) // 2
+        stack = stack[:depth] + [ln.strip().split(":")[0]]
+        if "# " in ln and not ln.rstrip().endswith(":"):
+            documented.append(".".join(stack))
+    assert sorted(documented) == sorted(keys(Config))           # every key once, each with its doc
+
+
+def test_config_show_round_trips(tmp_path):
+    from test_cli import run
+
+    code, text, _ = run("config", "--show", "--medium", "sea", "--set", "camera.empty_depth=inf")
+    assert code == 0, text
+    (tmp_path / "shown.yaml").write_text(text)
+    assert check_file(str(tmp_path / "shown.yaml")) == []
+    again = assemble("fog", str(tmp_path / "shown.yaml"))
+    assert again == assemble("sea", None, ("camera.empty_depth=inf",)).model_copy(
+        update={"render": again.render}) and again.camera.empty_depth == float("inf")
+    assert "c: 0." in text and "epsilon: 1.5" in text          # auto resolved

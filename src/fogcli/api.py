@@ -122,7 +122,13 @@ def apply(image: np.ndarray, depth: np.ndarray, config: Config | str | None = No
 
     if colour not in (None, "srgb", "linear"):
         raise UserError(f"colour: expected 'srgb', 'linear' or None, got {colour!r}")
-    cfg = config if isinstance(config, Config) else assemble(config)
+    if not isinstance(config, Config):
+        try:
+            cfg = assemble(config)
+        except UserError as exc:
+            raise UserError(str(exc).replace("--medium ", "config: ")) from None
+    else:
+        cfg = config
     img, a4 = _float_image(image, "image", colour)
     if float(np.abs(img).max(initial=0.0)) > MAX_RADIANCE:
         raise UserError(f"image: values above {MAX_RADIANCE:.0e} are not scene radiance")

@@ -167,6 +167,30 @@ def media():
         click.echo(f"{'':<10} absorption [{sa}]  scattering [{ss}]  g {m.asymmetry:g}")
 
 
+@main.command("config")
+@click.argument("files", nargs=-1)
+@click.option("--show", is_flag=True, required=True, help="Print the merged, resolved config as YAML.")
+@click.option("--medium", metavar="NAME|FILE", help="Medium preset or YAML file merged first. Default: fog.")
+@click.option("--camera", "camera_file", metavar="FILE", help="Pinhole intrinsics JSON merged after the files.")
+@click.option("--set", "sets", multiple=True, metavar="KEY=VALUE", help="Override one dotted key.")
+@guarded
+def config_cmd(files, show, medium, camera_file, sets):
+    """Print the config that apply would use: preset < --medium < FILES (as --config, in
+    order) < --camera < --set, validated, with the image-independent auto values resolved."""
+    import yaml
+
+    from .config import resolved_data
+    from .media import assemble
+
+    class Dumper(yaml.SafeDumper):
+        pass
+
+    Dumper.add_representer(list, lambda d, v: d.represent_sequence(     # [r, g, b] on one line
+        "tag:yaml.org,2002:seq", v, flow_style=not any(isinstance(x, (dict, list)) for x in v)))
+    cfg = assemble(medium, list(files), sets, camera_file)
+    click.echo(yaml.dump(resolved_data(cfg), Dumper=Dumper, sort_keys=False, width=100), nl=False)
+
+
 @main.command()
 @click.argument("files", nargs=-1, required=True)
 def check(files):

@@ -5,6 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from . import config as C
+from . import config_source as S
 from .errors import UserError
 
 PRESET_DIR = Path(__file__).resolve().parent / "configs"
@@ -35,24 +36,24 @@ def _medium_source(name: str) -> Path:
     return table[name]
 
 
-def assemble(medium: str | None = None, config_file: str | None = None,
+def assemble(medium: str | None = None, config_file: str | list | None = None,
              sets: tuple[str, ...] = (), camera_file: str | None = None,
              camera_section: dict | None = None) -> C.Config:
     """Merge the sources in order (preset < --medium < --config < --camera < --set) and
     validate once."""
     locs: dict = {}
     src = _medium_source(medium or DEFAULT_MEDIUM)
-    data = C.load_yaml(src, locs)
-    if config_file:
-        data = C.merge(data, C.load_yaml(config_file, locs))
+    data = S.load_yaml(src, locs)
+    for f in ([config_file] if isinstance(config_file, str) else config_file or []):
+        data = S.merge(data, S.load_yaml(f, locs))
     if camera_file:
         from .intrinsics import load
 
-        data = C.merge(data, load(camera_file))
+        data = S.merge(data, load(camera_file))
     if camera_section:
-        data = C.merge(data, {"camera": dict(camera_section)})
+        data = S.merge(data, {"camera": dict(camera_section)})
     for item in sets:
-        data = C.merge(data, C.parse_set(item, locs))
+        data = S.merge(data, S.parse_set(item, locs))
     return C.build(data, locs)
 
 
@@ -60,7 +61,7 @@ def check_file(path: str) -> list[str]:
     """Every problem of one config file (empty when fine)."""
     locs: dict = {}
     try:
-        data = C.load_yaml(path, locs)
+        data = S.load_yaml(path, locs)
     except UserError as exc:
         return [str(exc)]
     _, problems = C.problems_of(data, locs)

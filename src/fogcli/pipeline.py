@@ -430,16 +430,12 @@ def run(rgb: np.ndarray, depth: np.ndarray, cfg: Config, alpha=None, aovs=(), de
     h, w = depth.shape
     if rgb.shape[:2] != (h, w):
         raise ValueError(f"image {rgb.shape[:2]} and depth {depth.shape} differ in size")
-    cfg = dataclasses.replace(cfg, camera=cfg.camera.for_size(w, h))
-    if cfg.render.separation.enabled and cfg.render.method != "pyramid":
-        from .errors import UserError
-
-        raise UserError("render.separation.enabled: pixel separation needs render.method: pyramid")
+    cfg = cfg.model_copy(update={"camera": cfg.camera.for_size(w, h)})
     if cfg.medium.ambient == "auto":
         from .ambient import estimate
 
         la = estimate(rgb, depth, cfg.camera.max_depth)
-        cfg = dataclasses.replace(cfg, medium=dataclasses.replace(cfg.medium, ambient=la))
+        cfg = cfg.model_copy(update={"medium": cfg.medium.model_copy(update={"ambient": la})})
     t = timings if timings is not None else Timings()
     rt = get_runtime(device)
     plan = get_plan(rt, w, h, cfg, aovs)
