@@ -150,6 +150,13 @@ def apply(image: np.ndarray, depth: np.ndarray, config: Config | str | None = No
         for n in rep.notes:
             warnings.warn(n, UserWarning, stacklevel=2)
     out, a_out, planes = run(img, dm, cfg, alpha=alpha, aovs=aovs, device=device, timings=timings)
+    from .media import hidden_warning
+
+    hidden = hidden_warning(img, out, cfg, dm)
+    if hidden:
+        import warnings
+
+        warnings.warn(hidden, UserWarning, stacklevel=2)
     if a_out is not None:
         out = np.concatenate([out, a_out[:, :, None]], axis=2)
     return (out, planes) if return_aovs else out

@@ -157,14 +157,16 @@ def devices():
 @main.command()
 def media():
     """List the bundled medium presets."""
-    from .media import assemble, describe, presets
+    from .media import assemble, describe, presets, visibility_m
 
     for name, path in presets().items():
         m = assemble(name).medium
         sa = ", ".join(f"{x:.4g}" for x in m.absorption)
         ss = ", ".join(f"{x:.4g}" for x in m.scattering)
-        click.echo(f"{name:<10} {describe(path)}")
-        click.echo(f"{'':<10} absorption [{sa}]  scattering [{ss}]  g {m.asymmetry:g}")
+        vis = m.visibility if isinstance(m.visibility, str) else f"{visibility_m(m):.4g} m"
+        dens = "" if [d.type for d in m.density] == ["homogeneous"] else " (at density 1)"
+        click.echo(f"{name:<11} {describe(path)}")
+        click.echo(f"{'':<11} visibility {vis}{dens}  absorption [{sa}]  scattering [{ss}]  g {m.asymmetry:g}")
 
 
 @main.command("config")

@@ -47,6 +47,7 @@ Num = Annotated[float, BeforeValidator(_num)]
 RGB = Annotated[tuple[float, float, float], BeforeValidator(lambda v: _triple(v, 0.0))]
 Vec3 = Annotated[tuple[float, float, float], BeforeValidator(_triple)]
 Auto = Literal["auto"]
+Percent = Annotated[str, Field(pattern=r"^\s*\d+(\.\d*)?\s*%\s*$")]
 
 
 class _Model(BaseModel):
@@ -85,8 +86,9 @@ Density = Annotated[Union[Homogeneous, Exponential, Sphere], Field(discriminator
 class Medium(_Model):
     absorption: RGB = Field((0.0, 0.0, 0.0), description="sigma_a per RGB, 1/m (a number means grey)")
     scattering: RGB = Field((0.0, 0.0, 0.0), description="sigma_s per RGB, 1/m")
-    visibility: Annotated[Num, Field(gt=0)] | None = Field(
-        None, description="m, instead of absorption + scattering: sigma_t = 3.912 / visibility (2 % contrast)")
+    visibility: Annotated[Num, Field(gt=0)] | Percent | None = Field(
+        None, description="m, instead of absorption + scattering: sigma_t = 3.912 / visibility (2 % contrast); "
+        "or a share of the frame's median depth ('40%'), which scales the coefficients given")
     albedo: Annotated[Num, Field(ge=0, le=1)] | None = Field(
         None, description="sigma_s / sigma_t with visibility (default 0.9); alone, it redistributes sigma_t")
     asymmetry: Annotated[Num, Field(ge=0, lt=1)] = Field(0.9, description="g of the Henyey-Greenstein phase function")
@@ -101,10 +103,19 @@ class Medium(_Model):
     def _forms(cls, d):
         if not isinstance(d, dict) or not ({"visibility", "albedo"} & set(d)):
             return d
-        if "visibility" in d and {"absorption", "scattering"} & set(d):
+        relative = isinstance(d.get("visibility"), str) and d["visibility"].strip().endswith("%")
+        if "visibility" in d and {"absorption", "scattering"} & set(d) and not relative:
             raise ValueError("visibility: give either visibility (+ albedo) or absorption + scattering, not both")
         d = dict(d)
         v, a = d.pop("visibility", None), d.pop("albedo", None)
+        if relative:        # the coefficients (or the albedo) give the shape, for_depth() the strength
+            d["visibility"] = v
+            if not {"absorption", "scattering"} & set(d):
+                v, a = VISIBILITY_CONTRAST, 0.9 if a is None else a      # grey, sigma_t 1
+            elif a is None:
+                return d
+            else:
+                v = None                    # albedo redistributes the given coefficients
         try:
             a = _num(a) if a is not None else None
             if a is not None and not 0.0 <= a <= 1.0:
@@ -125,6 +136,17 @@ class Medium(_Model):
                 raise ValueError(f"absorption: {exc}") from None
         d["absorption"], d["scattering"] = tuple((1 - a) * t for t in st), tuple(a * t for t in st)
         return d
+
+    def for_depth(self, median_depth: float) -> "Medium":
+        """A relative visibility ('40%') made metres: the coefficients scaled so that the mean
+        extinction gives that visibility at this share of the frame's median depth."""
+        if not isinstance(self.visibility, str):
+            return self
+        v = float(self.visibility.strip().rstrip("%")) / 100.0 * median_depth
+        st = sum(a + s for a, s in zip(self.absorption, self.scattering)) / 3.0
+        k = VISIBILITY_CONTRAST / v / st if v > 0 and st > 0 else 0.0
+        return self.model_copy(update=dict(visibility=v, absorption=tuple(k * a for a in self.absorption),
+                                           scattering=tuple(k * s for s in self.scattering)))
 
 
 # ----------------------------------------------------------------------------- camera

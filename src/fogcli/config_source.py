@@ -179,7 +179,8 @@ def merge(base: dict, new: dict) -> dict:
             if any(x in v for x in _FORM_A):
                 for x in _FORM_B + ("albedo",):
                     med.pop(x, None)
-            if any(x in v for x in _FORM_B):
+            relative = isinstance(v.get("visibility"), str) and v["visibility"].strip().endswith("%")
+            if any(x in v for x in _FORM_B) and not relative:     # a relative one scales them instead
                 for x in _FORM_A:
                     med.pop(x, None)
             out[k] = merge(med, {kk: vv for kk, vv in v.items()})

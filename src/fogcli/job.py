@@ -12,6 +12,7 @@ from . import depth as depth_mod
 from . import inputs, outputs
 from .config import Config
 from .errors import UserError
+from .media import hidden_warning
 from .pipeline import Timings, run
 
 
@@ -76,7 +77,10 @@ def run_job(job: Job, cfg: Config, aovs=(), device=None, timings: Timings | None
         save_depth(target, clean)
 
     rgb, alpha, planes = run(frame.rgb, clean, cfg, alpha=frame.alpha, aovs=aovs, device=device,
-                      timings=timings if timings is not None else Timings())
+                             timings=timings if timings is not None else Timings())
+    hidden = hidden_warning(frame.rgb, rgb, cfg, clean)
+    if hidden:
+        res.warnings.append(f"{src}: {hidden}")
     t0 = time.perf_counter()
     outputs.write(out_path, rgb, alpha, planes, frame, cfg.output.type, cfg.output.exposure,
                   cfg.output.compression, job.drop_channels)

@@ -420,6 +420,17 @@ def get_plan(rt: Runtime, width: int, height: int, cfg: Config, aovs=()) -> Plan
     return plan
 
 
+def median_depth(depth: np.ndarray, max_depth: float) -> float:
+    """The median metric depth of the surfaces (sky and beyond max_depth left out)."""
+    d = depth[:: max(1, depth.shape[0] // 256), :: max(1, depth.shape[1] // 256)]
+    d = d[np.isfinite(d) & (d < max_depth) & (d > 0)]
+    if d.size == 0:
+        from .errors import UserError
+
+        raise UserError("medium.visibility: a share of the median depth needs surfaces in the frame (all sky here)")
+    return float(np.median(d))
+
+
 def run(rgb: np.ndarray, depth: np.ndarray, cfg: Config, alpha=None, aovs=(), device=None,
         timings: Timings | None = None) -> tuple[np.ndarray, np.ndarray | None, dict]:
     """Process one frame on the device. depth: metric (depth.decode / depth.prepare), at the
@@ -431,6 +442,8 @@ def run(rgb: np.ndarray, depth: np.ndarray, cfg: Config, alpha=None, aovs=(), de
     if rgb.shape[:2] != (h, w):
         raise ValueError(f"image {rgb.shape[:2]} and depth {depth.shape} differ in size")
     cfg = cfg.model_copy(update={"camera": cfg.camera.for_size(w, h)})
+    if isinstance(cfg.medium.visibility, str):        # a share of this frame's median depth
+        cfg = cfg.model_copy(update={"medium": cfg.medium.for_depth(median_depth(depth, cfg.camera.max_depth))})
     if cfg.medium.ambient == "auto":
         from .ambient import estimate
 

@@ -156,3 +156,43 @@ def harbour_sample(width=640, height=360, fov=60.0):
         water = (z >= cam_y / np.maximum(-dy, 1e-9) - 1e-6) & (dy < 0)
         rgb[water] += (np.array(col) * power * 0.01 * streak[:, :, None])[water]
     return rgb.astype(np.float32), z.astype(np.float32), fov
+
+
+def room(width=320, height=240, seed=0, fov=70.0):
+    """An indoor RGB-D-like frame: a 5 x 3 x 6 m room seen from 1.4 m, a daylight window in
+    the back wall, a ceiling lamp, a table; z depth 1-6 m (no sky). Returns (rgb, z, fov)."""
+    rng = np.random.default_rng(seed)
+    h, w = height, width
+    f = (w / 2) / math.tan(math.radians(fov) / 2)
+    yy, xx = np.mgrid[0:h, 0:w].astype(np.float64) + 0.5
+    d = np.stack([(xx - w / 2) / f, -(yy - h / 2) / f, -np.ones_like(xx)], axis=-1)   # z = 1 per unit
+    eye = np.array([0.3, 1.4, 0.0])
+    # planes: (axis, coordinate, colour); the room spans x -2.5..2.5, y 0..3, z 0..-6
+    planes = [(0, -2.5, (0.45, 0.42, 0.38)), (0, 2.5, (0.40, 0.42, 0.45)), (1, 0.0, (0.30, 0.22, 0.16)),
+              (1, 3.0, (0.55, 0.55, 0.55)), (2, -6.0, (0.50, 0.48, 0.44))]
+    t_best = np.full((h, w), np.inf)
+    rgb = np.zeros((h, w, 3))
+    for axis, c, col in planes:
+        with np.errstate(divide="ignore", invalid="ignore"):
+            t = (c - eye[axis]) / d[..., axis]
+        t = np.where(t > 1e-6, t, np.inf)
+        p = eye + t[..., None] * d
+        hit = t < t_best
+        t_best = np.where(hit, t, t_best)
+        shade = 0.75 + 0.25 * np.clip(1.0 - p[..., 2] / -6.0, 0, 1)       # lit from the window side
+        rgb = np.where(hit[..., None], np.array(col) * shade[..., None], rgb)
+        if axis == 2:       # the window: daylight through the back wall
+            win = hit & (np.abs(p[..., 0] + 0.5) < 1.0) & (p[..., 1] > 1.0) & (p[..., 1] < 2.4)
+            rgb[win] = (4.0, 4.4, 5.0)
+        if axis == 1 and c == 3.0:      # a ceiling lamp
+            lamp = hit & ((p[..., 0] - 0.6) ** 2 + (p[..., 2] + 3.0) ** 2 < 0.15 ** 2)
+            rgb[lamp] = (60.0, 50.0, 35.0)
+    # a table: a box top 0.75 m high, 1.2 x 0.8 m, 2.5 m away
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = (0.75 - eye[1]) / d[..., 1]
+    p = eye + t[..., None] * d
+    top = (t > 0) & (t < t_best) & (np.abs(p[..., 0] - 0.2) < 0.6) & (np.abs(p[..., 2] + 2.5) < 0.4)
+    t_best = np.where(top, t, t_best)
+    rgb[top] = (0.35, 0.20, 0.10)
+    rgb *= 1.0 + 0.05 * rng.standard_normal((h, w, 1))                  # texture
+    return np.clip(rgb, 0, None).astype(np.float32), t_best.astype(np.float32), fov

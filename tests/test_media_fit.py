@@ -1,0 +1,58 @@
+"""Media that fit the scene (issue 9): a strength relative to the frame's median depth, and
+every preset on the bundled sample either in a sensible band or saying why not."""
+import warnings
+
+import numpy as np
+import pytest
+
+import fogcli
+from fogcli.media import presets
+from fogcli.pipeline import median_depth
+from fogcli.scenes import room
+from test_cli import SAMPLE, run
+
+LUM = np.array([0.2126, 0.7152, 0.0722], np.float32)
+
+
+def _apply(rgb, z, cfg):
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        out = fogcli.apply(rgb, z, cfg)
+    return out, [str(w.message) for w in caught]
+
+
+def test_relative_visibility_makes_fog_visible_in_a_room():
+    """150 m fog is invisible in a 6 m room (mean change 6 %); at visibility 200 % of the
+    median depth the median wall keeps 2 %^(1/2) = 14 % of its contrast."""
+    rgb, z, fov = room(160, 120)
+    change = {}
+    for vis in (None, "200%"):
+        cfg = fogcli.make_config("fog", sets=[f"camera.fov={fov}"] + ([f"medium.visibility={vis}"] if vis else []))
+        out, said = _apply(rgb, z, cfg)
+        change[vis] = float(np.abs(out - rgb).mean() / rgb.mean())
+        assert not said
+    assert change[None] < 0.1 and change["200%"] > 0.3, change
+    cfg = fogcli.make_config("sea", sets=["medium.visibility=200%"])
+    m = cfg.medium.for_depth(median_depth(z, 1000.0))
+    st = np.add(m.absorption, m.scattering)
+    assert 3.912 / st.mean() == pytest.approx(2 * float(np.median(z)), rel=0.02)
+    np.testing.assert_allclose(st / st.sum(), np.add(cfg.medium.absorption, cfg.medium.scattering)
+                               / np.add(cfg.medium.absorption, cfg.medium.scattering).sum())   # the sea's colour kept
+
+
+@pytest.mark.parametrize("preset", sorted(presets()))
+def test_every_preset_on_the_sample_is_in_band_or_says_why(preset):
+    """Band: output mean luminance 5 % to 150 % of the input's (docs/gallery.md)."""
+    fr = fogcli.read_image(SAMPLE)
+    out, said = _apply(fr.rgb, fr.depth, fogcli.make_config(preset))
+    ratio = float((out @ LUM).mean() / (fr.rgb @ LUM).mean())
+    hidden = [s for s in said if "hides the scene" in s]
+    assert (0.05 <= ratio <= 1.5) != bool(hidden), (ratio, said)
+    if hidden:
+        assert "medium.visibility: 200%" in hidden[0] and "median depth of 13.9 m" in hidden[0]
+
+
+def test_media_lists_visibility_in_metres():
+    code, text, _ = run("media")
+    assert code == 0
+    assert "visibility 150 m" in text and "visibility 1.703 m" in text and "(at density 1)" in text
