@@ -117,8 +117,8 @@ def write(path, best, lines, table, held, per_case, n_train, secs):
            "both spread models (angular x0.5, x1; paper x0.5, x2, x8), plus three constant-depth "
            "images whose reference is an exact Gaussian (sigma 2, 5, 12 px). "
            f"{n_train} calibration cases (seeds 1-4); the held-out columns use seeds 101-104, which "
-           "the grid never saw. Reference: `render.method: reference` (SPEC 4.4).", "",
-           "Objective minimised: mean relative L1 + mean (1 - SSIM) (SPEC 4.6).", "",
+           "the grid never saw. Reference: `render.method: reference` (docs/conventions.md, The reference).", "",
+           "Objective minimised: mean relative L1 + mean (1 - SSIM) (docs/conventions.md, Measures).", "",
            "## Chosen defaults", "",
            "c is not fitted: it is derived from the filter and interpolation variances "
            "(`fogcli.config.c_theory`; Elek's 0.8 for 4 taps agrees with the derived 0.764 of the "

@@ -679,7 +679,10 @@ def gen_paths(i, r, nr):
         else:
             data = b"" if kind == "empty-dng" else bytes(r.getrandbits(8) for _ in range(2048))
         setups.append(lambda d: (d / name).write_bytes(data))
-        expect = "" if kind in ("exr-upper", "exr-no-ext", "png-as-exr", "exr-as-png") else "refuse"
+        if pos in ("image", "depth"):       # image files are recognised by content, NPY by extension
+            expect = "refuse" if kind in ("garbage-dng", "empty-dng", "exr-as-npy") else ""
+            if pos == "depth" and kind == "png-as-exr":
+                expect = ""
     elif kind == "long-name-300":
         name = "n" * 300 + "." + ext
     elif kind in ("name-240", "newline-name", "unicode-name", "space-name", "dash-name"):
@@ -851,7 +854,7 @@ def yaml_variants(r: random.Random) -> list[tuple[str, bytes | str, str]]:
         ("binary-tag", "medium: {visibility: !!binary aGVsbG8=}\n", "refuse"),
         ("set-tag", "medium: !!set {a, b}\n", "refuse"),
         ("explicit-std-tags", "!!map {medium: !!map {visibility: !!float 80}}\n", "ok"),
-        ("nonspecific-tag", "medium: {visibility: ! 80}\n", "refuse"),
+        ("nonspecific-tag", "medium: {visibility: ! 80}\n", ""),
         ("billion-laughs", laughs, "refuse"),
         ("quadratic-string", quadratic, "refuse"),
         ("quadratic-map", quadratic_map, "refuse"),
@@ -1576,6 +1579,22 @@ def _check_output(p: Path) -> str | None:
     return None
 
 
+def _check_report(folder: Path, rel: str) -> str | None:
+    p = folder / rel
+    if not p.is_file():
+        return "missing"
+    try:
+        rep = json.loads(p.read_text())
+        done = [d["output"] for d in rep["done"]]
+    except Exception as exc:
+        return f"unreadable report ({exc.__class__.__name__})"
+    for o in done:
+        prob = _check_output(folder / o)
+        if prob and prob != "nonfinite":
+            return f"the report lists {o} as done, but it is {prob}"
+    return None
+
+
 _PROGRESS = re.compile(r"^\[\d+/\d+\] ")
 _PY_WARNING = re.compile(r"warning", re.I)
 
@@ -1658,7 +1677,10 @@ def judge(case: Case, rc, stderr: str, timed_out: bool, before: dict, after: dic
         for e in expected:
             if rc == 3 and e not in case.outputs:
                 continue
-            prob = _check_output(folder / e)
+            if cmd == "batch":                 # the --report: JSON; every frame it lists as done reads back
+                prob = _check_report(folder, e)
+            else:
+                prob = _check_output(folder / e)
             if prob == "nonfinite":
                 kinds.append("nonfinite-output:" + e[:40])
             elif prob and not (rc == 0 and prob == "missing" and cmd not in ("apply", "batch")):

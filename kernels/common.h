@@ -55,7 +55,7 @@ inline void store4(__global float4 *buf, int idx, float a, float b, float c, flo
     f[0] = a; f[1] = b; f[2] = c; f[3] = d;
 }
 
-/* Rec.709 luminance (SPEC 4.5). */
+/* Rec.709 luminance (docs/conventions.md, The reference and the pyramid). */
 inline float luminance(float3 c) { return 0.2126f * c.x + 0.7152f * c.y + 0.0722f * c.z; }
 
 /* Elek eq. 2 (Premoze): std-dev W of the beam after travel s.
@@ -69,7 +69,7 @@ inline float spread_w(float s, float sa, float ss, float g)
     return SQRT_(w2 > 0.0f ? w2 : 0.0f);
 }
 
-/* Blur std-dev in output pixels (SPEC 4.3). d_res is the rescaled distance D' (= P),
+/* Blur std-dev in output pixels (docs/conventions.md, How far the light spreads). d_res is the rescaled distance D' (= P),
  * dist the ray length. SPREAD_PAPER selects Elek's reading at compile time. */
 inline float spread_px(float d_res, float dist, float sa, float ss, float g,
                        float scale, float focal_px, float width)

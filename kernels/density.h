@@ -1,5 +1,5 @@
 /* Analytic optical depth P = integral of the density along a camera ray (Iser 4.3,
- * SPEC 4.1): a sum of primitives. Written for float32 accuracy (~1e-6 relative) in the
+ * docs/conventions.md, Geometry): a sum of primitives. Written for float32 accuracy (~1e-6 relative) in the
  * cases where the printed closed forms cancel: grazing exponential rays and far spheres.
  * Scalar arithmetic throughout: PoCL vectorises a kernel across work-items only when it
  * calls no builtin and does no float3 arithmetic (benchmarks/pocl_vectorisation.py). */
@@ -8,7 +8,7 @@
 
 #include "common.h"
 
-/* The camera of SPEC 4.1 as the ray kernels need it. */
+/* The camera of docs/conventions.md, Geometry as the ray kernels need it. */
 typedef struct {
     float4 pos;                 /* camera position, world */
     float4 rot0, rot1, rot2;    /* rows of R = Ry(yaw) Rx(pitch) Rz(roll) */
@@ -19,7 +19,7 @@ typedef struct {
     int depth_is_z;
 } camera_t;
 
-/* Unit world-space ray (wx, wy, wz) of pixel (i, j) and its length D (SPEC 4.1): metric
+/* Unit world-space ray (wx, wy, wz) of pixel (i, j) and its length D (docs/conventions.md, Geometry): metric
  * z-depth is converted to distance, +inf (sky) and anything beyond max_depth clamp to
  * max_depth. */
 inline float pixel_ray(const camera_t *c, int i, int j, float metric,

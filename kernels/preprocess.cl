@@ -1,4 +1,4 @@
-/* Stage 1: split the input into attenuated, scattered and medium terms (SPEC 4.2, 4.3;
+/* Stage 1: split the input into attenuated, scattered and medium terms (docs/conventions.md, Per pixel, 4.3;
  * Elek sec. 3.2 with the thesis' eq. 4.4-4.5, Iser eq. 4.29, Delalandre eq. 7).
  * Depth arrives raw (as stored in the file, holes already filled); the camera model
  * turns it into a ray length here so that a z-buffer never reaches the physics. */
@@ -102,7 +102,7 @@ __kernel void preprocess(__global const float4 *image, __global const float *dep
         float t_all = exp_poly(-st * P);
         tr[c] = t_all;
         at[c] = t_all * L[c];
-        /* exp(-sa P)(1 - exp(-ss P)) = exp(-sa P) - exp(-st P); the thesis form (SPEC 4.2) */
+        /* exp(-sa P)(1 - exp(-ss P)) = exp(-sa P) - exp(-st P); the thesis form (docs/conventions.md, Per pixel) */
         sc[c] = (exp_poly(-sa[c] * P) - t_all) * L[c];
         /* 1 - exp(-st P) by its series in thin media; st -> 0 limits: emission grows as
          * P, ambient vanishes */

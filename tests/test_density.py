@@ -1,4 +1,4 @@
-"""Optical depth P of the density primitives (SPEC 4.1) against numerical quadrature
+"""Optical depth P of the density primitives (docs/conventions.md, Geometry) against numerical quadrature
 over random cameras, through the optical_depth AOV of the full pipeline."""
 import math
 
@@ -123,7 +123,7 @@ def test_grazing_exponential_rays_are_stable():
 
 
 def test_camera_rotation_convention():
-    """Positive pitch looks up, positive yaw turns left (SPEC 4.1): with height fog the
+    """Positive pitch looks up, positive yaw turns left (docs/conventions.md, Geometry): with height fog the
     centre ray that looks up sees less; a sphere to the left is seen after yawing left."""
     depth = np.full((9, 9), 100.0, np.float32)
     fog = 'medium.density=[{"type": "exponential", "factor": 1, "falloff": 0.2, "direction": [0, 1, 0]}]'

@@ -190,7 +190,7 @@ def test_receiver_composite_matches_oracle(rt, rng, interp):
 
 def test_reference_kernels_match_brute_force_oracle(rt, rng):
     """The brute-force kernel equals the numpy definition; the binned reference stays
-    within 1 % relative L1 of it (SPEC 4.4), HDR pixels at the border included."""
+    within 1 % relative L1 of it (docs/conventions.md, The reference), HDR pixels at the border included."""
     w, h = 41, 27
     sc = rng.uniform(0, 1, (h, w, 4)).astype(np.float32)
     sc[0, 0, :3] = 300.0

@@ -1,4 +1,4 @@
-"""Physical checks of the whole pipeline (SPEC 4.2-4.5), through the public API."""
+"""Physical checks of the whole pipeline (docs/conventions.md), through the public API."""
 import math
 
 import numpy as np
@@ -13,7 +13,7 @@ from fogcli.scenes import scene
 
 @pytest.mark.parametrize("method", ["pyramid", "naive", "reference"])
 def test_pure_absorption_is_exact(method):
-    """scattering 0: out = L exp(-sa D) (SPEC: 1e-4 relative L1)."""
+    """scattering 0: out = L exp(-sa D) (1e-4 relative L1)."""
     rgb, z, fov = scene(96, 64, seed=3)
     sa = [0.02, 0.01, 0.005]
     cfg = make_config("fog", sets=[f"medium.absorption={sa}", "medium.scattering=0",
@@ -38,7 +38,7 @@ def _gauss_blur(img, sigma):
 @pytest.mark.parametrize("sigma", [2.0, 5.0, 12.0])
 @pytest.mark.parametrize("kernel", [4, 6])
 def test_constant_depth_is_a_gaussian_blur(sigma, kernel):
-    """One depth everywhere: the scattered part is a Gaussian of sigma_px (SPEC: 0.06
+    """One depth everywhere: the scattered part is a Gaussian of sigma_px (0.06
     relative L1 away from the borders)."""
     h, w = 160, 192
     rng = np.random.default_rng(5)
@@ -80,7 +80,7 @@ def test_reference_conserves_scattered_energy():
 @pytest.mark.parametrize("model,medium", [("angular", "fog"), ("paper", "fog"), ("angular", "sea")])
 def test_resolution_invariance(model, medium):
     """A 2x2-replicated image, processed and box-downsampled, matches the original
-    processed image (SPEC: 0.06 relative L1)."""
+    processed image (0.06 relative L1)."""
     scale = {"fog": 1.0, "sea": 0.15}[medium]
     rgb, z, fov = scene(128, 96, seed=2, scale=scale)
     sets = [f"camera.fov={fov}", f"render.spread_model={model}", "render.spread_scale=2"]

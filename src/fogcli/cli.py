@@ -1,4 +1,4 @@
-"""The command line (SPEC 2). Errors are one line on stderr: exit 2 for bad usage or
+"""The command line (README). Errors are one line on stderr: exit 2 for bad usage or
 input, 1 when processing failed. FOGCLI_DEBUG=1 shows tracebacks."""
 from __future__ import annotations
 

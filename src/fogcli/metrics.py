@@ -1,4 +1,4 @@
-"""Fidelity measures of SPEC 4.6 (numpy; used by tests, calibration and benchmarks)."""
+"""Fidelity measures of docs/conventions.md, Measures (numpy; used by tests, calibration and benchmarks)."""
 from __future__ import annotations
 
 import numpy as np

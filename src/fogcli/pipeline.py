@@ -77,7 +77,7 @@ def uses_apsf(cfg: Config) -> bool:
 
 
 def rotation(yaw: float, pitch: float, roll: float) -> np.ndarray:
-    """R = Ry(yaw) Rx(pitch) Rz(roll), right-handed, degrees (SPEC 4.1)."""
+    """R = Ry(yaw) Rx(pitch) Rz(roll), right-handed, degrees (docs/conventions.md, Geometry)."""
     y, p, r = np.radians([yaw, pitch, roll])
     ry = np.array([[np.cos(y), 0, np.sin(y)], [0, 1, 0], [-np.sin(y), 0, np.cos(y)]])
     rx = np.array([[1, 0, 0], [0, np.cos(p), -np.sin(p)], [0, np.sin(p), np.cos(p)]])

@@ -1,4 +1,4 @@
-"""The screen-space reference (SPEC 4.4) on the device.
+"""The screen-space reference (docs/conventions.md, The reference) on the device.
 
 psf gaussian: binned in sigma. Bins form a geometric ladder s0 * RATIO^b; a pixel's energy
 is split between the two bins around its sigma (linear in log sigma).

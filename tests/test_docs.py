@@ -1,0 +1,25 @@
+"""The docs are self-contained (issue 9): no reference to files outside the repository, and
+every document or image they point at exists."""
+import re
+
+from test_cli import ROOT
+
+TEXTS = [ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md")), *sorted((ROOT / "src" / "fogcli").glob("*.py")),
+         *sorted((ROOT / "kernels").glob("*"))]
+
+
+def test_no_reference_outside_the_repository():
+    for p in TEXTS:
+        text = p.read_text()
+        for bad in (r"\bSPEC\b(?!\")", r"shared/", r"LIGHTS\.md", r"seeds/"):
+            hits = [ln for ln in text.splitlines() if re.search(bad, ln) and 'metavar="SPEC"' not in ln
+                    and "/shared/shots" not in ln]
+            assert not hits, f"{p.name}: {hits[0]}"
+
+
+def test_documents_and_images_referred_to_exist():
+    for p in TEXTS[: 1 + len(list((ROOT / "docs").glob("*.md")))]:
+        for ref in set(re.findall(r"(docs/[\w./-]+\.(?:md|png|jpg|py))", p.read_text())):
+            assert (ROOT / ref).exists(), f"{p.name} names {ref}"
+        for img in re.findall(r"\]\((images/[\w.-]+)\)", p.read_text()):
+            assert (p.parent / img).exists(), f"{p.name} shows {img}"
