@@ -300,3 +300,28 @@ def test_device_choice(rgbz, tmp_path, monkeypatch):
     monkeypatch.setenv("FOGCLI_DEVICE", "nope")
     with pytest.raises(runtime.UserError, match="FOGCLI_DEVICE 'nope'"):
         runtime.Runtime(None)
+
+
+def test_output_targets_refused_or_written_whole(rgbz, tmp_path, monkeypatch):
+    """-o onto a folder: exit 2; a 240-character name works (its temporary name is short); a
+    full disk: one line, exit 1, nothing left behind (display formats are encoded in memory
+    and written by Python, which sees ENOSPC)."""
+    import errno
+
+    from fogcli import outputs
+
+    p, rgb, z = rgbz
+    assert_one_line_error(*run("apply", p, "-o", tmp_path)[:2], "is a folder")
+    long = tmp_path / ("x" * 236 + ".png")
+    code, text, _ = run("apply", p, "-o", long)
+    assert code == 0 and long.exists(), text
+
+    def full(tmp, buf):
+        open(tmp, "wb").write(bytes(buf)[:100])
+        raise OSError(errno.ENOSPC, "No space left on device")
+    monkeypatch.setattr(outputs, "_write_bytes", full)
+    before = set(tmp_path.iterdir())
+    for ext in ("png", "jpg", "tif"):
+        code, text, _ = run("apply", p, "-o", tmp_path / f"full.{ext}")
+        assert code == 1 and "No space left on device" in text and len(text.strip().splitlines()) == 1, text
+    assert set(tmp_path.iterdir()) == before

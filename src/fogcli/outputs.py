@@ -38,12 +38,29 @@ def check_target(output: Path, *inputs: Path | None) -> None:
     if ext not in DISPLAY_EXT | LINEAR_EXT:
         raise UserError(f"-o {output}: unsupported output format {ext or '(none)'} (use .exr, .hdr, .png, .tif, .jpg)")
     refuse_overwrite(output, "-o", *inputs)
+    if output.is_dir():
+        raise UserError(f"-o {output}: is a folder; give a file name")
     if not output.parent.exists():
         raise UserError(f"-o {output}: folder {output.parent} does not exist")
+    if not os.access(output.parent, os.W_OK | os.X_OK):
+        raise UserError(f"-o {output}: folder {output.parent} is not writable")
+    if len(output.name.encode()) > 255:
+        raise UserError(f"-o {output.name[:40]}...: file name longer than 255 bytes")
+
+
+def _write_bytes(tmp: str, buf) -> None:
+    with open(tmp, "wb") as f:
+        f.write(memoryview(buf))
+        f.flush()
+        os.fsync(f.fileno())
 
 
 def atomic_write(path: Path, write) -> None:
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}.", suffix=f".tmp{path.suffix}", dir=path.parent)
+    # the stem is cut so that the temporary name stays within 255 bytes however long the name
+    try:
+        fd, tmp = tempfile.mkstemp(prefix=f".{path.stem[:60]}.", suffix=f".tmp{path.suffix[:16]}", dir=path.parent)
+    except OSError as exc:
+        raise UserError(f"{path}: cannot write into {path.parent} ({exc.strerror})") from None
     os.close(fd)
     try:
         write(tmp)
@@ -52,11 +69,13 @@ def atomic_write(path: Path, write) -> None:
         os.umask(mask)
         os.chmod(tmp, 0o666 & ~mask)
         os.replace(tmp, path)
-    except BaseException:
+    except BaseException as exc:
         try:
             os.unlink(tmp)
         except OSError:
             pass
+        if isinstance(exc, OSError):
+            raise ProcessingError(f"{path}: cannot write ({exc.strerror or exc})") from None
         raise
 
 
@@ -144,8 +163,20 @@ def write(path: Path, rgb: np.ndarray, alpha: np.ndarray | None, aovs: dict, fra
         if data.shape[2] == 4:
             spec.channelnames = ("R", "G", "B", "A")
             spec.alpha_channel = 3
-        spec.attribute("oiio:ColorSpace", "sRGB")
-        data = np.ascontiguousarray(data, dtype=np.float32)
+        # encoded in memory (OpenCV) and written by Python: a full disk is an error here,
+        # where OpenImageIO's PNG writer reported success with a truncated file and libjpeg
+        # exited the process
+        import cv2
+
+        top = 65535 if fmt == "uint16" else 255
+        q = np.clip(np.rint(data * top), 0, top).astype(np.uint16 if fmt == "uint16" else np.uint8)
+        q = np.ascontiguousarray(q[:, :, [2, 1, 0, 3][: q.shape[2]]])     # OpenCV is BGR(A)
+        params = [cv2.IMWRITE_JPEG_QUALITY, 95] if ext in (".jpg", ".jpeg") else []
+        ok, buf = cv2.imencode(".tiff" if ext == ".tif" else ext, q, params)
+        if not ok:
+            raise ProcessingError(f"{path}: cannot encode {ext}")
+        atomic_write(path, lambda tmp: _write_bytes(tmp, buf))
+        return
 
     def _write(tmp):
         out = oiio.ImageOutput.create(tmp)
