@@ -312,6 +312,8 @@ def test_output_targets_refused_or_written_whole(rgbz, tmp_path, monkeypatch):
 
     p, rgb, z = rgbz
     assert_one_line_error(*run("apply", p, "-o", tmp_path)[:2], "is a folder")
+    (tmp_path / "dir.png").mkdir()
+    assert_one_line_error(*run("apply", p, "-o", tmp_path / "dir.png")[:2], "is a folder")
     long = tmp_path / ("x" * 236 + ".png")
     code, text, _ = run("apply", p, "-o", long)
     assert code == 0 and long.exists(), text

@@ -35,6 +35,8 @@ def refuse_overwrite(target: Path, option: str, *protected: Path | None, what: s
 
 def check_target(output: Path, *inputs: Path | None) -> None:
     ext = output.suffix.lower()
+    if output.is_dir():
+        raise UserError(f"-o {output}: is a folder; give a file name")
     if ext not in DISPLAY_EXT | LINEAR_EXT:
         raise UserError(f"-o {output}: unsupported output format {ext or '(none)'} (use .exr, .hdr, .png, .tif, .jpg)")
     refuse_overwrite(output, "-o", *inputs)
