@@ -115,8 +115,9 @@ def test_killed_batch_resumes_with_skip_existing(tmp_path):
     for i in range(40):
         frame(src / f"k{i:02d}.exr", 100 + i, w=384, h=256)
     env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(ROOT / "src"), os.environ.get("PYTHONPATH", "")]))
+    err = open(tmp_path / "stderr.txt", "w")          # a file: the resource tracker outlives the batch
     p = subprocess.Popen([sys.executable, "-m", "fogcli", "batch", str(src), str(out), "--jobs", "2", "-q"],
-                         stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, env=env)
+                         stdout=subprocess.DEVNULL, stderr=err, env=env)
     deadline = time.time() + 300
     while time.time() < deadline and p.poll() is None:
         if out.is_dir() and len([f for f in out.iterdir() if not f.name.startswith(".")]) >= 4:
@@ -125,7 +126,9 @@ def test_killed_batch_resumes_with_skip_existing(tmp_path):
     assert p.poll() is None, "the batch ended before it could be killed"
     os.kill(p.pid, signal.SIGKILL)
     p.wait()
-    time.sleep(0.5)                      # workers die with their parent (PR_SET_PDEATHSIG)
+    time.sleep(1.0)                      # workers die with their parent (PR_SET_PDEATHSIG)
+    err.close()
+    assert "Warning" not in (tmp_path / "stderr.txt").read_text()    # no leaked-semaphore warning
     written = [f.name for f in out.iterdir() if not f.name.startswith(".")]
     assert 4 <= len(written) < 40
     for name in written:                 # whatever carries an output's name is whole
@@ -137,6 +140,7 @@ def test_killed_batch_resumes_with_skip_existing(tmp_path):
     assert rep["counts"]["skipped"] >= len(written) and rep["counts"]["failed"] == 0
     assert rep["counts"]["done"] + rep["counts"]["skipped"] == 40
     assert sorted(f.name for f in out.iterdir()) == [f"k{i:02d}.exr" for i in range(40)]
+    assert sorted(f.name for f in tmp_path.iterdir()) == ["in", "out", "r.json", "stderr.txt"]
 
 
 def test_local_cluster_writes_the_same_pixels(tmp_path):

@@ -264,6 +264,13 @@ def _pool(jobs, workers, cfg, aovs, device, threads, progress, collect):
     from concurrent.futures.process import BrokenProcessPool
 
     ctx = mp.get_context("spawn")
+    # If this process is killed (-9), multiprocessing's resource tracker unlinks the pool's
+    # semaphores, and says so with a "leaked semaphore" warning. The cleanup is the
+    # tracker's job, the warning is noise to a user: the tracker inherits -W options from
+    # sys.warnoptions when it starts (with the first semaphore, just below).
+    quiet = "ignore::UserWarning:multiprocessing.resource_tracker"
+    if quiet not in sys.warnoptions:
+        sys.warnoptions.append(quiet)
     started = ctx.SimpleQueue()
     done: set = set()
     with ProcessPoolExecutor(max_workers=workers, mp_context=ctx, initializer=init_worker,
