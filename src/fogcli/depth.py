@@ -82,6 +82,9 @@ def notes(raw: np.ndarray, cam: Camera, metric: np.ndarray, source: str) -> list
 # hole pixels in the room 2300 / 1637 / 2495 / 3879 at 0.2 / 0.3 / 0.5 / 0.7 (nearest-pixel
 # fill: 3961); 0.2 also leaves object pixels wrong, 1.0 leaks across the silhouette.
 SIGMA_COLOUR = 0.3
+# Variance of log depth in a fill's support above which it holds two surfaces (a 10 % step
+# split evenly gives 0.0023): then the heavier side fills, not the average (benchmarks/holefill.py).
+MIXED_LOG_VAR = 0.002
 
 
 @dataclass
@@ -121,7 +124,8 @@ def _log_depth(d: np.ndarray) -> tuple[np.ndarray, float]:
     return logd.astype(np.float32), float(np.log(far * 2.0))
 
 
-def _edge_aware(logd: np.ndarray, confident: np.ndarray, guide: np.ndarray, sigma_max: float) -> np.ndarray:
+def _edge_aware(logd: np.ndarray, confident: np.ndarray, guide: np.ndarray, sigma_max: float,
+                split: bool = True) -> np.ndarray:
     """Edge-aware normalised convolution of log depth: the average of the confident values
     weighted by a domain-transform filter of the colour guide (Gastal & Oliveira 2011;
     OpenCV ximgproc dtFilter). The filter's support stops at colour edges, so a hole or an
@@ -147,14 +151,32 @@ def _edge_aware(logd: np.ndarray, confident: np.ndarray, guide: np.ndarray, sigm
         y0, y1 = max(int(ys.min()) - m, 0), min(int(ys.max()) + m + 1, h)
         x0, x1 = max(int(xs.min()) - m, 0), min(int(xs.max()) + m + 1, wd)
         box = (slice(y0, y1), slice(x0, x1))
-        nd = cv2.ximgproc.dtFilter(np.ascontiguousarray(guide[box]),
-                                   np.ascontiguousarray(np.dstack([known[box] * w[box], w[box]])),
-                                   s, SIGMA_COLOUR, mode=cv2.ximgproc.DTF_NC, numIters=3)
+        kx, wx = known[box], w[box]
+        # the guide's domain transform once per scale, for both filterings below
+        dtf = cv2.ximgproc.createDTFilter(np.ascontiguousarray(guide[box]), s, SIGMA_COLOUR,
+                                          mode=cv2.ximgproc.DTF_NC, numIters=3)
+        nd = dtf.filter(np.ascontiguousarray(np.dstack([kx * wx, wx, kx * kx * wx])))
         num, den = nd[:, :, 0], nd[:, :, 1]
         last = s >= sigma_max
         take = ~done[box] & (den > (1e-3 if last else 0.25))
         ob, kb, wb, db = out[box], known[box], w[box], done[box]   # views into the arrays
-        ob[take] = num[take] / den[take]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            mean = num / den
+            spread = nd[:, :, 2] / den - mean * mean
+        # Two surfaces in one colour region (depth misaligned with colour, a sliver of the
+        # object's depth on the wall beside it): their average is a depth neither has, a
+        # blob. Split the known values at the local mean and take the side that carries
+        # more weight: the region's own surface.
+        mixed = take & (spread > MIXED_LOG_VAR) & split
+        if mixed.any():
+            far = (kx >= np.nan_to_num(mean, nan=np.inf)).astype(np.float32) * wx
+            near = wx - far
+            nd2 = dtf.filter(np.ascontiguousarray(np.dstack([kx * far, far, kx * near, near])))
+            pick_far = nd2[:, :, 1] >= nd2[:, :, 3]
+            with np.errstate(divide="ignore", invalid="ignore"):
+                side = np.where(pick_far, nd2[:, :, 0] / nd2[:, :, 1], nd2[:, :, 2] / nd2[:, :, 3])
+            mean = np.where(mixed & np.isfinite(side), side, mean)
+        ob[take] = mean[take]
         kb[take], wb[take] = ob[take], 0.5
         db |= take
         if last:
@@ -163,8 +185,9 @@ def _edge_aware(logd: np.ndarray, confident: np.ndarray, guide: np.ndarray, sigm
     return out
 
 
-def prepare(metric: np.ndarray, rgb: np.ndarray, source: str) -> tuple[np.ndarray, DepthReport]:
-    """Metric depth at the image's size with every hole filled."""
+def prepare(metric: np.ndarray, rgb: np.ndarray, source: str, split: bool = True) -> tuple[np.ndarray, DepthReport]:
+    """Metric depth at the image's size with every hole filled (split: False averages two
+    surfaces in one colour region as before; for benchmarks/holefill.py)."""
     import cv2
 
     h, w = rgb.shape[:2]
@@ -198,7 +221,7 @@ def prepare(metric: np.ndarray, rgb: np.ndarray, source: str) -> tuple[np.ndarra
     if rep.holes:
         inside = cv2.distanceTransform((~valid).astype(np.uint8), cv2.DIST_L2, 3)
         sigma = max(sigma, 2.0 * float(inside.max()) * max(w / dw, h / dh))
-    est = _edge_aware(logd, confident, _guide(rgb), min(sigma, 200.0))
+    est = _edge_aware(logd, confident, _guide(rgb), min(sigma, 200.0), split)
     out = np.exp(est)
     out[est > sky] = np.inf
     if rep.resampled_from is None:
