@@ -11,9 +11,8 @@ from typing import Annotated, Literal, Union
 
 from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, ValidationError, model_validator
 
-from .errors import UserError
-
 from .calibration import CALIBRATED, FILTERS, c_theory  # noqa: F401  (re-exported)
+from .errors import UserError
 
 VISIBILITY_CONTRAST = 3.912  # -ln(0.02): Koschmieder's 2 % contrast threshold
 
@@ -98,44 +97,20 @@ class Medium(_Model):
     density: Annotated[list[Density], Field(min_length=1)] = Field(
         [Homogeneous(type="homogeneous")], description="primitives whose densities add up (homogeneous, exponential, sphere)")
 
-    @model_validator(mode="before")
-    @classmethod
-    def _forms(cls, d):
-        if not isinstance(d, dict) or not ({"visibility", "albedo"} & set(d)):
-            return d
-        relative = isinstance(d.get("visibility"), str) and d["visibility"].strip().endswith("%")
-        if "visibility" in d and {"absorption", "scattering"} & set(d) and not relative:
+    @model_validator(mode="after")
+    def _forms(self):
+        v, a, given = self.visibility, self.albedo, {"absorption", "scattering"} & self.model_fields_set
+        if isinstance(v, float) and given:
             raise ValueError("visibility: give either visibility (+ albedo) or absorption + scattering, not both")
-        d = dict(d)
-        v, a = d.pop("visibility", None), d.pop("albedo", None)
-        if relative:        # the coefficients (or the albedo) give the shape, for_depth() the strength
-            d["visibility"] = v
-            if not {"absorption", "scattering"} & set(d):
-                v, a = VISIBILITY_CONTRAST, 0.9 if a is None else a      # grey, sigma_t 1
-            elif a is None:
-                return d
-            else:
-                v = None                    # albedo redistributes the given coefficients
-        try:
-            a = _num(a) if a is not None else None
-            if a is not None and not 0.0 <= a <= 1.0:
-                raise ValueError(f"expected a value in [0, 1], got {a:g}")
-        except ValueError as exc:
-            raise ValueError(f"albedo: {exc}") from None
-        if v is not None:
-            try:
-                if _num(v) <= 0:
-                    raise ValueError(f"expected a value > 0, got {v!r}")
-            except ValueError as exc:
-                raise ValueError(f"visibility: {exc}") from None
-            st, a = (VISIBILITY_CONTRAST / _num(v),) * 3, 0.9 if a is None else a
+        if isinstance(v, float) or (isinstance(v, str) and not given):    # grey (relative: sigma_t 1 m^-1)
+            st, a = (VISIBILITY_CONTRAST / v if isinstance(v, float) else 1.0,) * 3, 0.9 if a is None else a
+        elif a is not None:                                                # albedo redistributes sigma_t
+            st = [x + y for x, y in zip(self.absorption, self.scattering)]
         else:
-            try:
-                st = [x + y for x, y in zip(_triple(d.get("absorption", 0.0), 0.0), _triple(d.get("scattering", 0.0), 0.0))]
-            except ValueError as exc:
-                raise ValueError(f"absorption: {exc}") from None
-        d["absorption"], d["scattering"] = tuple((1 - a) * t for t in st), tuple(a * t for t in st)
-        return d
+            return self
+        object.__setattr__(self, "absorption", tuple((1 - a) * t for t in st))   # frozen: set once, here
+        object.__setattr__(self, "scattering", tuple(a * t for t in st))
+        return self
 
     def for_depth(self, median_depth: float) -> "Medium":
         """A relative visibility ('40%') made metres: the coefficients scaled so that the mean
@@ -350,6 +325,9 @@ def resolved_data(cfg: Config) -> dict:
         return [plain(x) for x in v] if isinstance(v, (list, tuple)) else (
             {k: plain(x) for k, x in v.items() if x is not None} if isinstance(v, dict) else v)
     d = plain(cfg.model_dump())
+    if not isinstance(cfg.medium.visibility, str):      # folded into absorption and scattering
+        d["medium"].pop("visibility", None)
+        d["medium"].pop("albedo", None)
     d["render"]["c"], d["render"]["epsilon"], d["render"]["threshold"] = cfg.render.resolved()
     return d
 
