@@ -327,3 +327,15 @@ def test_output_targets_refused_or_written_whole(rgbz, tmp_path, monkeypatch):
         code, text, _ = run("apply", p, "-o", tmp_path / f"full.{ext}")
         assert code == 1 and "No space left on device" in text and len(text.strip().splitlines()) == 1, text
     assert set(tmp_path.iterdir()) == before
+
+
+def test_frame_larger_than_available_memory_is_refused_from_its_header(rgbz, tmp_path, monkeypatch):
+    import collections
+
+    import psutil
+
+    p, rgb, z = rgbz
+    vm = collections.namedtuple("vm", "available")
+    monkeypatch.setattr(psutil, "virtual_memory", lambda: vm(150e6))
+    assert_one_line_error(*run("apply", p, "-o", tmp_path / "o.exr")[:2], "GiB is available")
+    assert sorted(f.name for f in tmp_path.iterdir()) == ["in.exr"]
