@@ -3,7 +3,12 @@ must keep of it (metadata, data and display windows). Everything goes through
 OpenImageIO except NPY depth. Every failure is a UserError naming the file."""
 from __future__ import annotations
 
+import contextlib
+import functools
+import os
 import re
+import sys
+import tempfile
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -213,6 +218,42 @@ def _view_channels(names: list[str], spec, view: str | None, path: Path) -> list
     return [i for i, n in enumerate(names) if n.startswith(view + ".")]
 
 
+@contextlib.contextmanager
+def _quiet_stderr():
+    """libpng, libtiff and libjpeg print their complaints on stderr themselves (fd 2), beside
+    the one line fogcli reports: catch them while a file is decoded."""
+    try:
+        sys.stderr.flush()
+        saved = os.dup(2)
+    except (OSError, ValueError):      # no fd 2 (embedded): nothing to protect
+        yield
+        return
+    with tempfile.TemporaryFile() as sink:
+        os.dup2(sink.fileno(), 2)
+        try:
+            yield
+        finally:
+            os.dup2(saved, 2)
+            os.close(saved)
+
+
+def _decoding(fn):
+    """One UserError naming the file for whatever a corrupt file makes a decoder raise
+    (undecodable attribute strings, library exceptions), with the libraries kept quiet."""
+    @functools.wraps(fn)
+    def wrapper(path, *a, **kw):
+        with _quiet_stderr():
+            try:
+                return fn(path, *a, **kw)
+            except (UserError, MemoryError):
+                raise
+            except Exception as exc:
+                first = (str(exc).strip().splitlines() or [""])[0][:160]
+                raise UserError(f"{path}: cannot read, the file is corrupt ({exc.__class__.__name__}: {first})") from None
+    return wrapper
+
+
+@_decoding
 def read_image(path: str | Path, layer: str | None = None, view: str | None = None) -> Frame:
     path = Path(path)
     if path.suffix.lower() in (".npy",):
@@ -312,6 +353,7 @@ def read_image(path: str | Path, layer: str | None = None, view: str | None = No
                  pixel_type=formats[names.index(orig[rgb_idx[0]])])
 
 
+@_decoding
 def read_raw(path: Path) -> Frame:
     """Camera RAW through rawpy/LibRaw, kept linear in light: LibRaw's AHD demosaic, the
     camera's white balance, no auto-brightening, gamma 1, 16 bit, sRGB primaries, scaled to
@@ -330,6 +372,7 @@ def read_raw(path: Path) -> Frame:
     return Frame(path, rgb, None, None, (0, 0), (0, 0, w, h), [], False)
 
 
+@_decoding
 def read_depth(path: str | Path) -> np.ndarray:
     """Raw depth values of a separate depth file (EXR, TIFF, PNG16, NPY)."""
     path = Path(path)
