@@ -43,7 +43,7 @@ def _value(v) -> str:
 
 
 def _lines(model: type[BaseModel], indent: int) -> list[str]:
-    from fogcli.config import Exponential, Homogeneous, Sphere
+    from fogcli.config import DirectionalLight, Exponential, Homogeneous, PointLight, Sphere, SpotLight
 
     out = []
     for name, fld in model.model_fields.items():
@@ -63,6 +63,22 @@ def _lines(model: type[BaseModel], indent: int) -> list[str]:
             for k, f in {**Exponential.model_fields, **Sphere.model_fields}.items():
                 if f.description and k != "type":
                     out.append(f"{pad}  #   {k}: {f.description}")
+            continue
+        if name == "lights" and indent == 0:
+            out.append(f"lights: []  # {fld.description}, entries as below")
+            examples = {PointLight: "position: [1, 2, -8], intensity: [40, 30, 20]",
+                        SpotLight: "position: [0, 3, 0], direction: [0, -1, -1], intensity: [200, 200, 180]",
+                        DirectionalLight: "direction: [0.3, 1, 0.2], irradiance: [2, 2, 1.8]"}
+            for cls, ex in examples.items():
+                kind = typing.get_args(cls.model_fields["type"].annotation)[0]
+                out.append(f"  # - {{type: {kind}, {ex}}}")
+            seen = set()
+            for cls in examples:
+                for k, f in cls.model_fields.items():
+                    if k not in seen and k != "type":
+                        seen.add(k)
+                        dflt = "" if f.is_required() else f" (default {_value(f.default)})"
+                        out.append(f"  #   {k}: {f.description}{dflt}")
             continue
         lits, bounds = [], []
         _walk(typing.Annotated[ann, *fld.metadata] if fld.metadata else ann, lits, bounds)

@@ -25,7 +25,8 @@ MEDIUM_T = np.dtype([
     ("homogeneous", np.float32), ("has_medium_light", np.int32), ("has_p", np.int32),
     ("_pad", np.int32, 3),   # OpenCL rounds the struct up to its float4 alignment
 ], align=True)
-AOV_NAMES = ("optical_depth", "transmittance", "spread", "level", "direct", "scattered", "emission")
+AOV_NAMES = ("optical_depth", "transmittance", "spread", "level", "direct", "scattered", "emission",
+             "airlight", "airlight_scattered")
 
 
 def level_sizes(width: int, height: int, levels: int | str) -> list[tuple[int, int]]:
@@ -152,9 +153,11 @@ class Plan:
         mf = cl.mem_flags
         self.source = cfg.render.method == "pyramid" and cfg.render.fetch == "source"
         need = 4 * (4 * n * 4 + n + 4 * total + total) + (4 * 4 * n * 2 + 4 * n if aovs else 0)
-        self.sep = cfg.render.method == "pyramid" and cfg.render.separation.enabled
+        # the second chain: Iser's separated pixels and/or the lights' twice-scattered light
+        self.sep = cfg.render.method == "pyramid" and (cfg.render.separation.enabled or bool(cfg.lights))
         need += 16 * total if self.source else 0
         need += (36 * total + 16 * n) if self.sep else 0
+        need += 32 * n if cfg.lights else 0
         if need > rt.device.global_mem_size:
             raise ProcessingError(f"image of {width}x{height} needs {need / 2**20:.0f} MiB, "
                                   f"device {rt.info.name} has {rt.device.global_mem_size / 2**20:.0f} MiB")
@@ -172,6 +175,8 @@ class Plan:
             self.half2 = B(16 * n if self.sep else 16)
             self.spread2 = B(4 * total if self.sep else 16)    # unused output of reduce_level
             self.out = B(16 * n)
+            self.a_dir = B(16 * n if cfg.lights else 16)     # airlight reaching the camera directly
+            self.a_sc = B(16 * n if cfg.lights else 16)      # ... and scattered again on the way
             want = bool(aovs)
             self.trans = B(16 * n if "transmittance" in self.aovs else 16)
             self.level_aov = B(4 * n if want else 16)
@@ -211,6 +216,7 @@ class Plan:
         self.k_comp = rt.program("composite", **d).composite
         self.k_comp_src = rt.program("composite", **d).composite_source
         self.k_comp_sep = rt.program("composite", **d).composite_separated
+        self.k_lights = rt.program("lights", **d) if cfg.lights else None
 
     # -- stages --------------------------------------------------------------------
     def upload(self, rgba: np.ndarray, depth: np.ndarray, t: Timings) -> None:
@@ -286,7 +292,31 @@ class Plan:
             self.medium, self.trans, np.int32("transmittance" in self.aovs), np.int32(self.split_medium),
             np.int32(self.w), np.int32(self.h), medium_struct(self.cfg, self.w, self.h),
             self.prep, np.int32(self.source), np.float32(self.threshold(1)), np.float32(eps),
-            self.chain2, self.prep2, np.int32(self.sep), self.sep_params(), self.lut, self.cosines))
+            self.chain2, self.prep2, np.int32(self.sep and self.cfg.render.separation.enabled), self.sep_params(),
+            self.lut, self.cosines))
+
+    def lights(self, t: Timings) -> None:
+        """Every light's airlight (kernels/lights.cl): a_dir kept for after the pyramid, a_sc
+        into level 0 of the second chain (merged with the separated pixels, if any)."""
+        from .lights import gauss_legendre, light_struct, medium_struct
+
+        cl, q, n = self.rt.cl, self.rt.queue, self.w * self.h
+        lm, prims = medium_struct(self.cfg)
+        mf = cl.mem_flags
+        pbuf = cl.Buffer(self.rt.ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=prims)
+        gl = cl.Buffer(self.rt.ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=gauss_legendre(int(lm["nodes"])))
+        cam = camera_struct(self.cfg, self.w, self.h)
+        for k, light in enumerate(self.cfg.lights):
+            t.add("lights", self.k_lights.airlight(
+                q, *self.rt.nd(self.w, self.h), self.depth, self.a_dir, self.a_sc, np.int32(self.w), np.int32(self.h),
+                cam, lm, pbuf, gl, light_struct(self.cfg, light), np.int32(k > 0)))
+        t.add("lights", self.k_lights.airlight_to_chain(
+            q, *self.rt.nd(n), self.a_sc, self.chain2, self.prep2, self.lut, np.int32(n),
+            np.int32(self.cfg.render.separation.enabled)))
+
+    def add_airlight(self, t: Timings) -> None:
+        n = self.w * self.h
+        t.add("lights", self.k_lights.add_airlight(self.rt.queue, *self.rt.nd(n), self.out, self.a_dir, np.int32(n)))
 
     def sep_params(self) -> np.ndarray:
         s = self.cfg.render.separation
@@ -388,7 +418,8 @@ class Plan:
         out = {}
         # optical_depth and emission share the medium buffer (P in .w): download it once
         medium = self.download(self.medium, 4, t) if {"optical_depth", "emission"} & set(self.aovs) else None
-        rgb_bufs = {"transmittance": self.trans, "direct": self.direct, "scattered": self.scat_aov}
+        rgb_bufs = {"transmittance": self.trans, "direct": self.direct, "scattered": self.scat_aov,
+                    "airlight": self.a_dir, "airlight_scattered": self.a_sc}
         for name in self.aovs:
             if name == "optical_depth":
                 out[name] = medium[:, :, 3]
@@ -396,6 +427,8 @@ class Plan:
                 out[name] = self.download(self.spread, 1, t)   # level 0 of the spread chain
             elif name == "level":
                 out[name] = self.download(self.level_aov, 1, t)
+            elif name.startswith("airlight") and not self.cfg.lights:
+                out.update({f"{name}.{ch}": np.zeros((self.h, self.w), np.float32) for ch in "RGB"})
             else:
                 src = medium if name == "emission" else self.download(rgb_bufs[name], 4, t)
                 for i, ch in enumerate("RGB"):
@@ -410,7 +443,7 @@ def get_plan(rt: Runtime, width: int, height: int, cfg: Config, aovs=()) -> Plan
     """Reuse buffers across images of one size and one compile-time configuration."""
     key = (id(rt), width, height, tuple(sorted(defines(cfg).items())), cfg.render.levels, tuple(aovs),
            cfg.render.method == "pyramid" and cfg.render.fetch == "source", cfg.render.separation.enabled,
-           cfg.render.border)   # a plan's edge tables depend on the border policy
+           cfg.render.border, bool(cfg.lights))   # a plan's edge tables depend on the border policy
     plan = _PLANS.get(key)
     if plan is None:
         if len(_PLANS) > 4:
@@ -459,6 +492,8 @@ def run(rgb: np.ndarray, depth: np.ndarray, cfg: Config, alpha=None, aovs=(), de
     plan.preprocess(t)
     if alpha is not None and cfg.camera.empty_depth > 0:   # at 0 the alpha is the input's
         plan.coverage(t, cfg.camera.empty_depth)
+    if cfg.lights:
+        plan.lights(t)
     method = cfg.render.method
     if method == "reference":
         from .reference import reference_into
@@ -478,6 +513,8 @@ def run(rgb: np.ndarray, depth: np.ndarray, cfg: Config, alpha=None, aovs=(), de
             if plan.sep:
                 plan.pyramid(t, masked=False, second=True)   # eq. 4.27: no masking
                 plan.composite_separated(t)
+    if cfg.lights:
+        plan.add_airlight(t)
     out = plan.download(plan.out, 4, t)
     planes = plan.aov_planes(t)
     rt.queue.finish()

@@ -1,0 +1,274 @@
+/* Stage 1c (lights): single-scattered light of point, spot and directional lights along each
+ * pixel's ray (docs/lights.md):
+ *
+ *   A = integral_0^D ss rho(x) p(cos a) I f(x) exp(-tau_cam(s)) exp(-tau_light(x)) / t^2 ds
+ *
+ * For a point or spot light at distance t = |x - l| the substitution s = d1 + R tan(phi)
+ * (d1 = <w, l - c>, R = |w x (l - c)|) gives ds / t^2 = dphi / R, a smooth bounded
+ * integrand over phi in [atan2(-d1, R), atan2(D - d1, R)], lights behind the camera
+ * included (Pradhan & Kumar's split at the foot of the perpendicular, phi = 0). Gauss-
+ * Legendre nodes on each piece between phi = 0, the spot cone's crossings and the sphere
+ * primitives' crossings. R is computed from the cross product and widened by the emitter's
+ * radius, so a light on a pixel ray stays finite. The camera leg splits A into what reaches
+ * the camera unscattered (a_dir, exp(-st P)) and what scatters again on the way
+ * (a_sc, exp(-sa P) (1 - exp(-ss P))), which the pyramid spreads; a_sc.w accumulates the
+ * luminance-weighted optical depth of the scatter points. Plain builtins: this kernel is
+ * not vectorised across work-items anyway (loops over nodes and primitives). */
+#include "density.h"
+
+#define MAX_CUTS 24
+
+typedef struct {
+    float4 sa, ss;          /* per RGB, 1/m */
+    float g;                /* HG asymmetry */
+    float homogeneous;      /* summed factor of the homogeneous primitives */
+    int nprims;             /* other primitives in prims[3 k .. 3 k + 2] */
+    int nodes;              /* Gauss-Legendre nodes per piece */
+} lmedium_t;
+
+typedef struct {
+    float4 pos;             /* world position (point, spot); .w unused */
+    float4 axis;            /* spot axis / directional: towards the light, unit, world */
+    float4 intensity;       /* RGB intensity or irradiance */
+    float radius;
+    float cos_outer, cos_inner;
+    int type;               /* 0 point, 1 spot, 2 directional */
+} light_t;
+
+inline float hg(float g, float c)
+{
+    float d = 1.0f + g * g - 2.0f * g * c;
+    return (1.0f - g * g) / (12.566370614f * d * sqrt(d));
+}
+
+/* prims[3k] = (type 1 exponential | 2 sphere, factor, falloff | radius, 0),
+ * prims[3k+1] = direction n (unit) | centre, prims[3k+2] = offset */
+inline float density_at(__global const float4 *prims, const lmedium_t *m, float3 x)
+{
+    float rho = m->homogeneous;
+    for (int k = 0; k < m->nprims; ++k) {
+        float4 a = prims[3 * k], b = prims[3 * k + 1], o = prims[3 * k + 2];
+        if (a.x == 1.0f) {
+            rho += a.y * exp(-a.z * dot(x - o.xyz, b.xyz));
+        } else {
+            float3 r = x - b.xyz;
+            rho += a.y * fmax(0.0f, 1.0f - dot(r, r) / (a.z * a.z));
+        }
+    }
+    return rho;
+}
+
+/* optical depth (in units of the coefficients) from p along unit u over length L */
+inline float optical_depth(__global const float4 *prims, const lmedium_t *m, float3 p, float3 u, float L)
+{
+    float P = m->homogeneous * L;
+    for (int k = 0; k < m->nprims; ++k) {
+        float4 a = prims[3 * k], b = prims[3 * k + 1], o = prims[3 * k + 2];
+        if (a.x == 1.0f) {
+            float pre = a.y * exp(fmin(-a.z * dot(p - o.xyz, b.xyz), 80.0f));
+            P += exponential_p(pre, a.z, dot(u, b.xyz), L);
+        } else {
+            float3 co = p - b.xyz;
+            P += sphere_p(a.y, a.z, co.x, co.y, co.z, u.x, u.y, u.z, L);
+        }
+    }
+    return P;
+}
+
+/* ray parameters s in (lo, hi) where the ray c + s w crosses the sphere primitives */
+inline int sphere_cuts(__global const float4 *prims, const lmedium_t *m, float3 c, float3 w,
+                       float lo, float hi, float *cuts, int n)
+{
+    for (int k = 0; k < m->nprims && n < MAX_CUTS - 2; ++k) {
+        float4 a = prims[3 * k], b = prims[3 * k + 1];
+        if (a.x != 2.0f) continue;
+        float3 co = c - b.xyz;
+        float B = dot(w, co);
+        float3 perp = co - B * w;
+        float s2 = a.z * a.z - dot(perp, perp);
+        if (s2 <= 0.0f) continue;
+        float s = sqrt(s2);
+        float t0 = -B - s, t1 = -B + s;
+        if (t0 > lo && t0 < hi) cuts[n++] = t0;
+        if (t1 > lo && t1 < hi) cuts[n++] = t1;
+    }
+    return n;
+}
+
+/* ray parameters where the light's ray to x grazes a sphere primitive: the light leg's
+ * chord through the sphere has a square-root kink there. Directional: the camera ray meets
+ * the cylinder of the sphere's radius along the light direction; point: the tangent cone
+ * from the light, |v x a|^2 = r^2 |v|^2 with v = x - l, a = centre - l. */
+inline int graze_cuts(__global const float4 *prims, const lmedium_t *m, float3 c, float3 w, float3 l,
+                      float3 ax, int directional, float lo, float hi, float *cuts, int n)
+{
+    for (int k = 0; k < m->nprims && n < MAX_CUTS - 2; ++k) {
+        float4 pa = prims[3 * k], pb = prims[3 * k + 1];
+        if (pa.x != 2.0f) continue;
+        float A, B, C, r2 = pa.z * pa.z;
+        if (directional) {
+            float3 q = c - pb.xyz;
+            float3 qp = q - dot(q, ax) * ax, wp = w - dot(w, ax) * ax;
+            A = dot(wp, wp); B = dot(qp, wp); C = dot(qp, qp) - r2;
+        } else {
+            float3 v0 = c - l, a = pb.xyz - l;
+            float aa = dot(a, a) - r2, wa = dot(w, a), va = dot(v0, a);
+            A = aa - wa * wa; B = aa * dot(v0, w) - va * wa; C = aa * dot(v0, v0) - va * va;
+        }
+        float disc = B * B - A * C;
+        if (disc < 0.0f || fabs(A) < 1e-12f) continue;
+        float r = sqrt(disc);
+        float t0 = (-B - r) / A, t1 = (-B + r) / A;
+        if (t0 > lo && t0 < hi) cuts[n++] = t0;
+        if (t1 > lo && t1 < hi) cuts[n++] = t1;
+    }
+    return n;
+}
+
+/* ray parameters where the ray enters or leaves the spot's (single-nappe) cone of cosine cc */
+inline int cone_cuts(float3 c, float3 w, float3 l, float3 ax, float cc, float lo, float hi, float *cuts, int n)
+{
+    float3 v = c - l;
+    float wa = dot(w, ax), va = dot(v, ax), cc2 = cc * cc;
+    float A = wa * wa - cc2, B = wa * va - cc2 * dot(w, v), C = va * va - cc2 * dot(v, v);
+    float disc = B * B - A * C;
+    if (disc < 0.0f || fabs(A) < 1e-12f) return n;
+    float r = sqrt(disc);
+    float t0 = (-B - r) / A, t1 = (-B + r) / A;
+    if (t0 > lo && t0 < hi && va + t0 * wa > 0.0f && n < MAX_CUTS) cuts[n++] = t0;
+    if (t1 > lo && t1 < hi && va + t1 * wa > 0.0f && n < MAX_CUTS) cuts[n++] = t1;
+    return n;
+}
+
+inline void sort_cuts(float *c, int n)
+{
+    for (int i = 1; i < n; ++i) {
+        float v = c[i];
+        int j = i - 1;
+        while (j >= 0 && c[j] > v) { c[j + 1] = c[j]; --j; }
+        c[j + 1] = v;
+    }
+}
+
+__kernel void airlight(__global const float *depth, __global float4 *a_dir, __global float4 *a_sc,
+                       const int width, const int height, const camera_t cam, const lmedium_t m,
+                       __global const float4 *prims, __global const float2 *gl, const light_t L,
+                       const int accumulate)
+{
+    int i = get_global_id(0), j = get_global_id(1);
+    if (i >= width || j >= height) return;
+    int idx = j * width + i;
+    float wx, wy, wz;
+    float D = pixel_ray(&cam, i, j, depth[idx], &wx, &wy, &wz);
+    float3 w = (float3)(wx, wy, wz), c = cam.pos.xyz;
+    float3 l = L.pos.xyz, ax = L.axis.xyz;
+    float3 sa = m.sa.xyz, ss = m.ss.xyz, st = sa + ss;
+    float3 dir = (float3)(0.0f), sc = (float3)(0.0f);
+    float wp = 0.0f;
+
+    float cuts[MAX_CUTS];
+    int n = 0;
+    float d1 = 0.0f, R = 1.0f;
+    cuts[n++] = 0.0f;
+    if (L.type == 2) {
+        cuts[n++] = D;
+    } else {
+        float3 v = l - c;
+        d1 = dot(w, v);
+        float3 cr = cross(w, v);
+        R = sqrt(dot(cr, cr) + L.radius * L.radius);
+        cuts[n++] = D;
+        if (d1 > 0.0f && d1 < D) cuts[n++] = d1;                     /* phi = 0 */
+    }
+    /* the camera leg decays as exp(-k s): pieces that double in length from 1 / k, so that
+     * none holds more than a few e-folds (k the largest homogeneous extinction) */
+    float k = m.homogeneous * fmax(st.x, fmax(st.y, st.z));
+    for (float e = 1.0f; k > 0.0f && e < k * D && n < MAX_CUTS - 6; e *= 2.0f) cuts[n++] = e / k;
+    n = sphere_cuts(prims, &m, c, w, 0.0f, D, cuts, n);
+    n = graze_cuts(prims, &m, c, w, l, ax, L.type == 2, 0.0f, D, cuts, n);
+    if (L.type == 1) n = cone_cuts(c, w, l, ax, L.cos_outer, 0.0f, D, cuts, n);
+    sort_cuts(cuts, n);
+
+    for (int p = 0; p + 1 < n; ++p) {
+        float s0 = cuts[p], s1 = cuts[p + 1];
+        if (s1 <= s0) continue;
+        /* points and spots integrate in phi, the directional light in s */
+        float a0 = L.type == 2 ? s0 : atan2(s0 - d1, R);
+        float a1 = L.type == 2 ? s1 : atan2(s1 - d1, R);
+        float hw = 0.5f * (a1 - a0), mid = 0.5f * (a1 + a0);
+        for (int k = 0; k < m.nodes; ++k) {
+            float2 nw = gl[k];
+            float a = mid + hw * nw.x, wt = hw * nw.y;
+            float s, cosa, weight;
+            float3 I = L.intensity.xyz;
+            if (L.type == 2) {
+                s = a;
+                cosa = dot(ax, w);
+                weight = wt;
+            } else {
+                float sn = sin(a), cs = cos(a);
+                s = d1 + R * sn / cs;
+                cosa = -sn;
+                weight = wt / R;
+            }
+            float3 x = c + s * w;
+            float rho = density_at(prims, &m, x);
+            float P = optical_depth(prims, &m, c, w, s);
+            float Pl;
+            if (L.type == 2) {
+                /* only the non-homogeneous primitives dim the irradiance (docs/lights.md) */
+                lmedium_t het = m;
+                het.homogeneous = 0.0f;
+                Pl = optical_depth(prims, &het, x, ax, 1e6f);
+            } else {
+                float3 to = l - x;
+                float tl = length(to);
+                Pl = tl > 0.0f ? optical_depth(prims, &m, x, to / tl, tl) : 0.0f;
+                if (L.type == 1) {
+                    float ct = tl > 0.0f ? dot(-to / tl, ax) : 1.0f;
+                    I *= smoothstep(L.cos_outer, L.cos_inner, ct);
+                }
+            }
+            float3 src = weight * rho * hg(m.g, cosa) * ss * I * exp(-st * Pl);
+            float3 tdir = exp(-st * P);
+            float3 tsc = exp(-sa * P) - tdir;
+            dir += src * tdir;
+            float3 add = src * tsc;
+            sc += add;
+            wp += (0.2126f * add.x + 0.7152f * add.y + 0.0722f * add.z) * P;
+        }
+    }
+    float4 od = (float4)(dir, 0.0f), os = (float4)(sc, wp);
+    a_dir[idx] = accumulate ? a_dir[idx] + od : od;
+    a_sc[idx] = accumulate ? a_sc[idx] + os : os;
+}
+
+/* The lights' twice-scattered part joins the second (separation) chain at level 0: summed
+ * with what is there, log P weighted by luminance, and its per-level shares (apsf) from the
+ * table at that log P. merge = 0: the chain had nothing (separation off). */
+#ifdef PSF_APSF
+__kernel void airlight_to_chain(__global const float4 *a_sc, __global float4 *chain0, __global float4 *prep0,
+                                __global const float *lut, const int n, const int merge)
+{
+    int idx = get_global_id(0);
+    if (idx >= n) return;
+    float4 a = a_sc[idx];
+    float ya = 0.2126f * a.x + 0.7152f * a.y + 0.0722f * a.z;
+    float lpa = log(fmax(ya > 0.0f ? a.w / ya : 1e-30f, 1e-30f));
+    float4 c = merge ? chain0[idx] : (float4)(0.0f);
+    float yc = 0.2126f * c.x + 0.7152f * c.y + 0.0722f * c.z;
+    float lp = (yc + ya) > 0.0f ? (merge ? (yc * c.w + ya * lpa) / (yc + ya) : lpa) : lpa;
+    float r = c.x + a.x, g = c.y + a.y, b = c.z + a.z;
+    chain0[idx] = (float4)(r, g, b, lp);
+    store_prep_apsf(prep0, idx, r, g, b, lp, lut, 0);
+}
+#endif
+
+/* out += a_dir after the pyramid: the 1/R core of a light stays sharp */
+__kernel void add_airlight(__global float4 *out, __global const float4 *a_dir, const int n)
+{
+    int idx = get_global_id(0);
+    if (idx >= n) return;
+    float4 o = out[idx];
+    out[idx] = (float4)(o.xyz + a_dir[idx].xyz, o.w);
+}

@@ -1,0 +1,199 @@
+"""Lights in the medium on the host: the structs of kernels/lights.cl (lights placed in the
+world, the medium with its density primitives, the Gauss-Legendre nodes) and a float64
+numpy reference of the single-scattered airlight that the kernel is tested against."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .config import Config
+
+LIGHT_T = np.dtype({"names": ["pos", "axis", "intensity", "radius", "cos_outer", "cos_inner", "type"],
+                    "formats": [(np.float32, 4)] * 3 + [np.float32] * 3 + [np.int32],
+                    "offsets": [0, 16, 32, 48, 52, 56, 60], "itemsize": 64})
+LMEDIUM_T = np.dtype({"names": ["sa", "ss", "g", "homogeneous", "nprims", "nodes"],
+                      "formats": [(np.float32, 4)] * 2 + [np.float32] * 2 + [np.int32] * 2,
+                      "offsets": [0, 16, 32, 36, 40, 44], "itemsize": 48})
+TYPES = {"point": 0, "spot": 1, "directional": 2}
+
+
+def rotation(cfg: Config) -> np.ndarray:
+    from .pipeline import rotation as rot
+
+    c = cfg.camera
+    return rot(c.yaw, c.pitch, c.roll)
+
+
+def placed(cfg: Config, light) -> tuple[np.ndarray, np.ndarray]:
+    """(world position, world unit axis) of a light: camera-frame values are turned by the
+    camera's rotation and moved to its position (docs/conventions.md, Geometry)."""
+    R = rotation(cfg)
+    cam = np.array(cfg.camera.position, np.float64)
+    pos = np.array(getattr(light, "position", (0.0, 0.0, 0.0)), np.float64)
+    axis = np.array(getattr(light, "direction", (0.0, 0.0, -1.0)), np.float64)
+    axis = axis / np.linalg.norm(axis)
+    if light.frame == "camera":
+        pos, axis = cam + R @ pos, R @ axis
+    return pos, axis
+
+
+def light_struct(cfg: Config, light) -> np.ndarray:
+    s = np.zeros((), LIGHT_T)
+    pos, axis = placed(cfg, light)
+    s["pos"], s["axis"] = [*pos, 0.0], [*axis, 0.0]
+    s["intensity"] = [*(light.irradiance if light.type == "directional" else light.intensity), 0.0]
+    s["radius"] = getattr(light, "radius", 0.0)
+    if light.type == "spot":
+        s["cos_outer"] = math.cos(math.radians(light.angle))
+        s["cos_inner"] = math.cos(math.radians(light.angle * (1.0 - light.blend)))
+        if s["cos_inner"] <= s["cos_outer"]:            # blend 0: a hard edge, smoothstep needs a step
+            s["cos_inner"] = np.nextafter(s["cos_outer"], np.float32(2.0))
+    s["type"] = TYPES[light.type]
+    return s
+
+
+def medium_struct(cfg: Config) -> tuple[np.ndarray, np.ndarray]:
+    """(lmedium_t, prims float4 array): the non-homogeneous primitives as 3 float4 each."""
+    m = cfg.medium
+    s = np.zeros((), LMEDIUM_T)
+    s["sa"], s["ss"] = [*m.absorption, 0.0], [*m.scattering, 0.0]
+    s["g"] = m.asymmetry
+    s["homogeneous"] = sum(d.factor for d in m.density if d.type == "homogeneous")
+    s["nodes"] = cfg.render.lights.nodes
+    prims = []
+    for d in m.density:
+        if d.type == "exponential":
+            n = np.array(d.direction, np.float64)
+            prims += [[1.0, d.factor, d.falloff, 0.0], [*(n / np.linalg.norm(n)), 0.0], [*d.offset, 0.0]]
+        elif d.type == "sphere":
+            prims += [[2.0, d.factor, d.radius, 0.0], [*d.center, 0.0], [0.0] * 4]
+    s["nprims"] = len(prims) // 3
+    return s, np.array(prims or [[0.0] * 4] * 3, np.float32)
+
+
+def gauss_legendre(n: int) -> np.ndarray:
+    x, w = np.polynomial.legendre.leggauss(n)
+    return np.ascontiguousarray(np.stack([x, w], axis=1), np.float32)
+
+
+# ----------------------------------------------------------------------------- reference
+
+def _density(x: np.ndarray, cfg: Config) -> np.ndarray:
+    rho = np.zeros(x.shape[:-1])
+    for d in cfg.medium.density:
+        if d.type == "homogeneous":
+            rho += d.factor
+        elif d.type == "exponential":
+            n = np.array(d.direction, float) / np.linalg.norm(d.direction)
+            rho += d.factor * np.exp(-d.falloff * ((x - np.array(d.offset)) @ n))
+        else:
+            r2 = ((x - np.array(d.center)) ** 2).sum(-1)
+            rho += d.factor * np.maximum(0.0, 1.0 - r2 / d.radius ** 2)
+    return rho
+
+
+def _tau(p: np.ndarray, u: np.ndarray, L: np.ndarray, cfg: Config, skip_homogeneous=False) -> np.ndarray:
+    """Optical depth (density units) from points p along unit u over lengths L, in closed form
+    and float64 (the analytic media; tests/test_density.py checks the same forms against
+    quadrature)."""
+    P = np.zeros(np.shape(L))
+    for d in cfg.medium.density:
+        if d.type == "homogeneous":
+            P = P + (0.0 if skip_homogeneous else d.factor * L)
+        elif d.type == "exponential":
+            n = np.array(d.direction, float) / np.linalg.norm(d.direction)
+            pre = d.factor * np.exp(np.minimum(-d.falloff * ((p - np.array(d.offset)) @ n), 700.0))
+            x = -d.falloff * (u @ n) * L
+            with np.errstate(over="ignore", invalid="ignore"):
+                f = np.where(np.abs(x) < 1e-8, 1.0 + x / 2, np.expm1(x) / np.where(x == 0, 1.0, x))
+            P = P + pre * L * f
+        else:
+            co = p - np.array(d.center)
+            B = (co * u).sum(-1)
+            perp = co - B[..., None] * u
+            s2 = d.radius ** 2 - (perp * perp).sum(-1)
+            sq = np.sqrt(np.maximum(s2, 0.0))
+            u1, u2 = np.maximum(B, -sq), np.minimum(L + B, sq)
+            du = u2 - u1
+            P = P + np.where((s2 > 0) & (du > 0), d.factor / d.radius ** 2 * du * (s2 - (u2 * u2 + u1 * u2 + u1 * u1) / 3), 0.0)
+    return P
+
+
+def airlight_reference(cfg: Config, light, c: np.ndarray, w: np.ndarray, D: float, nodes: int = 1024):
+    """(A_dir, A_sc) in float64 for one ray from c along unit w to distance D: composite
+    Gauss-Legendre in s over 64 pieces refined towards the light's foot (points, spots),
+    with the light leg's optical depth by its own quadrature."""
+    m = cfg.medium
+    sa, ss = np.array(m.absorption), np.array(m.scattering)
+    st = sa + ss
+    g = m.asymmetry
+    pos, axis = placed(cfg, light)
+    x_gl, w_gl = np.polynomial.legendre.leggauss(32)
+    if light.type == "directional":
+        edges = np.concatenate([[0.0], np.geomspace(1e-3, D, nodes // 32)]) if D > 1e-3 else np.array([0.0, D])
+    else:
+        d1 = float(w @ (pos - c))
+        R = math.sqrt(float(np.sum(np.cross(w, pos - c) ** 2)) + light.radius ** 2)
+        phi = np.linspace(math.atan2(-d1, R), math.atan2(D - d1, R), nodes // 32 + 1)
+        edges = np.clip(d1 + R * np.tan(phi), 0.0, D)
+    for d in m.density:     # kinks: sphere boundaries, and where the light leg grazes a sphere
+        if d.type == "sphere":
+            co = c - np.array(d.center)
+            B = float(w @ co)
+            s2 = d.radius ** 2 - float(np.sum((co - B * w) ** 2))
+            if s2 > 0:
+                edges = np.concatenate([edges, [t for t in (-B - math.sqrt(s2), -B + math.sqrt(s2)) if 0 < t < D]])
+            if light.type == "directional":
+                qp, wp = co - (co @ axis) * axis, w - (w @ axis) * axis
+                A, B, C = wp @ wp, qp @ wp, qp @ qp - d.radius ** 2
+            else:
+                v0, a = c - pos, np.array(d.center) - pos
+                aa = a @ a - d.radius ** 2
+                A, B, C = aa - (w @ a) ** 2, aa * (v0 @ w) - (v0 @ a) * (w @ a), aa * (v0 @ v0) - (v0 @ a) ** 2
+            disc = B * B - A * C
+            if disc >= 0 and abs(A) > 1e-15:
+                edges = np.concatenate([edges, [t for t in ((-B - math.sqrt(disc)) / A, (-B + math.sqrt(disc)) / A)
+                                                if 0 < t < D]])
+    if light.type == "spot":
+        v = c - pos
+        cc = math.cos(math.radians(light.angle))
+        wa, va = float(w @ axis), float(v @ axis)
+        A, B, C = wa * wa - cc * cc, wa * va - cc * cc * float(w @ v), va * va - cc * cc * float(v @ v)
+        disc = B * B - A * C
+        if disc >= 0 and abs(A) > 1e-15:
+            edges = np.concatenate([edges, [t for t in ((-B - math.sqrt(disc)) / A, (-B + math.sqrt(disc)) / A)
+                                            if 0 < t < D]])
+    edges = np.unique(edges)
+    a, b = edges[:-1], edges[1:]
+    s = ((a + b)[:, None] / 2 + (b - a)[:, None] / 2 * x_gl[None, :]).ravel()
+    ws = ((b - a)[:, None] / 2 * w_gl[None, :]).ravel()
+    x = c + s[:, None] * w
+    P = _tau(np.broadcast_to(c, x.shape), np.broadcast_to(w, x.shape), s, cfg)
+    rho = _density(x, cfg)
+    if light.type == "directional":
+        cosa = float(axis @ w)
+        I = np.array(light.irradiance)
+        Pl = _tau(x, np.broadcast_to(axis, x.shape), np.full(len(s), 1e7), cfg, skip_homogeneous=True)
+        geo = np.ones_like(s)
+    else:
+        to = pos - x
+        tl = np.linalg.norm(to, axis=1)
+        R2 = float(np.sum(np.cross(w, pos - c) ** 2)) + light.radius ** 2
+        d1 = float(w @ (pos - c))
+        teff2 = (s - d1) ** 2 + R2
+        cosa = -(s - d1) / np.sqrt(teff2)
+        I = np.array(light.intensity)[None, :] * np.ones((len(s), 1))
+        if light.type == "spot":
+            cc_o = math.cos(math.radians(light.angle))
+            cc_i = math.cos(math.radians(light.angle * (1 - light.blend)))
+            ct = (-to / tl[:, None]) @ axis
+            tt = np.clip((ct - cc_o) / max(cc_i - cc_o, 1e-12), 0, 1)
+            I = I * (tt * tt * (3 - 2 * tt))[:, None]
+        Pl = _tau(x, to / tl[:, None], tl, cfg)
+        geo = 1.0 / teff2
+    phase = (1 - g * g) / (4 * math.pi * (1 + g * g - 2 * g * cosa) ** 1.5)
+    src = (ws * rho * phase * geo)[:, None] * ss[None, :] * I * np.exp(-st[None, :] * Pl[:, None])
+    tdir = np.exp(-st[None, :] * P[:, None])
+    tsc = np.exp(-sa[None, :] * P[:, None]) - tdir
+    return (src * tdir).sum(0), (src * tsc).sum(0)
