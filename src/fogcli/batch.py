@@ -79,6 +79,14 @@ def output_is_whole(path: Path) -> bool:
     return ok
 
 
+def _is_file(p: Path) -> bool:
+    """is_file that says no to names the system refuses (too long, a loop of links)."""
+    try:
+        return p.is_file()
+    except OSError:
+        return False
+
+
 def discover(input_dir: Path, output_dir: Path, depth_pattern: str | None, recursive: bool,
              fmt: str | None, skip_existing: bool, layer: str | None = None, view: str | None = None,
              depth_dir: Path | None = None, drop_channels: bool = False) -> Plan:
@@ -123,7 +131,7 @@ def discover(input_dir: Path, output_dir: Path, depth_pattern: str | None, recur
         depth = None
         if drel is not None:
             dpath = input_dir / drel
-            depth = str(dpath) if dpath.is_file() else None   # missing: try the embedded Z
+            depth = str(dpath) if _is_file(dpath) else None   # missing: try the embedded Z
         saved = str(depth_dir / rel.parent / f"{rel.stem}.exr") if depth_dir else None
         plan.jobs.append(Job(str(src), str(out), depth, layer, view, saved, drop_channels))
     if not (plan.jobs or plan.skipped or plan.failed):

@@ -122,7 +122,7 @@ def write(path: Path, rgb: np.ndarray, alpha: np.ndarray | None, aovs: dict, fra
     if ext in LINEAR_EXT:
         planes = [rgb[:, :, 0], rgb[:, :, 1], rgb[:, :, 2]]
         names = ["R", "G", "B"]
-        if alpha is not None:
+        if alpha is not None and ext == ".exr":     # Radiance HDR holds RGB only
             planes.append(alpha)
             names.append("A")
         if ext == ".exr":
@@ -135,7 +135,7 @@ def write(path: Path, rgb: np.ndarray, alpha: np.ndarray | None, aovs: dict, fra
         fmt = out_type if ext == ".exr" else "float"
         spec = oiio.ImageSpec(w, h, data.shape[2], fmt)
         spec.channelnames = tuple(names)
-        if alpha is not None:
+        if "A" in names:
             spec.alpha_channel = 3
         if ext == ".exr":
             spec.x, spec.y = frame.window
