@@ -227,7 +227,7 @@ def test_bad_inputs_exit_2_with_one_line(rgbz, tmp_path):
     cfg.write_text("render:\n  levels: 3\n  kernal: 4\n")
     assert_one_line_error(*run("apply", p, "--config", cfg, "-o", out)[:2], "c.yaml:3: render.kernal")
     assert_one_line_error(*run("apply", p, "--medium", "fogg", "-o", out)[:2], "no such preset")
-    assert_one_line_error(*run("apply", p, "-o", p)[:2], "refusing to overwrite the input")
+    assert_one_line_error(*run("apply", p, "-o", p)[:2], "refusing to overwrite an input")
     assert_one_line_error(*run("apply", p, "-o", tmp_path / "o.bmp")[:2], "unsupported output format")
     assert not out.exists()
     assert sorted(f.name for f in tmp_path.iterdir()) == sorted(

@@ -8,6 +8,7 @@ import json
 import os
 import re
 import sys
+import tempfile
 import time
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
@@ -384,6 +385,10 @@ def _check_side_outputs(plan, report: Path | None, input_dir: Path, recursive: b
             raise UserError(f"--report {report}: is a folder, expected a JSON file name")
         if not report.parent.is_dir():
             raise UserError(f"--report {report}: folder {report.parent} does not exist")
+        try:                # writable? (asked before any frame is done, not after)
+            tempfile.TemporaryFile(dir=report.parent).close()
+        except OSError as exc:
+            raise UserError(f"--report {report}: cannot write into {report.parent} ({exc.strerror})") from None
     for j in plan.jobs:
         if j.save_depth and Path(j.save_depth).resolve() in inputs:
             raise UserError(f"--save-depth {Path(j.save_depth).parent}: {Path(j.save_depth).name} would overwrite "

@@ -2,6 +2,7 @@
 input, 1 when processing failed. FOGCLI_DEBUG=1 shows tracebacks."""
 from __future__ import annotations
 
+import errno
 import functools
 import json
 import os
@@ -21,15 +22,26 @@ def _fail(msg: str, code: int):
     sys.exit(code)
 
 
+# Errors of the file system about a path the user gave: bad input (exit 2), one line.
+_PATH_ERRNOS = {errno.ENAMETOOLONG, errno.ELOOP, errno.EACCES, errno.EPERM, errno.EROFS, errno.ENOTDIR,
+                errno.EISDIR, errno.EEXIST, errno.ENOENT}
+
+
 def guarded(fn):
     @functools.wraps(fn)
     def wrapper(*a, **kw):
         try:
+            _no_empty_paths(kw)
             return fn(*a, **kw)
         except (UserError, ProcessingError) as exc:
             _fail(str(exc), exc.exit_code)
         except KeyboardInterrupt:
             _fail("interrupted", 130)
+        except OSError as exc:
+            if exc.errno in _PATH_ERRNOS and not os.environ.get("FOGCLI_DEBUG"):
+                name = str(exc.filename or "")
+                _fail(f"{name[:80] + '...' if len(name) > 80 else name}: {exc.strerror}", 2)
+            raise
         except Exception as exc:  # one line, never a traceback, unless asked
             if os.environ.get("FOGCLI_DEBUG"):
                 raise
@@ -37,7 +49,42 @@ def guarded(fn):
     return wrapper
 
 
-@click.group(context_settings={"help_option_names": ["-h", "--help"]})
+_PATH_OPTIONS = {"input": "INPUT", "depth_path": "--depth", "medium": "--medium", "config_file": "--config",
+                 "camera_file": "--camera", "output": "-o", "save_depth": "--save-depth", "report": "--report",
+                 "input_dir": "INPUT_DIR", "output_dir": "OUTPUT_DIR", "depth_pattern": "--depth-pattern"}
+
+
+def _no_empty_paths(kw: dict) -> None:
+    for key, label in _PATH_OPTIONS.items():
+        if kw.get(key) is not None and not str(kw[key]).strip():
+            raise UserError(f"{label}: empty; expected a file name")
+
+
+class _OneLine(click.Group):
+    """Usage errors as one line on stderr (exit 2), like every other error."""
+
+    def main(self, *args, **kwargs):
+        kwargs["standalone_mode"] = False
+        try:
+            rv = super().main(*args, **kwargs)
+        except click.exceptions.Exit as exc:
+            sys.exit(exc.exit_code)
+        except click.ClickException as exc:
+            if type(exc).__name__ == "NoArgsIsHelpError":      # plain `fogcli`: the help
+                click.echo(exc.format_message())
+                sys.exit(0)
+            ctx = getattr(exc, "ctx", None)
+            cmd = f"{ctx.info_name}: " if ctx is not None and ctx.parent is not None else ""
+            msg = " ".join(exc.format_message().split())
+            click.echo(f"fogcli: {cmd}{msg} (see --help)", err=True)
+            sys.exit(exc.exit_code)
+        except click.Abort:
+            click.echo("fogcli: interrupted", err=True)
+            sys.exit(130)
+        sys.exit(rv if isinstance(rv, int) else 0)
+
+
+@click.group(cls=_OneLine, context_settings={"help_option_names": ["-h", "--help"]})
 @click.version_option(__version__, prog_name="fogcli")
 def main():
     """Add fog, haze, sea water or smoke to images that carry a depth map."""
@@ -83,6 +130,12 @@ def apply(input, depth_path, medium, config_file, camera_file, sets, layer, view
     cfg = assemble(medium, config_file, sets, camera_file)
     src = Path(input)
     out_path = Path(output) if output else src.with_name(f"{src.stem}.fog{outputs.default_ext(src)}")
+    # no output replaces any file given as input (config and camera files included)
+    given = [Path(p) for p in (input, depth_path, config_file, camera_file, medium) if p and Path(p).is_file()]
+    outputs.refuse_overwrite(out_path, "-o", *given, what="an input file")
+    if save_depth:
+        outputs.refuse_overwrite(Path(save_depth), "--save-depth", *given, what="an input file")
+        outputs.refuse_overwrite(Path(save_depth), "--save-depth", out_path, what="the output (-o)")
     t = Timings()
     res = run_job(Job(str(src), str(out_path), depth_path, layer, view, save_depth, drop_channels), cfg,
                   aovs=tuple(dict.fromkeys(aovs)), device=device, timings=t)
@@ -124,6 +177,13 @@ def batch(input_dir, output_dir, depth_pattern, medium, config_file, camera_file
     from .media import assemble
 
     cfg = assemble(medium, config_file, sets, camera_file)
+    from .outputs import refuse_overwrite
+
+    given = [Path(p) for p in (config_file, camera_file, medium) if p and Path(p).is_file()]
+    if report:
+        refuse_overwrite(Path(report), "--report", *given, what="an input file")
+    if save_depth and Path(save_depth).exists() and not Path(save_depth).is_dir():
+        raise UserError(f"--save-depth {save_depth}: is a file; expected a folder")
     s = run_batch(Path(input_dir), Path(output_dir), cfg, depth_pattern=depth_pattern, recursive=recursive,
                   fmt=fmt, jobs=jobs, skip_existing=skip_existing, layer=layer, view=view, scheduler=scheduler, aovs=aovs,
                   device=device, quiet=quiet, report=Path(report) if report else None,
@@ -155,6 +215,7 @@ def devices():
 
 
 @main.command()
+@guarded
 def media():
     """List the bundled medium presets."""
     from .media import assemble, describe, presets, visibility_m
@@ -195,6 +256,7 @@ def config_cmd(files, show, medium, camera_file, sets):
 
 @main.command()
 @click.argument("files", nargs=-1, required=True)
+@guarded
 def check(files):
     """Validate config files; report every problem with its line."""
     from .media import check_file

@@ -19,12 +19,23 @@ VISIBILITY_CONTRAST = 3.912  # -ln(0.02): Koschmieder's 2 % contrast threshold
 
 # ----------------------------------------------------------------------------- value types
 
+# No key means anything beyond this magnitude (a coefficient of 1e15 / m, a position 1e15 m
+# away): refusing it keeps float32 kernels and float64 host code from overflowing.
+MAX_MAGNITUDE = 1e15
+
+
 def _num(v):
     if isinstance(v, bool) or not isinstance(v, (int, float)):
-        raise ValueError(f"expected a number, got {v!r}")
+        raise ValueError(f"expected a number, got {str(v)[:40]!r}")
+    try:
+        v = float(v)
+    except OverflowError:
+        raise ValueError("expected a number, got an integer too large for one") from None
     if not math.isfinite(v):
         raise ValueError(f"expected a finite number, got {v!r}")
-    return float(v)
+    if abs(v) > MAX_MAGNITUDE or 0.0 < abs(v) < 1.0 / MAX_MAGNITUDE ** 2:
+        raise ValueError(f"expected 0 or a magnitude between {1 / MAX_MAGNITUDE ** 2:g} and {MAX_MAGNITUDE:g}, got {v:g}")
+    return v
 
 
 def _triple(v, lo=None):
@@ -68,8 +79,8 @@ class Exponential(Homogeneous):
 
     @model_validator(mode="after")
     def _dir(self):
-        if math.hypot(*self.direction) == 0.0:
-            raise ValueError("direction: expected a non-zero direction, got [0, 0, 0]")
+        if math.hypot(*self.direction) < 1e-9:
+            raise ValueError(f"direction: expected a non-zero direction, got {list(self.direction)}")
         return self
 
 
@@ -187,7 +198,7 @@ class Camera(_Model):
 # ----------------------------------------------------------------------------- lights
 
 def _nonzero(v):
-    if math.hypot(*v) == 0.0:
+    if math.hypot(*v) < 1e-9:
         raise ValueError("expected a non-zero direction, got [0, 0, 0]")
     return v
 

@@ -54,9 +54,9 @@ def _screen(text: str, source: str) -> None:
                 raise UserError(f"{source}:{line}: invalid YAML: alias *{ev.anchor} is recursive or undefined")
             size = anchors[ev.anchor]
         elif isinstance(ev, yaml.ScalarEvent):
-            size = 1
+            size = 1 + len(ev.value) // 64        # long strings weigh more (an aliased 1 MB string)
             if ev.anchor:
-                anchors[ev.anchor] = 1
+                anchors[ev.anchor] = size
         elif isinstance(ev, (yaml.MappingStartEvent, yaml.SequenceStartEvent)):
             depth += 1
             if depth > MAX_DEPTH:
@@ -82,6 +82,8 @@ def _node_to_py(node, source: str, path: str, locs: dict):
     if isinstance(node, yaml.MappingNode):
         out = {}
         for knode, vnode in node.value:
+            if not isinstance(knode, yaml.ScalarNode):
+                raise UserError(f"{source}:{knode.start_mark.line + 1}: invalid YAML: a key must be a plain name")
             key = str(knode.value)
             if key in out:
                 raise UserError(f"{source}:{knode.start_mark.line + 1}: {path + '.' if path else ''}{key}: duplicate key")

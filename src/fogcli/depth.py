@@ -119,7 +119,8 @@ def _nearest_fill(d: np.ndarray, valid: np.ndarray) -> np.ndarray:
 def _log_depth(d: np.ndarray) -> tuple[np.ndarray, float]:
     """log depth, sky (+inf) carried as 4x the farthest finite depth, NaN kept; and the
     log value above which an estimate is sky again."""
-    far = float(d[np.isfinite(d)].max())
+    finite = d[np.isfinite(d)]
+    far = float(finite.max()) if finite.size else 1.0      # all sky and holes: any scale will do
     logd = np.log(np.where(np.isposinf(d), far * 4.0, np.maximum(d, 1e-6)))
     return logd.astype(np.float32), float(np.log(far * 2.0))
 

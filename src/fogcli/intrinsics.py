@@ -17,8 +17,12 @@ from .errors import UserError
 
 
 def _num(v, path: Path, key: str) -> float:
-    if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
-        raise UserError(f"{path}: {key}: expected a number, got {v!r}")
+    try:
+        ok = not isinstance(v, bool) and isinstance(v, (int, float)) and math.isfinite(v) and abs(float(v)) < 1e15
+    except OverflowError:        # an integer of hundreds of digits
+        ok = False
+    if not ok:
+        raise UserError(f"{path}: {key}: expected a number of magnitude below 1e15, got {str(v)[:40]}")
     return float(v)
 
 

@@ -27,9 +27,10 @@ def default_ext(source: Path) -> str:
 
 
 def refuse_overwrite(target: Path, option: str, *protected: Path | None, what: str = "the input file") -> None:
-    """No output may replace an input (or another output): UserError naming the option."""
+    """No output may replace an input (or another output), whether or not either exists
+    yet: UserError naming the option."""
     for p in protected:
-        if p is not None and target.exists() and target.resolve() == Path(p).resolve():
+        if p is not None and os.path.realpath(target) == os.path.realpath(p):
             raise UserError(f"{option} {target}: refusing to overwrite {what}")
 
 

@@ -516,6 +516,11 @@ def run(rgb: np.ndarray, depth: np.ndarray, cfg: Config, alpha=None, aovs=(), de
     if cfg.lights:
         plan.add_airlight(t)
     out = plan.download(plan.out, 4, t)
+    if not np.isfinite(out).all():
+        from .errors import UserError
+
+        raise UserError("the result holds non-finite values: a medium, light or camera value is too large for "
+                        "32-bit floats (fogcli config --show lists them)")
     planes = plan.aov_planes(t)
     rt.queue.finish()
     return out[:, :, :3], (np.ascontiguousarray(out[:, :, 3]) if alpha is not None else None), planes
