@@ -372,13 +372,15 @@ def _dask(jobs, cfg, aovs, device, scheduler, progress, collect):
             cluster.close()
 
 
-def _check_side_outputs(plan, report: Path | None, input_dir: Path, recursive: bool) -> None:
+def _check_side_outputs(plan, report: Path | None, input_dir: Path, recursive: bool, output_dir: Path) -> None:
     """--report and --save-depth never replace an input, and fail before any frame is done."""
     inputs = {Path(j.input).resolve() for j in plan.jobs} | {Path(j.depth).resolve() for j in plan.jobs if j.depth}
     exts = _image_ext()
     inputs |= {p.resolve() for p in (input_dir.rglob("*") if recursive else input_dir.glob("*"))
                if p.is_file() and p.suffix.lower() in exts | {".npy", ".yaml", ".json"}}
     if report is not None:
+        if os.path.realpath(report) == os.path.realpath(output_dir):
+            raise UserError(f"--report {report}: is OUTPUT_DIR; expected a JSON file name")
         if report.resolve() in inputs:
             raise UserError(f"--report {report}: refusing to overwrite an input file")
         if report.is_dir():
@@ -408,7 +410,7 @@ def run_batch(input_dir: Path, output_dir: Path, cfg, *, depth_pattern=None, rec
         raise UserError(f"--save-depth {save_depth}: use a folder other than OUTPUT_DIR (it holds only outputs)")
     plan = discover(input_dir, output_dir, depth_pattern, recursive, fmt, skip_existing, layer, view, save_depth,
                     drop_channels)
-    _check_side_outputs(plan, report, input_dir, recursive)
+    _check_side_outputs(plan, report, input_dir, recursive, output_dir)
     output_dir.mkdir(parents=True, exist_ok=True)
     if save_depth is not None:
         save_depth.mkdir(parents=True, exist_ok=True)

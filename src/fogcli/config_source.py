@@ -109,6 +109,8 @@ def load_yaml(path: str | Path, locs: dict) -> dict:
         raise UserError(f"{p}: config file not found") from None
     except (OSError, UnicodeDecodeError) as exc:
         raise UserError(f"{p}: cannot read config file ({exc.__class__.__name__})") from None
+    if not text.strip():           # empty, or blank lines and tabs only: no settings
+        return {}
     try:
         _screen(text, str(p))
         node = yaml.compose(text, Loader=_Loader)

@@ -49,7 +49,9 @@ def decode(raw: np.ndarray, cam: Camera, source: str, width: int) -> np.ndarray:
             if not ok.any():
                 raise UserError(f"{source}: inverse depth has no finite value")
             lo, hi = float(v[ok].min()), float(v[ok].max())
-            t = (v - lo) / (hi - lo) if hi > lo else np.zeros_like(v)
+            if not hi - lo > 1e-30 * max(abs(hi), 1e-30):
+                raise UserError(f"{source}: inverse depth is constant ({lo:g}): no relative depth to map to near..far")
+            t = (v - lo) / (hi - lo)
             v = 1.0 / (1.0 / cam.far + t * (1.0 / cam.near - 1.0 / cam.far))
         else:
             v = np.where(v > 0, v, np.nan)

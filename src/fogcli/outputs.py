@@ -59,6 +59,8 @@ def _write_bytes(tmp: str, buf) -> None:
 
 
 def atomic_write(path: Path, write) -> None:
+    if len(path.name.encode()) > 255:
+        raise UserError(f"{path.name[:40]}...: file name longer than 255 bytes")
     # the stem is cut so that the temporary name stays within 255 bytes however long the name
     try:
         fd, tmp = tempfile.mkstemp(prefix=f".{path.stem[:60]}.", suffix=f".tmp{path.suffix[:16]}", dir=path.parent)
