@@ -85,5 +85,8 @@ def load(path: str | Path) -> dict:
     if cy is not None:
         cam["cy"] = cy
     if "width" in data and "height" in data:
-        cam["calibrated_size"] = [int(_num(data["width"], p, "width")), int(_num(data["height"], p, "height"))]
+        size = [_num(data[k], p, k) for k in ("width", "height")]
+        if not all(v >= 1 and v == int(v) for v in size):
+            raise UserError(f"{p}: width, height: expected positive whole numbers of pixels, got {size}")
+        cam["calibrated_size"] = [int(v) for v in size]
     return {"camera": cam}
