@@ -19,6 +19,7 @@ sys.path.insert(0, str(ROOT / "src"))
 sys.path.insert(0, str(ROOT / "tests"))
 
 import fogcli  # noqa: E402
+from fogcli.config import LightsRender  # noqa: E402
 from fogcli.lights import airlight_reference  # noqa: E402
 from fogcli.pipeline import Timings, camera_struct, kernel_ms  # noqa: E402
 
@@ -91,7 +92,8 @@ def main() -> int:
              "Worst relative error of the airlight (and of its twice-scattered part) against the float64",
              "reference, over the 108 geometries x 10 pixels of `tests/test_lights.py`, on pixels holding at",
              "least 1e-3 of the case's peak:", "",
-             "| `render.lights.nodes` | " + " | ".join(f"{n}" + (" (default)" if n == 24 else "") for n in errs) + " |",
+             "| `render.lights.nodes` | " + " | ".join(f"{n}" + (" (default)" if n == LightsRender().nodes else "")
+                                                     for n in errs) + " |",
              "|---|" + "---|" * len(errs),
              "| worst relative error | " + " | ".join(f"{e:.1e}" for e in errs.values()) + " |", "",
              f"Speed at 1920 x 1080 (kernel time, best of 3): fog without lights {base:.0f} ms, with one point light "

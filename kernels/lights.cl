@@ -181,6 +181,10 @@ __kernel void airlight(__global const float *depth, __global float4 *a_dir, __gl
         R = sqrt(dot(cr, cr) + L.radius * L.radius);
         cuts[n++] = D;
         if (d1 > 0.0f && d1 < D) cuts[n++] = d1;                     /* phi = 0 */
+        /* the phase function's forward peak (light ahead, scattered back along the ray to
+         * the camera) sits at phi = -pi/2, about 2 (1 - g) wide: a piece of its own */
+        float sp = d1 - R / tan(fmin(2.0f * (1.0f - m.g), 1.0f));
+        if (sp > 0.0f && sp < D) cuts[n++] = sp;
     }
     /* the camera leg decays as exp(-k s): pieces that double in length from 1 / k, so that
      * none holds more than a few e-folds (k the largest homogeneous extinction). Points and
@@ -190,7 +194,10 @@ __kernel void airlight(__global const float *depth, __global float4 *a_dir, __gl
     for (float e = L.type == 2 ? 1.0f : 8.0f; k > 0.0f && e < k * D && n < MAX_CUTS - 6; e *= 2.0f) cuts[n++] = e / k;
     n = sphere_cuts(prims, &m, c, w, 0.0f, D, cuts, n);
     n = graze_cuts(prims, &m, c, w, l, ax, L.type == 2, 0.0f, D, cuts, n);
-    if (L.type == 1) n = cone_cuts(c, w, l, ax, L.cos_outer, 0.0f, D, cuts, n);
+    if (L.type == 1) {      /* both ends of the soft edge: smoothstep's curvature jumps there */
+        n = cone_cuts(c, w, l, ax, L.cos_outer, 0.0f, D, cuts, n);
+        n = cone_cuts(c, w, l, ax, L.cos_inner, 0.0f, D, cuts, n);
+    }
     sort_cuts(cuts, n);
 
     for (int p = 0; p + 1 < n; ++p) {

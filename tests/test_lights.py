@@ -57,9 +57,9 @@ CASES = [(seed, medium, kind, g) for seed, (medium, kind, g) in enumerate(
 
 def test_airlight_kernel_against_float64_quadrature():
     """108 geometries x 10 pixels (a sky pixel, the pixel whose ray holds the light, 8 more),
-    default 24 nodes per piece: worst relative error of A (the airlight AOV) and of its
+    at the default node count: worst relative error of A (the airlight AOV) and of its
     twice-scattered part, on pixels holding at least 1e-3 of the case's peak, <= 1e-3
-    (measured 8.0e-4; 3.1e-3 with 16 nodes, 7.9e-4 with 32)."""
+    (measured per node count in docs/lights.md, benchmarks/lights.py)."""
     worst = 0.0
     for seed, medium, kind, g in CASES:
         rng = np.random.default_rng(seed)

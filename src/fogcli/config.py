@@ -237,7 +237,7 @@ Light = Annotated[Union[PointLight, SpotLight, DirectionalLight], Field(discrimi
 
 class LightsRender(_Model):
     nodes: Annotated[int, Field(ge=4, le=64, strict=True)] = Field(
-        24, description="Gauss-Legendre nodes per piece of each ray (accuracy per node count: docs/lights.md)")
+        16, description="Gauss-Legendre nodes per piece of each ray (accuracy per node count: docs/lights.md)")
 
 
 # ----------------------------------------------------------------------------- render, output

@@ -157,13 +157,13 @@ def airlight_reference(cfg: Config, light, c: np.ndarray, w: np.ndarray, D: floa
                                                 if 0 < t < D]])
     if light.type == "spot":
         v = c - pos
-        cc = math.cos(math.radians(light.angle))
-        wa, va = float(w @ axis), float(v @ axis)
-        A, B, C = wa * wa - cc * cc, wa * va - cc * cc * float(w @ v), va * va - cc * cc * float(v @ v)
-        disc = B * B - A * C
-        if disc >= 0 and abs(A) > 1e-15:
-            edges = np.concatenate([edges, [t for t in ((-B - math.sqrt(disc)) / A, (-B + math.sqrt(disc)) / A)
-                                            if 0 < t < D]])
+        for cc in (math.cos(math.radians(light.angle)), math.cos(math.radians(light.angle * (1 - light.blend)))):
+            wa, va = float(w @ axis), float(v @ axis)
+            A, B, C = wa * wa - cc * cc, wa * va - cc * cc * float(w @ v), va * va - cc * cc * float(v @ v)
+            disc = B * B - A * C
+            if disc >= 0 and abs(A) > 1e-15:
+                edges = np.concatenate([edges, [t for t in ((-B - math.sqrt(disc)) / A, (-B + math.sqrt(disc)) / A)
+                                                if 0 < t < D]])
     edges = np.unique(edges)
     a, b = edges[:-1], edges[1:]
     s = ((a + b)[:, None] / 2 + (b - a)[:, None] / 2 * x_gl[None, :]).ravel()
