@@ -77,6 +77,26 @@ def speed() -> tuple[float, float, float]:
     return best["base"], best["light"], best["copy"]
 
 
+def detection() -> list[tuple]:
+    """(centre, radius, intensity error, distance error) of synthetic disc lamps found by
+    {type: auto} (tests/test_lights.py's frame)."""
+    import math
+
+    from fogcli.config import AutoLights
+    from fogcli.lights import detect_lamps
+    from test_lights import _lamp_frame
+
+    out = []
+    for c, r in (((1.0, 1.5, -12.0), 0.2), ((-3.0, 0.5, -25.0), 0.3), ((0.5, -0.5, -6.0), 0.1)):
+        c, L = np.array(c), np.array([300.0, 250.0, 200.0])
+        rgb, z, _ = _lamp_frame(L=L, c=c, r=r)
+        lamp = detect_lamps(rgb, z, fogcli.make_config("fog"), AutoLights(type="auto"))[0][0]
+        want = L * math.pi * r * r * (-c[2] / np.linalg.norm(c))
+        out.append((c, r, float(np.abs(np.array(lamp.intensity) / want - 1).max()),
+                    float(abs((np.linalg.norm(lamp.position) - lamp.radius) / np.linalg.norm(c) - 1))))
+    return out
+
+
 def cpu_name() -> str:
     try:
         return next(ln.split(":", 1)[1].strip() for ln in open("/proc/cpuinfo") if ln.startswith("model name"))
@@ -87,6 +107,7 @@ def cpu_name() -> str:
 def main() -> int:
     errs = {n: worst_error(n) for n in (16, 24, 32)}
     base, light, copy = speed()
+    found = detection()
     lines = [BEGIN, "",
              f"Measured by `python benchmarks/lights.py` on {cpu_name()} ({__import__('os').cpu_count()} cores), PoCL.", "",
              "Worst relative error of the airlight (and of its twice-scattered part) against the float64",
@@ -98,7 +119,11 @@ def main() -> int:
              "| worst relative error | " + " | ".join(f"{e:.1e}" for e in errs.values()) + " |", "",
              f"Speed at 1920 x 1080 (kernel time, best of 3): fog without lights {base:.0f} ms, with one point light "
              f"{light:.0f} ms: the light costs {light - base:.0f} ms = {(light - base) / copy:.0f} numpy copies of the "
-             f"image ({copy:.1f} ms a copy, same run).", "", END]
+             f"image ({copy:.1f} ms a copy, same run).", "",
+             "Lamps found by `{type: auto}` on synthetic disc lamps facing the camera (anti-aliased, radiance",
+             "(300, 250, 200); expected intensity L pi r^2 cos(theta)):", "",
+             "| lamp centre (m) | radius (m) | intensity error (worst channel) | distance error |", "|---|---|---|---|",
+             *[f"| ({c[0]:g}, {c[1]:g}, {c[2]:g}) | {r:g} | {ei:.2%} | {ed:.2%} |" for c, r, ei, ed in found], "", END]
     text = "\n".join(lines)
     print(text)
     doc = DOC.read_text()

@@ -43,7 +43,7 @@ def _value(v) -> str:
 
 
 def _lines(model: type[BaseModel], indent: int) -> list[str]:
-    from fogcli.config import DirectionalLight, Exponential, Homogeneous, PointLight, Sphere, SpotLight
+    from fogcli.config import AutoLights, DirectionalLight, Exponential, Homogeneous, PointLight, Sphere, SpotLight
 
     out = []
     for name, fld in model.model_fields.items():
@@ -68,7 +68,8 @@ def _lines(model: type[BaseModel], indent: int) -> list[str]:
             out.append(f"lights: []  # {fld.description}, entries as below")
             examples = {PointLight: "position: [1, 2, -8], intensity: [40, 30, 20]",
                         SpotLight: "position: [0, 3, 0], direction: [0, -1, -1], intensity: [200, 200, 180]",
-                        DirectionalLight: "direction: [0.3, 1, 0.2], irradiance: [2, 2, 1.8]"}
+                        DirectionalLight: "direction: [0.3, 1, 0.2], irradiance: [2, 2, 1.8]",
+                        AutoLights: "threshold: auto"}
             for cls, ex in examples.items():
                 kind = typing.get_args(cls.model_fields["type"].annotation)[0]
                 out.append(f"  # - {{type: {kind}, {ex}}}")

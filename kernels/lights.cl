@@ -283,3 +283,13 @@ __kernel void add_airlight(__global float4 *out, __global const float4 *a_dir, c
     float4 o = out[idx];
     out[idx] = (float4)(o.xyz + a_dir[idx].xyz, o.w);
 }
+
+/* Detected lamps: their own pixels leave the scattered light at level 0 (the light model
+ * carries their scattered energy now); what reaches the camera directly stays. */
+__kernel void clear_sources(__global float4 *chain0, __global float4 *prep0, __global const uchar *mask, const int n)
+{
+    int idx = get_global_id(0);
+    if (idx >= n || !mask[idx]) return;
+    chain0[idx].xyz = (float3)(0.0f);
+    prep0[idx].xyz = (float3)(0.0f);
+}

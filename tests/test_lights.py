@@ -124,3 +124,43 @@ def test_lights_add_light_and_their_aovs_add_up():
     with pytest.raises(fogcli.UserError, match="lights need render.method pyramid"):
         fogcli.make_config("fog", sets=["render.psf=gaussian", "render.emission_profile=isotropic",
                                         "lights=[{type: point, position: [0, 0, -5], intensity: 1}]"])
+
+
+def _lamp_frame(h=120, w=160, L=(300.0, 250.0, 200.0), c=(1.0, 1.5, -12.0), r=0.2):
+    """A disc lamp facing the camera (radiance L, radius r m, centre c) before a wall at 40 m,
+    anti-aliased by 4 x 4 samples per pixel; z depth."""
+    f = (w / 2) / math.tan(math.radians(30))
+    ss = 4
+    jj, ii = np.mgrid[0:h * ss, 0:w * ss]
+    dx, dy = ((ii + 0.5) / ss - w / 2) / f, -((jj + 0.5) / ss - h / 2) / f
+    x, y = dx * -c[2], dy * -c[2]                       # where each sample's ray meets the lamp's plane
+    cover = (((x - c[0]) ** 2 + (y - c[1]) ** 2) < r * r).reshape(h, ss, w, ss).mean(axis=(1, 3))
+    rgb = 0.05 + cover[:, :, None] * (np.array(L) - 0.05)
+    z = np.where(cover > 0.5, -c[2], 40.0)
+    return rgb.astype(np.float32), z.astype(np.float32), f
+
+
+def test_detected_lamp_position_and_intensity():
+    """A lamp of radiance L and radius r facing the camera has intensity L pi r^2 cos(theta)
+    towards it: found within 5 %, its distance within 2 %; and the frame with the detected
+    lamp stays finite, with the lamp's own pixels out of the scattered light."""
+    L, c, r = np.array([300.0, 250.0, 200.0]), np.array([1.0, 1.5, -12.0]), 0.2
+    rgb, z, f = _lamp_frame(L=L, c=c, r=r)
+    cfg = fogcli.make_config("fog", sets=["lights=[{type: auto}]"])
+    from fogcli.config import AutoLights
+    from fogcli.lights import detect_lamps
+
+    lamps, mask, notes = detect_lamps(rgb, z, cfg, AutoLights(type="auto"))
+    assert len(lamps) == 1 and mask.sum() > 0, notes
+    lamp = lamps[0]
+    cos_t = -c[2] / np.linalg.norm(c)
+    want = L * math.pi * r * r * cos_t
+    np.testing.assert_allclose(lamp.intensity, want, rtol=0.05)
+    dist = np.linalg.norm(lamp.position) - lamp.radius
+    assert abs(dist - np.linalg.norm(c)) < 0.02 * np.linalg.norm(c), (dist, np.linalg.norm(c))
+    with pytest.warns(UserWarning, match="lamp found"):
+        out = fogcli.apply(rgb, z, cfg)
+    assert np.isfinite(out).all()
+    base = fogcli.apply(rgb, z, "fog")
+    far = (slice(0, 10), slice(0, 10))                  # the corner: the lamp's halo, now from the light model
+    assert out[far].mean() > 0 and np.isfinite(base[far]).all()

@@ -149,7 +149,13 @@ def apply(image: np.ndarray, depth: np.ndarray, config: Config | str | None = No
 
         for n in rep.notes:
             warnings.warn(n, UserWarning, stacklevel=2)
-    out, a_out, planes = run(img, dm, cfg, alpha=alpha, aovs=aovs, device=device, timings=timings)
+    notes: list = []
+    out, a_out, planes = run(img, dm, cfg, alpha=alpha, aovs=aovs, device=device, timings=timings, report=notes)
+    if notes:
+        import warnings
+
+        for n in notes:
+            warnings.warn(n, UserWarning, stacklevel=2)
     from .media import hidden_warning
 
     hidden = hidden_warning(img, out, cfg, dm)

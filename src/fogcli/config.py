@@ -232,7 +232,15 @@ class DirectionalLight(_Model):
     frame: Frame = Field("camera", description=_FRAME)
 
 
-Light = Annotated[Union[PointLight, SpotLight, DirectionalLight], Field(discriminator="type")]
+class AutoLights(_Model):
+    type: Literal["auto"]
+    threshold: Annotated[Num, Field(gt=0)] | Auto = Field(
+        "auto", description="luminance above which pixels are lamp cores; auto: 10x the 99th percentile "
+        "(HDR), 0.98 (display-referred images, whose lamps are clipped)")
+    min_pixels: Annotated[int, Field(ge=1, strict=True)] = Field(3, description="smallest lamp core, pixels")
+
+
+Light = Annotated[Union[PointLight, SpotLight, DirectionalLight, AutoLights], Field(discriminator="type")]
 
 
 class LightsRender(_Model):
@@ -337,7 +345,7 @@ def _fields_at(loc: tuple) -> list[str]:
         if part == "density":
             return sorted({f for m in (Homogeneous, Exponential, Sphere) for f in m.model_fields})
         if part == "lights" and model is Config:
-            return sorted({f for m in (PointLight, SpotLight, DirectionalLight) for f in m.model_fields})
+            return sorted({f for m in (PointLight, SpotLight, DirectionalLight, AutoLights) for f in m.model_fields})
         fld = model.model_fields.get(part)
         ann = getattr(fld, "annotation", None)
         model = ann if isinstance(ann, type) and issubclass(ann, BaseModel) else None
@@ -347,7 +355,8 @@ def _fields_at(loc: tuple) -> list[str]:
 def _message(err: dict) -> tuple[str, str]:
     # union members and validators appear in the loc as names of their own: not keys
     loc = tuple(p for p in err["loc"] if isinstance(p, int) or not (
-        p in ("homogeneous", "exponential", "sphere", "point", "spot", "directional") or any(ch in p for ch in "[-(")))
+        p in ("homogeneous", "exponential", "sphere", "point", "spot", "directional", "auto")
+        or any(ch in p for ch in "[-(")))
     kind, msg, got = err["type"], err["msg"], err.get("input")
     if kind == "extra_forbidden":
         allowed = _fields_at(loc)

@@ -76,8 +76,10 @@ def run_job(job: Job, cfg: Config, aovs=(), device=None, timings: Timings | None
         outputs.refuse_overwrite(target, "--save-depth", out_path, what="the output")
         save_depth(target, clean)
 
+    notes: list = []
     rgb, alpha, planes = run(frame.rgb, clean, cfg, alpha=frame.alpha, aovs=aovs, device=device,
-                             timings=timings if timings is not None else Timings())
+                             timings=timings if timings is not None else Timings(), report=notes)
+    res.warnings += [f"{src}: {n}" for n in notes]
     hidden = hidden_warning(frame.rgb, rgb, cfg, clean)
     if hidden:
         res.warnings.append(f"{src}: {hidden}")

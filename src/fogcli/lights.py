@@ -77,6 +77,64 @@ def gauss_legendre(n: int) -> np.ndarray:
     return np.ascontiguousarray(np.stack([x, w], axis=1), np.float32)
 
 
+# ----------------------------------------------------------------------------- lamps in the image
+
+def detect_lamps(rgb: np.ndarray, depth: np.ndarray, cfg: Config, spec) -> tuple[list, np.ndarray, list[str]]:
+    """Lamps of the image as point lights (camera frame): cores brighter than the threshold
+    with a depth; distance = the core's median ray length (a 2 px ring around it where the
+    core has no depth); direction = its luminance-weighted centroid; intensity = t^2 sum L
+    Omega_px over the core dilated 2 px (Omega_px = cos^3 / (f fy)); radius = t sqrt(n / pi) / f;
+    placed at t + radius, just behind the visible surface, so that it does not sit inside its
+    own pixels. Returns (lights, mask of the lamps' pixels, notes)."""
+    import cv2
+
+    from .config import PointLight
+
+    h, w = depth.shape
+    cam = cfg.camera.for_size(w, h)
+    f, fy = cam.focal(w), cam.focal_y(w)
+    cx, cy = cam.centre(w, h)
+    y = rgb @ np.array([0.2126, 0.7152, 0.0722], np.float32)
+    hdr = float(y.max()) > 1.5
+    thr = spec.threshold if spec.threshold != "auto" else (10.0 * float(np.percentile(y, 99)) if hdr else 0.98)
+    n, labels, stats, _ = cv2.connectedComponentsWithStats((y > thr).astype(np.uint8), connectivity=8)
+    jj, ii = np.mgrid[0:h, 0:w]
+    dx, dy = (ii + 0.5 - cx) / f, -(jj + 0.5 - cy) / fy
+    dlen = np.sqrt(dx * dx + dy * dy + 1.0)
+    ray = depth * (dlen if cam.depth == "z" else 1.0)
+    lights, notes = [], []
+    mask = np.zeros((h, w), bool)
+    kernel = np.ones((5, 5), np.uint8)
+    for k in range(1, n):
+        if stats[k, cv2.CC_STAT_AREA] < spec.min_pixels:
+            continue
+        core = labels == k
+        t = ray[core & np.isfinite(ray) & (ray < cam.max_depth)]
+        if t.size == 0:         # the sensor has a hole there: a ring around the core
+            ring = (cv2.dilate(core.astype(np.uint8), kernel) > 0) & ~core
+            t = ray[ring & np.isfinite(ray) & (ray < cam.max_depth)]
+        if t.size == 0:
+            notes.append(f"a lamp at pixel ({int(ii[core].mean())}, {int(jj[core].mean())}) has no depth; left out")
+            continue
+        dist = float(np.median(t))
+        wgt = y[core]
+        px, py = float((ii[core] * wgt).sum() / wgt.sum()) + 0.5, float((jj[core] * wgt).sum() / wgt.sum()) + 0.5
+        d = np.array([(px - cx) / f, -(py - cy) / fy, -1.0])
+        d /= np.linalg.norm(d)
+        blob = cv2.dilate(core.astype(np.uint8), kernel) > 0
+        omega = (1.0 / dlen[blob]) ** 3 / (f * fy)
+        intensity = dist * dist * (rgb[blob] * omega[:, None]).sum(0)
+        radius = max(dist * math.sqrt(core.sum() / math.pi) / f, 1e-3)
+        pos = (dist + radius) * d
+        lights.append(PointLight(type="point", position=tuple(pos), intensity=tuple(float(v) for v in intensity),
+                                 radius=radius, frame="camera"))
+        mask |= blob
+        if not hdr and float(rgb[core].max()) >= 0.98:
+            notes.append(f"lamp at {dist:.3g} m is clipped in this display-referred image: its intensity "
+                         f"({float(intensity.mean()):.3g}) is a lower bound")
+    return lights, mask, notes
+
+
 # ----------------------------------------------------------------------------- reference
 
 def _density(x: np.ndarray, cfg: Config) -> np.ndarray:

@@ -306,13 +306,20 @@ class Plan:
         pbuf = cl.Buffer(self.rt.ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=prims)
         gl = cl.Buffer(self.rt.ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=gauss_legendre(int(lm["nodes"])))
         cam = camera_struct(self.cfg, self.w, self.h)
-        for k, light in enumerate(self.cfg.lights):
+        for k, light in enumerate(x for x in self.cfg.lights if x.type != "auto"):
             t.add("lights", self.k_lights.airlight(
                 q, *self.rt.nd(self.w, self.h), self.depth, self.a_dir, self.a_sc, np.int32(self.w), np.int32(self.h),
                 cam, lm, pbuf, gl, light_struct(self.cfg, light), np.int32(k > 0)))
         t.add("lights", self.k_lights.airlight_to_chain(
             q, *self.rt.nd(n), self.a_sc, self.chain2, self.prep2, self.lut, np.int32(n),
             np.int32(self.cfg.render.separation.enabled)))
+
+    def clear_sources(self, t: Timings, mask: np.ndarray) -> None:
+        cl, n = self.rt.cl, self.w * self.h
+        buf = cl.Buffer(self.rt.ctx, cl.mem_flags.READ_ONLY | cl.mem_flags.COPY_HOST_PTR,
+                        hostbuf=np.ascontiguousarray(mask, np.uint8))
+        t.add("lights", self.k_lights.clear_sources(self.rt.queue, *self.rt.nd(n), self.chain, self.prep, buf,
+                                                     np.int32(n)))
 
     def add_airlight(self, t: Timings) -> None:
         n = self.w * self.h
@@ -465,16 +472,32 @@ def median_depth(depth: np.ndarray, max_depth: float) -> float:
 
 
 def run(rgb: np.ndarray, depth: np.ndarray, cfg: Config, alpha=None, aovs=(), device=None,
-        timings: Timings | None = None) -> tuple[np.ndarray, np.ndarray | None, dict]:
+        timings: Timings | None = None, report: list | None = None) -> tuple[np.ndarray, np.ndarray | None, dict]:
     """Process one frame on the device. depth: metric (depth.decode / depth.prepare), at the
     image's size, holes filled; alpha: premultiplied coverage or None. Returns (rgb out
-    (h, w, 3), alpha out (h, w) or None, aov planes)."""
-    import dataclasses
+    (h, w, 3), alpha out (h, w) or None, aov planes); `report` collects notes (lamps found)."""
 
     h, w = depth.shape
     if rgb.shape[:2] != (h, w):
         raise ValueError(f"image {rgb.shape[:2]} and depth {depth.shape} differ in size")
     cfg = cfg.model_copy(update={"camera": cfg.camera.for_size(w, h)})
+    lamp_mask = None
+    if any(x.type == "auto" for x in cfg.lights):     # lamps of the image become point lights
+        from .lights import detect_lamps
+
+        found, lamp_mask, notes = [], None, []
+        for spec in [x for x in cfg.lights if x.type == "auto"]:
+            lamps, mask, more = detect_lamps(rgb, depth, cfg, spec)
+            found += lamps
+            notes += more
+            lamp_mask = mask if lamp_mask is None else (lamp_mask | mask)
+        for x in found:
+            notes.append(f"lamp found at ({', '.join(f'{v:.3g}' for v in x.position)}) m (camera), "
+                         f"intensity ({', '.join(f'{v:.3g}' for v in x.intensity)})")
+        if report is not None:
+            report.extend(notes)
+        cfg = cfg.model_copy(update={"lights": [x for x in cfg.lights if x.type != "auto"] + found})
+        lamp_mask = lamp_mask if cfg.lights and lamp_mask is not None and lamp_mask.any() else None
     if isinstance(cfg.medium.visibility, str):        # a share of this frame's median depth
         cfg = cfg.model_copy(update={"medium": cfg.medium.for_depth(median_depth(depth, cfg.camera.max_depth))})
     if cfg.medium.ambient == "auto":
@@ -493,6 +516,8 @@ def run(rgb: np.ndarray, depth: np.ndarray, cfg: Config, alpha=None, aovs=(), de
     if alpha is not None and cfg.camera.empty_depth > 0:   # at 0 the alpha is the input's
         plan.coverage(t, cfg.camera.empty_depth)
     if cfg.lights:
+        if lamp_mask is not None:       # the lamps' scattered light is now the light model's
+            plan.clear_sources(t, lamp_mask)
         plan.lights(t)
     method = cfg.render.method
     if method == "reference":
