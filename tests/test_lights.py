@@ -164,3 +164,10 @@ def test_detected_lamp_position_and_intensity():
     base = fogcli.apply(rgb, z, "fog")
     far = (slice(0, 10), slice(0, 10))                  # the corner: the lamp's halo, now from the light model
     assert out[far].mean() > 0 and np.isfinite(base[far]).all()
+
+
+def test_sample_lights_file_is_valid():
+    from fogcli.media import check_file
+    from test_cli import ROOT
+
+    assert check_file(str(ROOT / "samples" / "harbour-lights.yaml")) == []
