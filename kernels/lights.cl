@@ -152,6 +152,74 @@ inline void sort_cuts(float *c, int n)
     }
 }
 
+/* Pradhan & Kumar's closed form (render.lights.airlight: pk), isotropic phase, homogeneous
+ * medium, point lights: with theta the angle at the light measured from the foot of the
+ * perpendicular, the part towards the camera integrates exp(-k (sec - tan)) with their
+ * three-piece linear fit of sec - tan, the part beyond it their ratio fit
+ * f(theta) exp(-g(theta) k^h(theta)) times the forward integral to pi/2. The errata of
+ * docs/lights.md are applied (exp(-st d1) kept, st in the exponents, ss in front). */
+inline float pk_forward(float k, float th)
+{
+    const float lo[3] = {0.0f, 0.3959f, 0.8395f}, hi[3] = {0.3959f, 0.8395f, 1.5707964f};
+    const float a[3] = {-0.8405f, -0.6331f, -0.5216f}, b[3] = {0.9915f, 0.9094f, 0.8158f};
+    float acc = 0.0f;
+    for (int i = 0; i < 3; ++i) {
+        float t0 = lo[i], t1 = fmin(hi[i], th);
+        if (t1 <= t0) break;
+        float ka = k * a[i];
+        acc += fabs(ka) > 1e-6f ? exp(-k * b[i]) * (exp(-ka * t0) - exp(-ka * t1)) / ka
+                                : exp(-k * b[i]) * (t1 - t0);
+    }
+    return acc;
+}
+
+inline float pk_backward(float k, float th)
+{
+    float f = ((-0.0394f * th + 0.1065f) * th + 0.5774f) * th + 0.0058f;
+    float g = ((-0.1299f * th + 0.4204f) * th + 0.3811f) * th + 0.5993f;
+    float h = ((0.0171f * th - 0.1586f) * th - 0.0424f) * th + 1.0879f;
+    return th > 0.0f ? pk_forward(k, 1.5707964f) * f * exp(-g * pow(fmax(k, 1e-12f), h)) : 0.0f;
+}
+
+/* integral over phi in [p0, p1] of exp(-k (tan phi + sec phi)) */
+inline float pk_phi(float k, float p0, float p1)
+{
+    float neg = p0 < 0.0f ? pk_forward(k, -p0) - pk_forward(k, -fmin(p1, 0.0f)) : 0.0f;
+    float pos = p1 > 0.0f ? pk_backward(k, p1) - pk_backward(k, fmax(p0, 0.0f)) : 0.0f;
+    return neg + pos;
+}
+
+__kernel void airlight_pk(__global const float *depth, __global float4 *a_dir, __global float4 *a_sc,
+                          const int width, const int height, const camera_t cam, const lmedium_t m,
+                          const light_t L, const int accumulate)
+{
+    int i = get_global_id(0), j = get_global_id(1);
+    if (i >= width || j >= height) return;
+    int idx = j * width + i;
+    float wx, wy, wz;
+    float D = pixel_ray(&cam, i, j, depth[idx], &wx, &wy, &wz);
+    float3 w = (float3)(wx, wy, wz), v = L.pos.xyz - cam.pos.xyz;
+    float d1 = dot(w, v);
+    float3 cr = cross(w, v);
+    float R = sqrt(dot(cr, cr) + L.radius * L.radius);
+    float p0 = atan2(-d1, R), p1 = atan2(D - d1, R);
+    float3 st = (m.sa.xyz + m.ss.xyz) * m.homogeneous, sa = m.sa.xyz * m.homogeneous;
+    float3 pre = m.ss.xyz * m.homogeneous * L.intensity.xyz / (12.566370614f * R);
+    /* the direct part has exp(-st (s + t)); the twice-scattered part
+     * exp(-st t) (exp(-sa s) - exp(-st s)), whose first term is not of PK's form: it is
+     * left at the direct part's share, (1 - exp(-ss s_foot)) exp(-sa s_foot) / exp(-st s_foot) */
+    float3 dir = (float3)(pre.x * exp(-st.x * d1) * pk_phi(st.x * R, p0, p1),
+                          pre.y * exp(-st.y * d1) * pk_phi(st.y * R, p0, p1),
+                          pre.z * exp(-st.z * d1) * pk_phi(st.z * R, p0, p1));
+    float sf = clamp(d1, 0.0f, D);
+    float3 ratio = exp(-sa * sf) * (1.0f - exp(-(st - sa) * sf)) / exp(-st * sf);
+    float3 sc = dir * ratio;
+    float P = m.homogeneous * sf;
+    float4 od = (float4)(dir, 0.0f), os = (float4)(sc, (0.2126f * sc.x + 0.7152f * sc.y + 0.0722f * sc.z) * P);
+    a_dir[idx] = accumulate ? a_dir[idx] + od : od;
+    a_sc[idx] = accumulate ? a_sc[idx] + os : os;
+}
+
 __kernel void airlight(__global const float *depth, __global float4 *a_dir, __global float4 *a_sc,
                        const int width, const int height, const camera_t cam, const lmedium_t m,
                        __global const float4 *prims, __global const float2 *gl, const light_t L,

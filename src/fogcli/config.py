@@ -244,6 +244,9 @@ Light = Annotated[Union[PointLight, SpotLight, DirectionalLight, AutoLights], Fi
 
 
 class LightsRender(_Model):
+    airlight: Literal["quadrature", "pk"] = Field(
+        "quadrature", description="quadrature: Gauss-Legendre, any medium and phase | pk: Pradhan & Kumar's "
+        "closed form for point lights, isotropic phase, homogeneous media (its error: docs/lights.md)")
     nodes: Annotated[int, Field(ge=4, le=64, strict=True)] = Field(
         16, description="Gauss-Legendre nodes per piece of each ray (accuracy per node count: docs/lights.md)")
 
@@ -331,6 +334,8 @@ class Config(_Model):
         r = self.render
         if self.lights and not (r.method == "pyramid" and r.fetch == "source" and r.psf == "apsf"):
             raise ValueError("lights: lights need render.method pyramid with fetch source and psf apsf (the defaults)")
+        if r.lights.airlight == "pk" and any(d.type != "homogeneous" for d in self.medium.density):
+            raise ValueError("render.lights.airlight: pk is for homogeneous media; use quadrature")
         return self
 
 

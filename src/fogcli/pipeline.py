@@ -306,7 +306,13 @@ class Plan:
         pbuf = cl.Buffer(self.rt.ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=prims)
         gl = cl.Buffer(self.rt.ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=gauss_legendre(int(lm["nodes"])))
         cam = camera_struct(self.cfg, self.w, self.h)
+        pk = self.cfg.render.lights.airlight == "pk"
         for k, light in enumerate(x for x in self.cfg.lights if x.type != "auto"):
+            if pk and light.type == "point":        # Pradhan & Kumar's closed form
+                t.add("lights", self.k_lights.airlight_pk(
+                    q, *self.rt.nd(self.w, self.h), self.depth, self.a_dir, self.a_sc, np.int32(self.w),
+                    np.int32(self.h), cam, lm, light_struct(self.cfg, light), np.int32(k > 0)))
+                continue
             t.add("lights", self.k_lights.airlight(
                 q, *self.rt.nd(self.w, self.h), self.depth, self.a_dir, self.a_sc, np.int32(self.w), np.int32(self.h),
                 cam, lm, pbuf, gl, light_struct(self.cfg, light), np.int32(k > 0)))
