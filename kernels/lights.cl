@@ -236,6 +236,9 @@ __kernel void airlight(__global const float *depth, __global float4 *a_dir, __gl
     float3 dir = (float3)(0.0f), sc = (float3)(0.0f);
     float wp = 0.0f;
 
+    /* a directional light is dimmed by the non-homogeneous primitives only (docs/lights.md) */
+    lmedium_t het = m;
+    het.homogeneous = 0.0f;
     float cuts[MAX_CUTS];
     int n = 0;
     float d1 = 0.0f, R = 1.0f;
@@ -295,9 +298,6 @@ __kernel void airlight(__global const float *depth, __global float4 *a_dir, __gl
             float P = optical_depth(prims, &m, c, w, s);
             float Pl;
             if (L.type == 2) {
-                /* only the non-homogeneous primitives dim the irradiance (docs/lights.md) */
-                lmedium_t het = m;
-                het.homogeneous = 0.0f;
                 Pl = optical_depth(prims, &het, x, ax, 1e6f);
             } else {
                 float3 to = l - x;

@@ -130,14 +130,10 @@ def apply(input, depth_path, medium, config_file, camera_file, sets, layer, view
     cfg = assemble(medium, config_file, sets, camera_file)
     src = Path(input)
     out_path = Path(output) if output else src.with_name(f"{src.stem}.fog{outputs.default_ext(src)}")
-    # no output replaces any file given as input (config and camera files included)
-    given = [Path(p) for p in (input, depth_path, config_file, camera_file, medium) if p and Path(p).is_file()]
-    outputs.refuse_overwrite(out_path, "-o", *given, what="an input file")
-    if save_depth:
-        outputs.refuse_overwrite(Path(save_depth), "--save-depth", *given, what="an input file")
-        outputs.refuse_overwrite(Path(save_depth), "--save-depth", out_path, what="the output (-o)")
+    # no output replaces any file given as input, config and camera files included (run_job)
+    given = tuple(p for p in (config_file, camera_file, medium) if p and Path(p).is_file())
     t = Timings()
-    res = run_job(Job(str(src), str(out_path), depth_path, layer, view, save_depth, drop_channels), cfg,
+    res = run_job(Job(str(src), str(out_path), depth_path, layer, view, save_depth, drop_channels, given), cfg,
                   aovs=tuple(dict.fromkeys(aovs)), device=device, timings=t)
     for w in res.warnings:
         click.echo(f"fogcli: warning: {w}", err=True)

@@ -25,6 +25,7 @@ class Job:
     view: str | None = None
     save_depth: str | None = None     # write the cleaned metric depth used here
     drop_channels: bool = False       # EXR: write only what fogcli produces
+    protected: tuple = ()             # other files given as input (config, camera): never written
 
 
 @dataclass
@@ -48,7 +49,11 @@ def run_job(job: Job, cfg: Config, aovs=(), device=None, timings: Timings | None
     res = Result()
     src = Path(job.input)
     out_path = Path(job.output)
-    outputs.check_target(out_path, src, Path(job.depth) if job.depth else None)
+    given = (src, Path(job.depth) if job.depth else None, *map(Path, job.protected))
+    outputs.check_target(out_path, *given)
+    if job.save_depth:         # before any work: no output replaces an input or the other output
+        outputs.refuse_overwrite(Path(job.save_depth), "--save-depth", *given, what="an input file")
+        outputs.refuse_overwrite(Path(job.save_depth), "--save-depth", out_path, what="the output (-o)")
     if aovs and out_path.suffix.lower() != ".exr":
         raise UserError(f"--aov needs an .exr output, got {out_path.name}")
 
@@ -71,10 +76,7 @@ def run_job(job: Job, cfg: Config, aovs=(), device=None, timings: Timings | None
         res.warnings.append(f"{dsrc}: {rep.holes} invalid depth pixel(s) (no measurement: NaN, zero "
                             "or negative) filled edge-aware from neighbours")
     if job.save_depth:
-        target = Path(job.save_depth)
-        outputs.refuse_overwrite(target, "--save-depth", src, Path(job.depth) if job.depth else None)
-        outputs.refuse_overwrite(target, "--save-depth", out_path, what="the output")
-        save_depth(target, clean)
+        save_depth(Path(job.save_depth), clean)
 
     notes: list = []
     rgb, alpha, planes = run(frame.rgb, clean, cfg, alpha=frame.alpha, aovs=aovs, device=device,

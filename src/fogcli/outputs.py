@@ -40,9 +40,7 @@ def check_target(output: Path, *inputs: Path | None) -> None:
         raise UserError(f"-o {output}: is a folder; give a file name")
     if ext not in DISPLAY_EXT | LINEAR_EXT:
         raise UserError(f"-o {output}: unsupported output format {ext or '(none)'} (use .exr, .hdr, .png, .tif, .jpg)")
-    refuse_overwrite(output, "-o", *inputs)
-    if output.is_dir():
-        raise UserError(f"-o {output}: is a folder; give a file name")
+    refuse_overwrite(output, "-o", *inputs, what="an input file")
     if not output.parent.exists():
         raise UserError(f"-o {output}: folder {output.parent} does not exist")
     if not os.access(output.parent, os.W_OK | os.X_OK):
