@@ -114,3 +114,51 @@ def test_pk_closed_form_close_to_the_quadrature_in_front():
     assert np.median(rel) < 0.01 and np.isfinite(got["pk"]).all(), np.median(rel)
     with pytest.raises(fogcli.UserError, match="pk is for homogeneous media"):
         fogcli.make_config("valley-fog", sets=["render.lights.airlight=pk"])
+
+
+def test_lamps_found_are_written_as_a_config_that_reads_back(tmp_path):
+    """`--lamps` writes what {type: auto} found as a `lights:` config: one lamp for the disc,
+    at its distance within 2 %, and the file is accepted by `fogcli check` and by --config
+    (the same light: the same airlight AOV). Refused before any work: a file
+    name that is not .json/.yaml, no auto entry, a missing folder, the input itself."""
+    import json
+
+    from click.testing import CliRunner
+
+    from fogcli.cli import main
+    from test_cli import write_img
+
+    c = np.array([1.0, 1.5, -12.0])
+    rgb, z, _ = lamp_frame(c=c)
+    img = tmp_path / "lamp.exr"
+    write_img(img, np.dstack([rgb, z]), ["R", "G", "B", "Z"])
+    run = CliRunner().invoke
+    auto = ["--set", "lights=[{type: auto}]"]
+    r = run(main, ["apply", str(img), *auto, "--lamps", str(tmp_path / "lamps.json"), "--aov", "airlight",
+                   "-o", str(tmp_path / "a.exr")])
+    assert r.exit_code == 0, r.output
+    data = json.loads((tmp_path / "lamps.json").read_text())
+    assert [x["type"] for x in data["lights"]] == ["point"]
+    dist = np.linalg.norm(data["lights"][0]["position"]) - data["lights"][0]["radius"]
+    assert abs(dist - np.linalg.norm(c)) < 0.02 * np.linalg.norm(c)
+    assert run(main, ["check", str(tmp_path / "lamps.json")]).exit_code == 0
+    r = run(main, ["apply", str(img), "--config", str(tmp_path / "lamps.json"), "--aov", "airlight",
+                   "-o", str(tmp_path / "b.exr")])
+    assert r.exit_code == 0, r.output
+    from test_cli import read
+
+    got = []
+    for name in ("a.exr", "b.exr"):
+        spec, px = read(tmp_path / name)
+        got.append(px[:, :, [spec.channelnames.index(f"airlight.{ch}") for ch in "RGB"]])
+    assert got[0].max() > 0
+    np.testing.assert_allclose(got[1], got[0], rtol=1e-4, atol=1e-6 * got[0].max())
+    for args, msg in [(["--lamps", str(tmp_path / "l.txt")], "expected a .json or .yaml"),
+                      ([], "no `{type: auto}`"),
+                      (["--lamps", str(tmp_path / "none" / "l.json")], "does not exist"),
+                      (["--lamps", str(img)], "refusing to overwrite")]:
+        extra = auto if msg != "no `{type: auto}`" else []
+        r = run(main, ["apply", str(img), *extra, *(args or ["--lamps", str(tmp_path / "x.json")]),
+                       "-o", str(tmp_path / "c.exr")])
+        assert r.exit_code == 2 and msg in r.output, (args, r.output)
+        assert not (tmp_path / "c.exr").exists()

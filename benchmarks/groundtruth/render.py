@@ -28,6 +28,7 @@ import numpy as np
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 OUT = os.path.join(HERE, "renders")
+OUT_LIGHTS = os.path.join(HERE, "renders-lights")     # scenes with point lights (scenes.LIGHTS)
 sys.path.insert(0, HERE)
 import scenes as S  # noqa: E402
 
@@ -150,8 +151,8 @@ def render_medium(mi, name, medium, spp, max_depth, rr_depth, budget_s, target, 
                 return (A + B) / 2, noise, n[0] + n[1], el
 
 
-def case_names(only):
-    names = [(s, m) for s in S.SCENES for m in S.MEDIA]
+def case_names(only, lights=False):
+    names = [(s, m) for s in S.SCENES for m in S.MEDIA if bool(S.SCENES[s].get("lights")) == lights]
     if not only:
         return names
     sel = []
@@ -178,8 +179,11 @@ def render_case(mi, variant, scene, medium, args, log):
                 per_channel_grey=len(grey_parts(m)) > 1, noise=noise, noise_definition=NOISE_DEF,
                 mitsuba_version=mi.__version__, variant=variant, seconds=round(time.time() - t0, 1),
                 seconds_medium=round(tm, 1), seed0=seed0)
-    os.makedirs(OUT, exist_ok=True)
-    path = os.path.join(OUT, f"{scene}-{medium}.npz")
+    if S.SCENES[scene].get("lights"):
+        meta["lights"] = [{"position": list(p), "intensity": list(map(float, i))} for p, i in S.LIGHTS[scene]]
+    out = OUT_LIGHTS if S.SCENES[scene].get("lights") else OUT
+    os.makedirs(out, exist_ok=True)
+    path = os.path.join(out, f"{scene}-{medium}.npz")
     np.savez_compressed(path, L=L.astype(np.float16), depth=depth, depth_mean=depth_mean,
                         medium=img.astype(np.float32), noise=np.float64(noise), meta=json.dumps(meta))
     return meta
@@ -357,6 +361,7 @@ def main():
     ap.add_argument("--variant", default=None)
     ap.add_argument("--check", action="store_true", help="run the convention checks only")
     ap.add_argument("--table", action="store_true", help="rewrite the README table from the renders")
+    ap.add_argument("--lights", action="store_true", help="the night scenes with point lights (renders-lights/)")
     args = ap.parse_args()
     if args.table:
         write_table()
@@ -373,7 +378,7 @@ def main():
         with open(os.path.join(OUT, "checks.json"), "w") as f:
             json.dump(res, f, indent=1)
         return
-    for scene, medium in case_names(args.only):
+    for scene, medium in case_names(args.only, args.lights):
         log(f"{scene}-{medium}")
         m = render_case(mi, variant, scene, medium, args, log)
         log(f"  done in {m['seconds']} s, noise {m['noise']:.4f}, spp {m['spp']}")

@@ -247,6 +247,34 @@ def scene_plaza():          # held out, continues past the frame
     return S
 
 
+# ---------------------------------------------------------------- night scenes with known lights
+# Point lights (Mitsuba `point` emitters, radiant intensity in image radiance x m^2, which is
+# fogcli's `intensity`) in the medium, camera space; nothing reflects, so a light shows only
+# through the medium. Rendered into renders-lights/ (render.py --lights); fogcli gets the same
+# lights as `lights:` entries (benchmarks/lights.py).
+def scene_quay():           # continues past the frame; a light outside the frame and one behind
+    S = [ground(("checker", [0.012, 0.012, 0.014], [0.03, 0.028, 0.026], 350)), dome([0.004, 0.005, 0.01])]
+    win = lambda seed, lit: ("bitmap", tex_windows(seed, [0.02, 0.02, 0.02], lit, n_x=10, n_y=6, frac=0.3), [1, 1])
+    S.append(box([-18.0, GROUND_Y + 6.0, -40.0], [6.0, 6.0, 20.0], win(21, [0.5, 0.4, 0.25])))
+    S.append(box([16.0, GROUND_Y + 8.0, -55.0], [8.0, 8.0, 10.0], win(22, [0.3, 0.4, 0.5])))
+    S.append(box([2.0, GROUND_Y + 0.6, -9.0], [1.2, 0.6, 0.6], ("checker", [0.05, 0.05, 0.06], [0.3, 0.25, 0.2], 3)))
+    return S
+
+
+def scene_yard():           # held out; closed by a black wall, lights in and beside the frame
+    S = [frustum_rect(40.0, None),
+         box([-2.5, -1.0, -12.0], [1.0, 1.0, 1.0], ("checker", [0.03, 0.03, 0.03], [0.4, 0.3, 0.2], 2), yaw=25),
+         dict(kind="rectangle", pos=[3.0, 0.5, -20.0], scale=[2.0, 1.0, 1], radiance=("bitmap", tex_text(31, [0.02, 0.02, 0.05], [0.6, 0.5, 1.2]), [1, 1]))]
+    return S
+
+
+LIGHTS = {
+    "quay": [((-3.0, 2.5, -12.0), _c(WARM, 20.0)), ((5.0, 3.5, -28.0), _c(COLD, 50.0)),
+             ((-16.0, 3.0, -9.0), _c(WARM, 40.0)), ((2.0, 3.0, 4.0), [20.0, 20.0, 20.0])],
+    "yard": [((0.5, 1.2, -7.0), _c(WARM, 10.0)), ((-5.0, -0.5, -22.0), [14.0, 30.0, 20.0]),
+             ((7.0, 1.0, -4.0), _c(COLD, 14.0))],
+}
+
 SCENES = {
     "lamps":   dict(build=scene_lamps,   outside=False, heldout=False),
     "ground":  dict(build=scene_ground,  outside=True,  heldout=False),
@@ -255,6 +283,8 @@ SCENES = {
     "objects": dict(build=scene_objects, outside=False, heldout=False),
     "signs":   dict(build=scene_signs,   outside=False, heldout=True),
     "plaza":   dict(build=scene_plaza,   outside=True,  heldout=True),
+    "quay":    dict(build=scene_quay,    outside=True,  heldout=False, lights=True),
+    "yard":    dict(build=scene_yard,    outside=False, heldout=True,  lights=True),
 }
 
 
@@ -329,4 +359,8 @@ def mitsuba_scene(name, medium=None, spp=16, integrator=None, sampler=None, fov=
             sd["exterior"] = {"type": "ref", "id": "fogmedium"}
             sd["interior"] = {"type": "ref", "id": "fogmedium"}
         d[f"shape{k:03d}"] = sd
+    if medium is not None and isinstance(name, str):       # point lights only light the medium
+        for k, (pos, I) in enumerate(LIGHTS.get(name, [])):
+            d[f"light{k:02d}"] = {"type": "point", "position": list(pos),
+                                  "intensity": {"type": "rgb", "value": list(map(float, I))}}
     return d

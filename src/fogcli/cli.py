@@ -50,7 +50,7 @@ def guarded(fn):
 
 
 _PATH_OPTIONS = {"input": "INPUT", "depth_path": "--depth", "medium": "--medium", "config_file": "--config",
-                 "camera_file": "--camera", "output": "-o", "save_depth": "--save-depth", "report": "--report",
+                 "camera_file": "--camera", "output": "-o", "save_depth": "--save-depth", "report": "--report", "lamps": "--lamps",
                  "input_dir": "INPUT_DIR", "output_dir": "OUTPUT_DIR", "depth_pattern": "--depth-pattern"}
 
 
@@ -116,10 +116,12 @@ def medium_options(fn):
 @medium_options
 @click.option("-o", "--output", metavar="OUTPUT", help="Output file; format from the extension. Default: INPUT.fog.<ext>.")
 @click.option("--save-depth", metavar="PATH", help="Also write the cleaned metric depth used (EXR/TIFF channel Z, or NPY).")
+@click.option("--lamps", metavar="PATH", help="Write the lamps that lights: [{type: auto}] found, as a config "
+              "(.json or .yaml) to reuse with --config.")
 @click.option("--timings", is_flag=True, help="Print a JSON line of stage times on stderr.")
 @guarded
 def apply(input, depth_path, medium, config_file, camera_file, sets, layer, view, aovs, drop_channels, device,
-          output, save_depth, timings):
+          output, save_depth, lamps, timings):
     """Apply a medium to INPUT."""
     from . import outputs
     from .job import Job, run_job
@@ -133,7 +135,7 @@ def apply(input, depth_path, medium, config_file, camera_file, sets, layer, view
     # no output replaces any file given as input, config and camera files included (run_job)
     given = tuple(p for p in (config_file, camera_file, medium) if p and Path(p).is_file())
     t = Timings()
-    res = run_job(Job(str(src), str(out_path), depth_path, layer, view, save_depth, drop_channels, given), cfg,
+    res = run_job(Job(str(src), str(out_path), depth_path, layer, view, save_depth, drop_channels, given, lamps), cfg,
                   aovs=tuple(dict.fromkeys(aovs)), device=device, timings=t)
     for w in res.warnings:
         click.echo(f"fogcli: warning: {w}", err=True)

@@ -26,6 +26,7 @@ class Job:
     save_depth: str | None = None     # write the cleaned metric depth used here
     drop_channels: bool = False       # EXR: write only what fogcli produces
     protected: tuple = ()             # other files given as input (config, camera): never written
+    lamps: str | None = None          # write the lamps {type: auto} found, as a `lights:` config
 
 
 @dataclass
@@ -54,6 +55,14 @@ def run_job(job: Job, cfg: Config, aovs=(), device=None, timings: Timings | None
     if job.save_depth:         # before any work: no output replaces an input or the other output
         outputs.refuse_overwrite(Path(job.save_depth), "--save-depth", *given, what="an input file")
         outputs.refuse_overwrite(Path(job.save_depth), "--save-depth", out_path, what="the output (-o)")
+    if job.lamps:
+        outputs.refuse_overwrite(Path(job.lamps), "--lamps", *given, out_path, what="an input or the output")
+        if Path(job.lamps).suffix.lower() not in (".json", ".yaml", ".yml"):
+            raise UserError(f"--lamps {job.lamps}: expected a .json or .yaml file name")
+        if not Path(job.lamps).parent.is_dir():
+            raise UserError(f"--lamps {job.lamps}: folder {Path(job.lamps).parent} does not exist")
+        if not any(x.type == "auto" for x in cfg.lights):
+            raise UserError("--lamps: no `{type: auto}` entry in lights:, so no lamps are looked for")
     if aovs and out_path.suffix.lower() != ".exr":
         raise UserError(f"--aov needs an .exr output, got {out_path.name}")
 
@@ -79,8 +88,9 @@ def run_job(job: Job, cfg: Config, aovs=(), device=None, timings: Timings | None
         save_depth(Path(job.save_depth), clean)
 
     notes: list = []
+    found: list = []
     rgb, alpha, planes = run(frame.rgb, clean, cfg, alpha=frame.alpha, aovs=aovs, device=device,
-                             timings=timings if timings is not None else Timings(), report=notes)
+                             timings=timings if timings is not None else Timings(), report=notes, lamps=found)
     res.warnings += [f"{src}: {n}" for n in notes]
     hidden = hidden_warning(frame.rgb, rgb, cfg, clean)
     if hidden:
@@ -88,6 +98,17 @@ def run_job(job: Job, cfg: Config, aovs=(), device=None, timings: Timings | None
     t0 = time.perf_counter()
     outputs.write(out_path, rgb, alpha, planes, frame, cfg.output.type, cfg.output.exposure,
                   cfg.output.compression, job.drop_channels)
+    if job.lamps:
+        write_lamps(Path(job.lamps), found)
     res.io_ms += (time.perf_counter() - t0) * 1e3
     res.pixels = w * h
     return res
+
+
+def write_lamps(path: Path, lamps: list) -> None:
+    """The lamps found as a config file (JSON is YAML): `--config` it back, edit it, reuse it
+    for the frames of a sequence."""
+    import json
+
+    data = {"lights": [x.model_dump(mode="json") for x in lamps]}
+    outputs.atomic_write(path, lambda tmp: Path(tmp).write_text(json.dumps(data, indent=1) + "\n"))

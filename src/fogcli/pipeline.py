@@ -478,10 +478,12 @@ def median_depth(depth: np.ndarray, max_depth: float) -> float:
 
 
 def run(rgb: np.ndarray, depth: np.ndarray, cfg: Config, alpha=None, aovs=(), device=None,
-        timings: Timings | None = None, report: list | None = None) -> tuple[np.ndarray, np.ndarray | None, dict]:
+        timings: Timings | None = None, report: list | None = None,
+        lamps: list | None = None) -> tuple[np.ndarray, np.ndarray | None, dict]:
     """Process one frame on the device. depth: metric (depth.decode / depth.prepare), at the
     image's size, holes filled; alpha: premultiplied coverage or None. Returns (rgb out
-    (h, w, 3), alpha out (h, w) or None, aov planes); `report` collects notes (lamps found)."""
+    (h, w, 3), alpha out (h, w) or None, aov planes); `report` collects notes (lamps found),
+    `lamps` the point lights that `{type: auto}` made of them."""
 
     h, w = depth.shape
     if rgb.shape[:2] != (h, w):
@@ -493,8 +495,8 @@ def run(rgb: np.ndarray, depth: np.ndarray, cfg: Config, alpha=None, aovs=(), de
 
         found, lamp_mask, notes = [], None, []
         for spec in [x for x in cfg.lights if x.type == "auto"]:
-            lamps, mask, more = detect_lamps(rgb, depth, cfg, spec)
-            found += lamps
+            got, mask, more = detect_lamps(rgb, depth, cfg, spec)
+            found += got
             notes += more
             lamp_mask = mask if lamp_mask is None else (lamp_mask | mask)
         for x in found:
@@ -502,6 +504,8 @@ def run(rgb: np.ndarray, depth: np.ndarray, cfg: Config, alpha=None, aovs=(), de
                          f"intensity ({', '.join(f'{v:.3g}' for v in x.intensity)})")
         if report is not None:
             report.extend(notes)
+        if lamps is not None:
+            lamps.extend(found)
         cfg = cfg.model_copy(update={"lights": [x for x in cfg.lights if x.type != "auto"] + found})
         lamp_mask = lamp_mask if cfg.lights and lamp_mask is not None and lamp_mask.any() else None
     if isinstance(cfg.medium.visibility, str):        # a share of this frame's median depth
