@@ -85,11 +85,12 @@ def lamp_frame(h=120, w=160, L=(300.0, 250.0, 200.0), c=(1.0, 1.5, -12.0), r=0.2
     return rgb.astype(np.float32), z.astype(np.float32), f
 
 
-def worst_error(nodes: int | None = None) -> tuple[float, tuple]:
-    """Worst relative error of the airlight AOV and of its twice-scattered part against the
-    float64 reference over the 108 geometries x 10 pixels (a sky pixel, the pixel whose ray
-    holds the light, 8 more), on pixels holding at least 1e-3 of the case's peak; with where
-    it happened. nodes None: the default."""
+def worst_error(nodes: int | None = None, parts=(0, 1)) -> tuple[float, tuple]:
+    """Worst relative error of the airlight AOV (part 0) and of its twice-scattered part
+    (part 1) against the float64 reference over the 108 geometries x 10 pixels (a sky pixel,
+    the pixel whose ray holds the light, 8 more), on pixels holding at least 1e-3 of the
+    case's peak; with where it happened. nodes None: the default. Point lights in
+    homogeneous media take the tables (nodes do not apply to them), the rest quadrature."""
     worst, where = 0.0, ()
     for seed, medium, kind, g in CASES:
         rng = np.random.default_rng(seed)
@@ -109,7 +110,7 @@ def worst_error(nodes: int | None = None) -> tuple[float, tuple]:
             d = np.array([(i + 0.5 - cx) / f, -(j + 0.5 - cy) / f, -1.0])
             D = min(float(depth[j, i]) * np.linalg.norm(d), 200.0)
             ref = airlight_reference(cfg, cfg.lights[0], np.zeros(3), d / np.linalg.norm(d), D)
-            for k in range(2):
+            for k in parts:
                 peak = max(float(np.abs(got[k]).max()), 1e-30)
                 if np.abs(ref[k]).max() > 1e-3 * peak:
                     err = float((np.abs(got[k][j, i] - ref[k]) / np.maximum(np.abs(ref[k]), 1e-3 * peak)).max())
@@ -246,7 +247,8 @@ def cpu_name() -> str:
 
 
 def main() -> int:
-    errs = {n: worst_error(n)[0] for n in (16, 24, 32)}
+    errs = {n: worst_error(n, parts=(0,))[0] for n in (16, 24, 32)}
+    errs_sc = {n: worst_error(n, parts=(1,))[0] for n in (16, 24, 32)}
     base, light, copy = speed()
     found = detection()
     pk = pk_errors()
@@ -254,13 +256,19 @@ def main() -> int:
     kl = known_lights()
     lines = [BEGIN, "",
              f"Measured by `python benchmarks/lights.py` on {cpu_name()} ({__import__('os').cpu_count()} cores), PoCL.", "",
-             "Worst relative error of the airlight (and of its twice-scattered part) against the float64",
+             "Worst relative error of the airlight and of its twice-scattered part against the float64",
              "reference, over the 108 geometries x 10 pixels of `tests/test_lights.py`, on pixels holding at",
              "least 1e-3 of the case's peak:", "",
              "| `render.lights.nodes` | " + " | ".join(f"{n}" + (" (default)" if n == LightsRender().nodes else "")
                                                      for n in errs) + " |",
              "|---|" + "---|" * len(errs),
-             "| worst relative error | " + " | ".join(f"{e:.1e}" for e in errs.values()) + " |", "",
+             "| airlight A (the `airlight` AOV) | " + " | ".join(f"{e:.1e}" for e in errs.values()) + " |",
+             "| its twice-scattered part | " + " | ".join(f"{e:.1e}" for e in errs_sc.values()) + " |", "",
+             "Point lights in homogeneous media do not use the nodes: their airlight comes from tables",
+             "(`fogcli/airlight_table.py`), directional lights in homogeneous media from a closed form.",
+             "`tests/test_lights.py` also holds the table kernel against the quadrature kernel over whole",
+             "frames: airlight within 1e-3, the twice-scattered part (a difference of two table values)",
+             "within 3e-3.", "",
              f"Speed at 1920 x 1080 (kernel time, best of 3): fog without lights {base:.0f} ms, with one point light "
              f"{light:.0f} ms: the light costs {light - base:.0f} ms = {(light - base) / copy:.0f} numpy copies of the "
              f"image ({copy:.1f} ms a copy, same run).", "",

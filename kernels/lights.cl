@@ -11,8 +11,11 @@
  * primitives' crossings. R is computed from the cross product and widened by the emitter's
  * radius, so a light on a pixel ray stays finite. The camera leg splits A into what reaches
  * the camera unscattered (a_dir, exp(-st P)) and what scatters again on the way
- * (a_sc, exp(-sa P) (1 - exp(-ss P))), which the pyramid spreads; a_sc.w accumulates the
- * luminance-weighted optical depth of the scatter points. Builtins, not the polynomial
+ * (a_sc, exp(-sa P) (1 - exp(-ss P))), which the pyramid spreads; a_sc.w holds its luminance
+ * times the optical depth where the ray passes the light (a directional light: the
+ * luminance-weighted optical depth of the scatter points). This kernel serves spots and media
+ * with exponential or sphere primitives; points and directional lights in homogeneous media
+ * use the tables of airlight_homogeneous below. Builtins, not the polynomial
  * forms of common.h: this kernel is not vectorised across work-items anyway (loops over
  * nodes and primitives); native_ sin/cos/exp/sqrt where the airlight test measured no loss
  * on PoCL (a GPU driver's native_ may be coarser: tests/test_lights.py would show it). */
@@ -302,7 +305,8 @@ __kernel void airlight(__global const float *depth, __global float4 *a_dir, __gl
             } else {
                 float3 to = l - x;
                 float tl = length(to);
-                Pl = tl > 0.0f ? optical_depth(prims, &m, x, to / tl, tl) : 0.0f;
+                /* the homogeneous part over the widened distance (R / cos(phi)), like 1 / t^2 */
+                Pl = (tl > 0.0f ? optical_depth(prims, &m, x, to / tl, tl) : 0.0f) + m.homogeneous * (hypot(s - d1, R) - tl);
                 if (L.type == 1) {
                     float ct = tl > 0.0f ? dot(-to / tl, ax) : 1.0f;
                     I *= smoothstep(L.cos_outer, L.cos_inner, ct);
@@ -317,10 +321,196 @@ __kernel void airlight(__global const float *depth, __global float4 *a_dir, __gl
             wp += (0.2126f * add.x + 0.7152f * add.y + 0.0722f * add.z) * P;
         }
     }
+    /* points and spots: spread at the optical depth where the ray passes the light (as the
+     * table kernel does); a directional light keeps its luminance-weighted centroid */
+    if (L.type != 2)
+        wp = (0.2126f * sc.x + 0.7152f * sc.y + 0.0722f * sc.z) * optical_depth(prims, &m, c, w, clamp(d1, 0.0f, D));
     float4 od = (float4)(dir, 0.0f), os = (float4)(sc, wp);
     a_dir[idx] = accumulate ? a_dir[idx] + od : od;
     a_sc[idx] = accumulate ? a_sc[idx] + os : os;
 }
+
+/* ---- point and directional lights in a homogeneous medium: tables, not quadrature ----
+ * fogcli/airlight_table.py: with s = d1 + R sinh(x) the airlight is
+ * ss I / R exp(-a d1) int_{x0}^{x1} h(x) exp(-beta E_r(x)) dx, h = p_g(-tanh x) / cosh x,
+ * E_r = r sinh x + cosh x, beta = sigma R, r = a / sigma; the tables hold the integral's
+ * cumulative sums from the left (F) and the right (C) on (ln beta, x), as logarithms with
+ * beta times a known factor added (taken off here exactly). A difference of two cumulative
+ * sums that would lose its digits (less than half of either) is integrated directly: the
+ * interval is then short against the integrand's scale and 8 Gauss-Legendre nodes do. */
+#ifdef AL_NX
+/* exp_poly, log_pos and SQRT_ (common.h) instead of PoCL's library calls, which cost more
+ * than everything else here; sinh, cosh, asinh from e^x, which the geometry gives directly:
+ * e^x = (q + t) / R with q = s - d1, t = |x - l| (R / (t - q) where q < 0, without
+ * cancellation). */
+/* bilinear look-up of table entry `e` (0: F, 1: C) at continuous (u, v); scalar loads */
+inline float al_fetch(__global const float *tab, float u, float v, int e)
+{
+    u = clampf_(u, 0.0f, AL_NB - 1.001f);
+    v = clampf_(v, 0.0f, AL_NX - 1.001f);
+    int i = (int)u, j = (int)v;
+    float fu = u - (float)i, fv = v - (float)j;
+    __global const float *p = tab + 2 * (i * AL_NX + j) + e;
+    float a = p[0] + (p[2] - p[0]) * fv, b = p[2 * AL_NX] + (p[2 * AL_NX + 2] - p[2 * AL_NX]) * fv;
+    return a + (b - a) * fu;
+}
+
+inline float al_ex(float q, float R)
+{
+    float t = SQRT_(q * q + R * R);
+    return q >= 0.0f ? (q + t) / R : R / (t - q);
+}
+
+/* ln of h(x) exp(-beta E_r(x)) at x = ln ex, h = p_g(-tanh x) / cosh x */
+inline float al_log_integrand(float g, float r, float beta, float x)
+{
+    float ex = exp_poly(x), e2 = ex * ex;
+    float d = 1.0f + g * g + 2.0f * g * (e2 - 1.0f) / (e2 + 1.0f);
+    return log_pos((1.0f - g * g) / (6.283185307f * d * SQRT_(d) * (ex + 1.0f / ex)))
+           - beta * 0.5f * ((1.0f + r) * ex + (1.0f - r) / ex);
+}
+
+/* ln of int_{x0}^{x1} h exp(-beta E_r) dx, E_r = ((1 + r) e^x + (1 - r) e^-x) / 2; xm, em:
+ * where E_r is smallest and its value (r < 1; r = 1: -inf and 0). Where the difference of the
+ * cumulative sums would lose its digits the interval is short against the integrand's scale:
+ * 4 Gauss-Legendre nodes, written out (a loop here keeps PoCL from vectorising the kernel). */
+inline float al_segment(__global const float *tab, float g, float r, float xm, float em, float beta,
+                        float lb, float x0, float x1, float ex0, float ex1)
+{
+    const float u = (lb - AL_LB0) * ((AL_NB - 1) / (AL_LB1 - AL_LB0));
+    const float sx = (AL_NX - 1) / (AL_X1 - AL_X0);
+    float v0 = (x0 - AL_X0) * sx, v1 = (x1 - AL_X0) * sx;
+    float e0 = 0.5f * ((1.0f + r) * ex0 + (1.0f - r) / ex0), e1 = 0.5f * ((1.0f + r) * ex1 + (1.0f - r) / ex1);
+    float F0 = al_fetch(tab, u, v0, 0) - beta * (x0 < xm ? e0 : em);
+    float F1 = al_fetch(tab, u, v1, 0) - beta * (x1 < xm ? e1 : em);
+    float C0 = al_fetch(tab, u, v0, 1) - beta * (x0 > xm ? e0 : em);
+    float C1 = al_fetch(tab, u, v1, 1) - beta * (x1 > xm ? e1 : em);
+    /* outside the table h ~ 2 p e^{-|x|}: ln F (r = 1, left) and ln C (right) go with slope +-1 */
+    F0 += r >= 1.0f && x0 < AL_X0 ? x0 - AL_X0 : 0.0f;
+    F1 += r >= 1.0f && x1 < AL_X0 ? x1 - AL_X0 : 0.0f;
+    C0 -= x0 > AL_X1 ? x0 - AL_X1 : 0.0f;
+    C1 -= x1 > AL_X1 ? x1 - AL_X1 : 0.0f;
+    float big = F1 < C0 ? F1 : C0, small = F1 < C0 ? F0 : C1;
+    float tabled = big + log_pos(1.0f - exp_poly(small - big));
+    if (small - big <= -0.6931472f)
+        return tabled;
+    float xc = 0.5f * (x0 + x1), hw = 0.5f * (x1 - x0);
+    float l0 = al_log_integrand(g, r, beta, xc - 0.8611363116f * hw);
+    float l1 = al_log_integrand(g, r, beta, xc - 0.3399810436f * hw);
+    float l2 = al_log_integrand(g, r, beta, xc + 0.3399810436f * hw);
+    float l3 = al_log_integrand(g, r, beta, xc + 0.8611363116f * hw);
+    float top = l0 > l1 ? l0 : l1;
+    top = top > l2 ? top : l2;
+    top = top > l3 ? top : l3;
+    float sum = 0.3478548451f * (exp_poly(l0 - top) + exp_poly(l3 - top))
+              + 0.6521451549f * (exp_poly(l1 - top) + exp_poly(l2 - top));
+    return top + log_pos(hw * sum);
+}
+
+/* One channel's (ln dir, ln tot) per unit of ss I / R: light leg and camera leg in
+ * extinction st (dir), camera leg in absorption sa only (tot = dir + what scatters again). */
+inline float2 al_channel(__global const float *tab, float g, float st, float sa, float r, int kind,
+                         float R, float d1, float x0, float x1, float ex0, float ex1)
+{
+    float beta = st * R;
+    float lb = log_pos(beta > AL_BMIN ? beta : AL_BMIN);
+    float ld = -st * d1 + al_segment(tab, g, 1.0f, -1e30f, 0.0f, beta, lb, x0, x1, ex0, ex1);
+    float sq = SQRT_(1.0f - r * r);
+    float xm = -0.5f * log_pos((1.0f + r) / (r < 1.0f ? 1.0f - r : 1.0f));     /* -atanh(r) */
+    float lt = r < 1.0f ? -sa * d1 + al_segment(tab + (size_t)kind * 2 * AL_NB * AL_NX, g, r, xm, sq, beta, lb,
+                                                 x0, x1, ex0, ex1) : ld;
+    return beta < AL_BMAX ? (float2)(ld, lt) : (float2)(-1e30f, -1e30f);
+}
+
+/* Point lights when every density primitive is homogeneous (factor hf). tab: tables of
+ * (AL_NB, AL_NX) float2, r = 1 first; kind.xyz: the table of each channel's r = sa / st
+ * (rs.xyz). a_sc.w: luminance times the optical depth where the ray passes the light.
+ * grey: the three channels have the same coefficients, integrated once. Scalar code
+ * without OpenCL builtins (fmax, dot, cross ...): PoCL calls those, and a call keeps the
+ * kernel from being vectorised across work-items. */
+__kernel void airlight_table(__global const float *depth, __global float4 *a_dir, __global float4 *a_sc,
+                             const int width, const int height, const camera_t cam, const lmedium_t m,
+                             __global const float *tab, const float4 rs, const int4 kind, const int grey,
+                             const light_t L, const int accumulate)
+{
+    int i = get_global_id(0), j = get_global_id(1);
+    if (i >= width || j >= height) return;
+    int idx = j * width + i;
+    float wx, wy, wz;
+    float D = pixel_ray(&cam, i, j, depth[idx], &wx, &wy, &wz);
+    float hf = m.homogeneous;
+    float vx = L.pos.x - cam.pos.x, vy = L.pos.y - cam.pos.y, vz = L.pos.z - cam.pos.z;
+    float cx = wy * vz - wz * vy, cy = wz * vx - wx * vz, cz = wx * vy - wy * vx;
+    float d1 = wx * vx + wy * vy + wz * vz, R = SQRT_(cx * cx + cy * cy + cz * cz + L.radius * L.radius);
+    float ex0 = al_ex(-d1, R), ex1 = al_ex(D - d1, R);
+    float x0 = log_pos(ex0), x1 = log_pos(ex1);
+    float sstar = hf * clampf_(d1, 0.0f, D), lR = log_pos(R);
+    float sa0 = hf * m.sa.x, ss0 = hf * m.ss.x;
+    float2 l0 = al_channel(tab, m.g, sa0 + ss0, sa0, rs.x, kind.x, R, d1, x0, x1, ex0, ex1);
+    float2 l1 = l0, l2 = l0;
+    if (!grey) {        /* uniform: the loop over work-items is split on it, not predicated */
+        float sa1 = hf * m.sa.y, ss1 = hf * m.ss.y, sa2 = hf * m.sa.z, ss2 = hf * m.ss.z;
+        l1 = al_channel(tab, m.g, sa1 + ss1, sa1, rs.y, kind.y, R, d1, x0, x1, ex0, ex1);
+        l2 = al_channel(tab, m.g, sa2 + ss2, sa2, rs.z, kind.z, R, d1, x0, x1, ex0, ex1);
+    }
+    float k0 = hf * m.ss.x * L.intensity.x, k1 = hf * m.ss.y * L.intensity.y, k2 = hf * m.ss.z * L.intensity.z;
+    float q0 = k0 > 0.0f ? log_pos(k0) - lR : -1e30f, q1 = k1 > 0.0f ? log_pos(k1) - lR : -1e30f;
+    float q2 = k2 > 0.0f ? log_pos(k2) - lR : -1e30f;
+    float d0r = exp_poly(q0 + l0.x), d1r = exp_poly(q1 + l1.x), d2r = exp_poly(q2 + l2.x);
+    float s0 = exp_poly(q0 + l0.y) - d0r, s1 = exp_poly(q1 + l1.y) - d1r, s2 = exp_poly(q2 + l2.y) - d2r;
+    s0 = s0 > 0.0f ? s0 : 0.0f;
+    s1 = s1 > 0.0f ? s1 : 0.0f;
+    s2 = s2 > 0.0f ? s2 : 0.0f;
+    float wp = sstar * (0.2126f * s0 + 0.7152f * s1 + 0.0722f * s2);
+    if (accumulate) {
+        float a0, a1, a2, a3, b0, b1, b2, b3;
+        load4(a_dir, idx, &a0, &a1, &a2, &a3);
+        load4(a_sc, idx, &b0, &b1, &b2, &b3);
+        d0r += a0; d1r += a1; d2r += a2; s0 += b0; s1 += b1; s2 += b2; wp += b3;
+    }
+    store4(a_dir, idx, d0r, d1r, d2r, 0.0f);
+    store4(a_sc, idx, s0, s1, s2, wp);
+}
+
+/* Directional lights in homogeneous media: the airlight in closed form (the homogeneous part
+ * does not dim a directional light: docs/lights.md). a_sc.w: the luminance-weighted optical
+ * depth of its twice-scattered light. */
+__kernel void airlight_sun(__global const float *depth, __global float4 *a_dir, __global float4 *a_sc,
+                           const int width, const int height, const camera_t cam, const lmedium_t m,
+                           const light_t L, const int accumulate)
+{
+    int i = get_global_id(0), j = get_global_id(1);
+    if (i >= width || j >= height) return;
+    int idx = j * width + i;
+    float wx, wy, wz;
+    float D = pixel_ray(&cam, i, j, depth[idx], &wx, &wy, &wz);
+    float hf = m.homogeneous;
+    float p = hg(m.g, L.axis.x * wx + L.axis.y * wy + L.axis.z * wz);
+    float sa[3] = {hf * m.sa.x, hf * m.sa.y, hf * m.sa.z}, ss[3] = {hf * m.ss.x, hf * m.ss.y, hf * m.ss.z};
+    float I[3] = {L.intensity.x, L.intensity.y, L.intensity.z}, dir[3], sc[3], cen[3];
+    for (int c = 0; c < 3; ++c) {
+        float k = ss[c] * p * I[c], qs[2] = {sa[c] + ss[c], sa[c]}, v[2], sv[2];
+        /* int_0^D e^{-q s} ds and int_0^D s e^{-q s} ds, finite as q -> 0 */
+        for (int n = 0; n < 2; ++n) {
+            float q = qs[n], qd = q * D, e = exp_poly(-qd);
+            v[n] = qd > 1e-3f ? one_minus_exp(qd) / q : D * (1.0f - 0.5f * qd);
+            sv[n] = qd > 1e-2f ? (one_minus_exp(qd) - qd * e) / (q * q) : D * D * (0.5f - qd / 3.0f);
+        }
+        dir[c] = k * v[0];
+        sc[c] = k * (v[1] - v[0]);
+        sc[c] = sc[c] > 0.0f ? sc[c] : 0.0f;
+        cen[c] = hf * k * (sv[1] - sv[0]);
+    }
+    float4 o1 = (float4)(dir[0], dir[1], dir[2], 0.0f);
+    float4 o2 = (float4)(sc[0], sc[1], sc[2], 0.2126f * cen[0] + 0.7152f * cen[1] + 0.0722f * cen[2]);
+    if (accumulate) {
+        o1 += a_dir[idx];
+        o2 += a_sc[idx];
+    }
+    a_dir[idx] = o1;
+    a_sc[idx] = o2;
+}
+#endif
 
 /* The lights' twice-scattered part joins the second (separation) chain at level 0: summed
  * with what is there, log P weighted by luminance, and its per-level shares (apsf) from the

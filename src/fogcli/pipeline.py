@@ -216,7 +216,13 @@ class Plan:
         self.k_comp = rt.program("composite", **d).composite
         self.k_comp_src = rt.program("composite", **d).composite_source
         self.k_comp_sep = rt.program("composite", **d).composite_separated
-        self.k_lights = rt.program("lights", **d) if cfg.lights else None
+        if cfg.lights:
+            from .airlight_table import DEFINES
+
+            self.k_lights = rt.program("lights", **d, **DEFINES)
+        else:
+            self.k_lights = None
+        self._al_tables = None     # (key, device buffer) of airlight_table.tables
 
     # -- stages --------------------------------------------------------------------
     def upload(self, rgba: np.ndarray, depth: np.ndarray, t: Timings) -> None:
@@ -307,9 +313,24 @@ class Plan:
         gl = cl.Buffer(self.rt.ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=gauss_legendre(int(lm["nodes"])))
         cam = camera_struct(self.cfg, self.w, self.h)
         pk = self.cfg.render.lights.airlight == "pk"
+        homogeneous = int(lm["nprims"]) == 0
         for k, light in enumerate(x for x in self.cfg.lights if x.type != "auto"):
             if pk and light.type == "point":        # Pradhan & Kumar's closed form
                 t.add("lights", self.k_lights.airlight_pk(
+                    q, *self.rt.nd(self.w, self.h), self.depth, self.a_dir, self.a_sc, np.int32(self.w),
+                    np.int32(self.h), cam, lm, light_struct(self.cfg, light), np.int32(k > 0)))
+                continue
+            if homogeneous and light.type == "point":    # tables instead of quadrature
+                tab, rs, kind = self._airlight_tables()
+                m = self.cfg.medium
+                grey = len(set(m.absorption)) == 1 and len(set(m.scattering)) == 1
+                t.add("lights", self.k_lights.airlight_table(
+                    q, *self.rt.nd(self.w, self.h), self.depth, self.a_dir, self.a_sc, np.int32(self.w),
+                    np.int32(self.h), cam, lm, tab, rs, kind, np.int32(grey), light_struct(self.cfg, light),
+                    np.int32(k > 0)))
+                continue
+            if homogeneous and light.type == "directional":     # closed form
+                t.add("lights", self.k_lights.airlight_sun(
                     q, *self.rt.nd(self.w, self.h), self.depth, self.a_dir, self.a_sc, np.int32(self.w),
                     np.int32(self.h), cam, lm, light_struct(self.cfg, light), np.int32(k > 0)))
                 continue
@@ -319,6 +340,25 @@ class Plan:
         t.add("lights", self.k_lights.airlight_to_chain(
             q, *self.rt.nd(n), self.a_sc, self.chain2, self.prep2, self.lut, np.int32(n),
             np.int32(self.cfg.render.separation.enabled)))
+
+    def _airlight_tables(self):
+        """The medium's airlight tables on the device (fogcli/airlight_table.py), kept while
+        g and the channels' sa / st stay the same: r = 1, then one table per distinct r."""
+        from .airlight_table import tables
+
+        m = self.cfg.medium
+        st = [a + s for a, s in zip(m.absorption, m.scattering)]
+        r = [round(a / t, 6) if t > 0 else 1.0 for a, t in zip(m.absorption, st)]
+        distinct = tuple(dict.fromkeys(x for x in r if x < 1.0))
+        key = (float(m.asymmetry), distinct)
+        if self._al_tables is None or self._al_tables[0] != key:
+            host = tables(*key)
+            buf = self.rt.cl.Buffer(self.rt.ctx, self.rt.cl.mem_flags.READ_ONLY | self.rt.cl.mem_flags.COPY_HOST_PTR,
+                                    hostbuf=host)
+            self._al_tables = (key, buf)
+        rs = np.array([*r, 1.0], np.float32)
+        kind = np.array([1 + distinct.index(x) if x < 1.0 else 0 for x in r] + [0], np.int32)
+        return self._al_tables[1], rs, kind
 
     def clear_sources(self, t: Timings, mask: np.ndarray) -> None:
         cl, n = self.rt.cl, self.w * self.h
