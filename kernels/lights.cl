@@ -38,6 +38,8 @@ typedef struct {
     float radius;
     float cos_outer, cos_inner;
     int type;               /* 0 point, 1 spot, 2 directional */
+    float4 gain;            /* all orders of scattering over what single scattering carries
+                             * (fogcli.lights.gain), per RGB: the rest joins the scattered part */
 } light_t;
 
 inline float hg(float g, float c)
@@ -217,6 +219,7 @@ __kernel void airlight_pk(__global const float *depth, __global float4 *a_dir, _
     float sf = clamp(d1, 0.0f, D);
     float3 ratio = exp(-sa * sf) * (1.0f - exp(-(st - sa) * sf)) / exp(-st * sf);
     float3 sc = dir * ratio;
+    sc += (L.gain.xyz - 1.0f) * (dir + sc);
     float P = m.homogeneous * sf;
     float4 od = (float4)(dir, 0.0f), os = (float4)(sc, (0.2126f * sc.x + 0.7152f * sc.y + 0.0722f * sc.z) * P);
     a_dir[idx] = accumulate ? a_dir[idx] + od : od;
@@ -323,8 +326,10 @@ __kernel void airlight(__global const float *depth, __global float4 *a_dir, __gl
     }
     /* points and spots: spread at the optical depth where the ray passes the light (as the
      * table kernel does); a directional light keeps its luminance-weighted centroid */
-    if (L.type != 2)
+    if (L.type != 2) {
+        sc += (L.gain.xyz - 1.0f) * (dir + sc);
         wp = (0.2126f * sc.x + 0.7152f * sc.y + 0.0722f * sc.z) * optical_depth(prims, &m, c, w, clamp(d1, 0.0f, D));
+    }
     float4 od = (float4)(dir, 0.0f), os = (float4)(sc, wp);
     a_dir[idx] = accumulate ? a_dir[idx] + od : od;
     a_sc[idx] = accumulate ? a_sc[idx] + os : os;
@@ -461,6 +466,9 @@ __kernel void airlight_table(__global const float *depth, __global float4 *a_dir
     s0 = s0 > 0.0f ? s0 : 0.0f;
     s1 = s1 > 0.0f ? s1 : 0.0f;
     s2 = s2 > 0.0f ? s2 : 0.0f;
+    s0 += (L.gain.x - 1.0f) * (d0r + s0);
+    s1 += (L.gain.y - 1.0f) * (d1r + s1);
+    s2 += (L.gain.z - 1.0f) * (d2r + s2);
     float wp = sstar * (0.2126f * s0 + 0.7152f * s1 + 0.0722f * s2);
     if (accumulate) {
         float a0, a1, a2, a3, b0, b1, b2, b3;

@@ -4,14 +4,16 @@ numpy reference of the single-scattered airlight that the kernel is tested again
 from __future__ import annotations
 
 import math
+from functools import lru_cache
+from importlib import resources
 
 import numpy as np
 
 from .config import Config
 
-LIGHT_T = np.dtype({"names": ["pos", "axis", "intensity", "radius", "cos_outer", "cos_inner", "type"],
-                    "formats": [(np.float32, 4)] * 3 + [np.float32] * 3 + [np.int32],
-                    "offsets": [0, 16, 32, 48, 52, 56, 60], "itemsize": 64})
+LIGHT_T = np.dtype({"names": ["pos", "axis", "intensity", "radius", "cos_outer", "cos_inner", "type", "gain"],
+                    "formats": [(np.float32, 4)] * 3 + [np.float32] * 3 + [np.int32] + [(np.float32, 4)],
+                    "offsets": [0, 16, 32, 48, 52, 56, 60, 64], "itemsize": 80})
 LMEDIUM_T = np.dtype({"names": ["sa", "ss", "g", "homogeneous", "nprims", "nodes"],
                       "formats": [(np.float32, 4)] * 2 + [np.float32] * 2 + [np.int32] * 2,
                       "offsets": [0, 16, 32, 36, 40, 44], "itemsize": 48})
@@ -50,7 +52,52 @@ def light_struct(cfg: Config, light) -> np.ndarray:
         if s["cos_inner"] <= s["cos_outer"]:            # blend 0: a hard edge, smoothstep needs a step
             s["cos_inner"] = np.nextafter(s["cos_outer"], np.float32(2.0))
     s["type"] = TYPES[light.type]
+    s["gain"] = [*gain(cfg, light), 1.0]
     return s
+
+
+@lru_cache(maxsize=1)
+def _gain_table() -> dict:
+    """The point-spread table's energy (all orders) and, on the same grid, the energy of
+    single scattering as the light model carries it (benchmarks/make_light_gain.py), both
+    over the thin-medium form."""
+    from .apsf import load_table
+
+    tab = load_table()
+    with resources.files("fogcli").joinpath("data/light_gain.npz").open("rb") as f:
+        z = np.load(f)
+        carried = np.asarray(z["carried_ratio"], np.float64)
+        assert np.array_equal(z["tau"], tab["tau"]) and np.array_equal(z["albedo"], tab["albedo"])
+    ok = (carried > 0) & (tab["ratio"] > 0)
+    return {"g": tab["g"], "albedo": tab["albedo"], "tau": tab["tau"],
+            "ratio": np.where(ok, tab["ratio"] / np.where(ok, carried, 1.0), 1.0)}
+
+
+def gain(cfg: Config, light) -> np.ndarray:
+    """Per RGB: the energy of all orders of scattering around a point source at the light's
+    optical distance from the camera over what the light model carries (single scattering,
+    light leg in extinction, camera leg in absorption). A light's airlight is exact single
+    scattering; the light it would get from scattering on its way to the medium (forward in
+    fog: x1.1 at 1 scattering length, x1.4 at 3) is added to its scattered part, which the
+    point spread spreads. 1 for directional lights (no distance) and where the medium does
+    not scatter."""
+    if light.type == "directional":
+        return np.ones(3)
+    from .apsf import _along_tau, _slice_ga
+
+    m = cfg.medium
+    pos, _ = placed(cfg, light)
+    cam = np.array(cfg.camera.position, np.float64)
+    dist = float(np.linalg.norm(pos - cam))
+    P = float(_tau(cam[None], ((pos - cam) / max(dist, 1e-12))[None], np.array([dist]), cfg)[0]) if dist > 0 else 0.0
+    tab = _gain_table()
+    out = np.ones(3)
+    for c, (sa, ss) in enumerate(zip(m.absorption, m.scattering)):
+        if ss > 0 and P > 0:
+            ratio = _slice_ga(tab, "ratio", m.asymmetry, ss / (sa + ss))
+            out[c] = float(_along_tau(tab, ratio[:, None], np.array([ss * P]))[0, 0])
+    # all orders carry at least what single scattering does; below 1 is the table's noise
+    return np.maximum(out, 1.0)
 
 
 def medium_struct(cfg: Config) -> tuple[np.ndarray, np.ndarray]:
@@ -181,7 +228,7 @@ def _tau(p: np.ndarray, u: np.ndarray, L: np.ndarray, cfg: Config, skip_homogene
 def airlight_reference(cfg: Config, light, c: np.ndarray, w: np.ndarray, D: float, nodes: int = 1024):
     """(A_dir, A_sc) in float64 for one ray from c along unit w to distance D: composite
     Gauss-Legendre in s over 64 pieces refined towards the light's foot (points, spots),
-    with the light leg's optical depth by its own quadrature."""
+    with the light leg's optical depth by its own quadrature; A_sc with the light's gain."""
     m = cfg.medium
     sa, ss = np.array(m.absorption), np.array(m.scattering)
     st = sa + ss
@@ -255,4 +302,5 @@ def airlight_reference(cfg: Config, light, c: np.ndarray, w: np.ndarray, D: floa
     src = (ws * rho * phase * geo)[:, None] * ss[None, :] * I * np.exp(-st[None, :] * Pl[:, None])
     tdir = np.exp(-st[None, :] * P[:, None])
     tsc = np.exp(-sa[None, :] * P[:, None]) - tdir
-    return (src * tdir).sum(0), (src * tsc).sum(0)
+    a_dir, a_sc = (src * tdir).sum(0), (src * tsc).sum(0)
+    return a_dir, a_sc + (gain(cfg, light) - 1.0) * (a_dir + a_sc)
