@@ -232,9 +232,11 @@ def known_lights() -> list[tuple]:
             lights = json.dumps([{"type": "point", "position": x["position"], "intensity": x["intensity"]}
                                  for x in meta["lights"]])
             row = [case["name"], bool(meta["heldout"]), case["noise"]]
+            direct = G.blend(case)
             for extra in ([], [f"lights={lights}"]):
                 img = fogcli.apply(case["L"], case["depth"], fogcli.make_config(None, sets=sets + extra))
                 row += [rel_l1(img, gt), ssim(img, gt), rel_l1(G.blocks(img), G.blocks(gt)), ssim(G.blocks(img), G.blocks(gt))]
+            row.append(float((img - direct).sum() / (gt - direct).sum()))
             rows.append(tuple(row))
     return rows
 
@@ -292,10 +294,12 @@ def main() -> int:
              "behind the camera, `yard` is closed and held out): relative L1 / SSIM of the default pipeline",
              "without lights and with the scene's lights as `lights:` entries; noise: the path tracer's own",
              "relative L1 at full resolution (about 4x lower on 4 x 4 blocks).", "",
-             "| case | held out | noise | no lights | with lights | no lights, 4x4 blocks | with lights, 4x4 blocks |",
-             "|---|---|---|---|---|---|---|",
+             "| case | held out | noise | no lights | with lights | no lights, 4x4 blocks | with lights, 4x4 blocks | energy |",
+             "|---|---|---|---|---|---|---|---|",
              *[f"| {r[0]} | {'yes' if r[1] else ''} | {r[2]:.3f} | {r[3]:.3f} / {r[4]:.3f} | {r[7]:.3f} / {r[8]:.3f} | "
-               f"{r[5]:.3f} / {r[6]:.3f} | {r[9]:.3f} / {r[10]:.3f} |" for r in kl], "",
+               f"{r[5]:.3f} / {r[6]:.3f} | {r[9]:.3f} / {r[10]:.3f} | {r[11]:.2f} |" for r in kl], "",
+             "energy: scattered light with lights (image minus the attenuated direct light) over the path",
+             "tracer's.", "",
              *([f"Means with lights: {np.mean([r[7] for r in kl]):.3f} / {np.mean([r[8] for r in kl]):.3f} (full), "
                 f"{np.mean([r[9] for r in kl]):.3f} / {np.mean([r[10] for r in kl]):.3f} (blocks); held out only: "
                 f"{np.mean([r[7] for r in kl if r[1]] or [np.nan]):.3f} / {np.mean([r[8] for r in kl if r[1]] or [np.nan]):.3f} (full), "

@@ -483,6 +483,19 @@ __kernel void airlight_table(__global const float *depth, __global float4 *a_dir
 /* Directional lights in homogeneous media: the airlight in closed form (the homogeneous part
  * does not dim a directional light: docs/lights.md). a_sc.w: the luminance-weighted optical
  * depth of its twice-scattered light. */
+/* int_0^D e^{-q s} ds and int_0^D s e^{-q s} ds, finite as q -> 0 */
+inline float sun_int0(float q, float D)
+{
+    float qd = q * D;
+    return qd > 1e-3f ? one_minus_exp(qd) / q : D * (1.0f - 0.5f * qd);
+}
+
+inline float sun_int1(float q, float D)
+{
+    float qd = q * D;
+    return qd > 1e-2f ? (one_minus_exp(qd) - qd * exp_poly(-qd)) / (q * q) : D * D * (0.5f - qd / 3.0f);
+}
+
 __kernel void airlight_sun(__global const float *depth, __global float4 *a_dir, __global float4 *a_sc,
                            const int width, const int height, const camera_t cam, const lmedium_t m,
                            const light_t L, const int accumulate)
@@ -492,31 +505,32 @@ __kernel void airlight_sun(__global const float *depth, __global float4 *a_dir, 
     int idx = j * width + i;
     float wx, wy, wz;
     float D = pixel_ray(&cam, i, j, depth[idx], &wx, &wy, &wz);
-    float hf = m.homogeneous;
-    float p = hg(m.g, L.axis.x * wx + L.axis.y * wy + L.axis.z * wz);
-    float sa[3] = {hf * m.sa.x, hf * m.sa.y, hf * m.sa.z}, ss[3] = {hf * m.ss.x, hf * m.ss.y, hf * m.ss.z};
-    float I[3] = {L.intensity.x, L.intensity.y, L.intensity.z}, dir[3], sc[3], cen[3];
-    for (int c = 0; c < 3; ++c) {
-        float k = ss[c] * p * I[c], qs[2] = {sa[c] + ss[c], sa[c]}, v[2], sv[2];
-        /* int_0^D e^{-q s} ds and int_0^D s e^{-q s} ds, finite as q -> 0 */
-        for (int n = 0; n < 2; ++n) {
-            float q = qs[n], qd = q * D, e = exp_poly(-qd);
-            v[n] = qd > 1e-3f ? one_minus_exp(qd) / q : D * (1.0f - 0.5f * qd);
-            sv[n] = qd > 1e-2f ? (one_minus_exp(qd) - qd * e) / (q * q) : D * D * (0.5f - qd / 3.0f);
-        }
-        dir[c] = k * v[0];
-        sc[c] = k * (v[1] - v[0]);
-        sc[c] = sc[c] > 0.0f ? sc[c] : 0.0f;
-        cen[c] = hf * k * (sv[1] - sv[0]);
+    float hf = m.homogeneous, gg = m.g;
+    float hd = 1.0f + gg * gg - 2.0f * gg * (L.axis.x * wx + L.axis.y * wy + L.axis.z * wz);
+    float p = (1.0f - gg * gg) / (12.566370614f * hd * SQRT_(hd));
+    /* no loops or arrays: they keep PoCL from vectorising across work-items */
+#define SUN_CHANNEL(C, DIR, SC, CEN)                                                    \
+    float DIR, SC, CEN;                                                                 \
+    {                                                                                   \
+        float sa = hf * m.sa.C, st = sa + hf * m.ss.C, k = hf * m.ss.C * p * L.intensity.C; \
+        DIR = k * sun_int0(st, D);                                                      \
+        SC = k * (sun_int0(sa, D) - sun_int0(st, D));                                   \
+        SC = SC > 0.0f ? SC : 0.0f;                                                     \
+        CEN = hf * k * (sun_int1(sa, D) - sun_int1(st, D));                             \
     }
-    float4 o1 = (float4)(dir[0], dir[1], dir[2], 0.0f);
-    float4 o2 = (float4)(sc[0], sc[1], sc[2], 0.2126f * cen[0] + 0.7152f * cen[1] + 0.0722f * cen[2]);
+    SUN_CHANNEL(x, d0, s0, c0)
+    SUN_CHANNEL(y, d1, s1, c1)
+    SUN_CHANNEL(z, d2, s2, c2)
+#undef SUN_CHANNEL
+    float wp = 0.2126f * c0 + 0.7152f * c1 + 0.0722f * c2;
     if (accumulate) {
-        o1 += a_dir[idx];
-        o2 += a_sc[idx];
+        float a0, a1, a2, a3, b0, b1, b2, b3;
+        load4(a_dir, idx, &a0, &a1, &a2, &a3);
+        load4(a_sc, idx, &b0, &b1, &b2, &b3);
+        d0 += a0; d1 += a1; d2 += a2; s0 += b0; s1 += b1; s2 += b2; wp += b3;
     }
-    a_dir[idx] = o1;
-    a_sc[idx] = o2;
+    store4(a_dir, idx, d0, d1, d2, 0.0f);
+    store4(a_sc, idx, s0, s1, s2, wp);
 }
 #endif
 
