@@ -228,3 +228,23 @@ def test_light_gain_is_all_orders_over_what_single_scattering_carries():
     got = gain(cfg, cfg.lights[0])
     assert np.allclose(got, direct, rtol=0.02) and got[0] > 1.2, (got, direct)
     assert np.all(gain(cfg, cfg.lights[1]) == 1.0)
+
+
+def test_a_near_lamp_in_front_of_a_far_one_is_two_lamps():
+    """One bright blob at two depths (a small lamp at 6 m in front of a large one at 14 m,
+    nearly the same direction) is split by depth into two lamps, each at its distance within
+    2 %; the anti-aliased edge of a single lamp (pixels at the wall's depth) is not a lamp."""
+    near, far = np.array([1.0, 1.5, -6.0]), np.array([2.45, 3.6, -14.0])
+    a_rgb, a_z, _ = lamp_frame(c=near, r=0.1)
+    b_rgb, b_z, _ = lamp_frame(c=far, r=0.35)
+    a_on = a_rgb[..., 0] > 0.06
+    rgb = np.where(a_on[..., None], a_rgb, b_rgb)
+    z = np.where(a_z < 40, a_z, b_z)
+    from fogcli.config import AutoLights
+    from fogcli.lights import detect_lamps
+
+    lamps = detect_lamps(rgb, z, fogcli.make_config("fog"), AutoLights(type="auto"))[0]
+    dists = sorted(np.linalg.norm(x.position) - x.radius for x in lamps)
+    assert len(lamps) == 2, dists
+    for got, want in zip(dists, sorted([np.linalg.norm(near), np.linalg.norm(far)])):
+        assert abs(got / want - 1) < 0.02, (got, want)

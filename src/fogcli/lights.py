@@ -132,7 +132,8 @@ def detect_lamps(rgb: np.ndarray, depth: np.ndarray, cfg: Config, spec) -> tuple
     core has no depth); direction = its luminance-weighted centroid; intensity = t^2 sum L
     Omega_px over the core dilated 2 px (Omega_px = cos^3 / (f fy)); radius = t sqrt(n / pi) / f;
     placed at t + radius, just behind the visible surface, so that it does not sit inside its
-    own pixels. Returns (lights, mask of the lamps' pixels, notes)."""
+    own pixels. A core spanning depths more than 20 % apart is split into lamps by depth (a near
+    lamp in front of a far one). Returns (lights, mask of the lamps' pixels, notes)."""
     import cv2
 
     from .config import PointLight
@@ -152,10 +153,12 @@ def detect_lamps(rgb: np.ndarray, depth: np.ndarray, cfg: Config, spec) -> tuple
     lights, notes = [], []
     mask = np.zeros((h, w), bool)
     kernel = np.ones((5, 5), np.uint8)
+    cores = []
     for k in range(1, n):
-        if stats[k, cv2.CC_STAT_AREA] < spec.min_pixels:
-            continue
-        core = labels == k
+        if stats[k, cv2.CC_STAT_AREA] >= spec.min_pixels:
+            cores += _split_by_depth(labels == k, ray, cam.max_depth, spec.min_pixels)
+    claimed = np.logical_or.reduce(cores) if cores else np.zeros((h, w), bool)    # every core is its own
+    for core in sorted(cores, key=lambda c: _core_depth(c, ray, cam.max_depth)):   # nearest first
         t = ray[core & np.isfinite(ray) & (ray < cam.max_depth)]
         if t.size == 0:         # the sensor has a hole there: a ring around the core
             ring = (cv2.dilate(core.astype(np.uint8), kernel) > 0) & ~core
@@ -168,7 +171,9 @@ def detect_lamps(rgb: np.ndarray, depth: np.ndarray, cfg: Config, spec) -> tuple
         px, py = float((ii[core] * wgt).sum() / wgt.sum()) + 0.5, float((jj[core] * wgt).sum() / wgt.sum()) + 0.5
         d = np.array([(px - cx) / f, -(py - cy) / fy, -1.0])
         d /= np.linalg.norm(d)
-        blob = cv2.dilate(core.astype(np.uint8), kernel) > 0
+        # the core and a 2 px ring; a ring pixel two lamps share goes to the nearer one
+        blob = ((cv2.dilate(core.astype(np.uint8), kernel) > 0) & ~claimed) | core
+        claimed |= blob
         omega = (1.0 / dlen[blob]) ** 3 / (f * fy)
         intensity = dist * dist * (rgb[blob] * omega[:, None]).sum(0)
         radius = max(dist * math.sqrt(core.sum() / math.pi) / f, 1e-3)
@@ -180,6 +185,43 @@ def detect_lamps(rgb: np.ndarray, depth: np.ndarray, cfg: Config, spec) -> tuple
             notes.append(f"lamp at {dist:.3g} m is clipped in this display-referred image: its intensity "
                          f"({float(intensity.mean()):.3g}) is a lower bound")
     return lights, mask, notes
+
+
+def _core_depth(core: np.ndarray, ray: np.ndarray, max_depth: float) -> float:
+    t = ray[core & np.isfinite(ray) & (ray < max_depth)]
+    return float(np.median(t)) if t.size else math.inf
+
+
+def _split_by_depth(core: np.ndarray, ray: np.ndarray, max_depth: float, min_pixels: int) -> list[np.ndarray]:
+    """A bright core whose pixels lie at depths more than 20 % apart is several lamps, one
+    in front of the other along nearly the same direction: split at each such gap (sorted
+    ray lengths) into groups that have an inside. The other pixels (without depth, or an edge
+    ring at the background's depth) join the group they touch, the nearer one first."""
+    ok = core & np.isfinite(ray) & (ray < max_depth)
+    t = np.sort(ray[ok])
+    if t.size < 2 or t[-1] <= 1.2 * t[0]:
+        return [core]
+    cuts = t[1:][t[1:] > 1.2 * t[:-1]]
+    edges = np.concatenate([[0.0], cuts, [np.inf]])
+    groups = [ok & (ray >= a) & (ray < b) for a, b in zip(edges[:-1], edges[1:])]
+    # a lamp of its own has an inside; the anti-aliased edge of a lamp, whose pixels carry the
+    # background's depth, is a thin ring without one
+    import cv2
+
+    cross = np.array([[0, 1, 0], [1, 1, 1], [0, 1, 0]], np.uint8)
+    groups = [g for g in groups if g.sum() >= min_pixels and cv2.erode(g.astype(np.uint8), cross).any()] or [core]
+    rest = core & ~np.logical_or.reduce(groups)
+    ring = np.ones((3, 3), np.uint8)
+    while rest.any():       # the rest goes to the group it touches, the nearer one first
+        before = rest.sum()
+        for i, g in enumerate(groups):
+            grow = (cv2.dilate(g.astype(np.uint8), ring) > 0) & rest
+            groups[i] = g | grow
+            rest &= ~grow
+        if rest.sum() == before:        # not connected to any group (cannot happen in one core)
+            groups[0] = groups[0] | rest
+            break
+    return groups
 
 
 # ----------------------------------------------------------------------------- reference
