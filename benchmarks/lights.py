@@ -314,8 +314,8 @@ def main() -> int:
              f"Speed at 1920 x 1080 (kernel time, best of 3): fog without lights {base:.0f} ms, with one point light "
              f"{light:.0f} ms: the light costs {light - base:.0f} ms = {(light - base) / copy:.0f} numpy copies of the "
              f"image ({copy:.1f} ms a copy, same run). Of that, the airlight kernel (tables) {kern:.0f} ms = "
-             f"{kern / copy:.0f} copies; the rest is what any number of lights costs once: their twice-scattered "
-             "part joining the second chain and that chain's pyramid and collapse.", "",
+             f"{kern / copy:.0f} copies; the rest is what any number of lights costs once: adding their "
+             "light after the pyramid and their twice-scattered part to its level 0.", "",
              "Lamps found by `{type: auto}` on synthetic disc lamps facing the camera (anti-aliased, radiance",
              "(300, 250, 200); expected intensity L pi r^2 cos(theta)):", "",
              "| lamp centre (m) | radius (m) | intensity error (worst channel) | distance error |", "|---|---|---|---|",

@@ -534,9 +534,11 @@ __kernel void airlight_sun(__global const float *depth, __global float4 *a_dir, 
 }
 #endif
 
-/* The lights' twice-scattered part joins the second (separation) chain at level 0: summed
- * with what is there, log P weighted by luminance, and its per-level shares (apsf) from the
- * table at that log P. merge = 0: the chain had nothing (separation off). */
+/* The lights' twice-scattered part joins the scattered light at level 0 of the colour chain:
+ * summed with what is there, log P weighted by luminance, and its per-level shares (apsf)
+ * from the table at that log P. (A second chain of its own, like Iser's separated pixels,
+ * measured the same on the night scenes with known lights and worse with detected lamps,
+ * and cost a second pyramid.) merge = 0: the chain had nothing. */
 #ifdef PSF_APSF
 __kernel void airlight_to_chain(__global const float4 *a_sc, __global float4 *chain0, __global float4 *prep0,
                                 __global const float *lut, const int n, const int merge)

@@ -153,8 +153,8 @@ class Plan:
         mf = cl.mem_flags
         self.source = cfg.render.method == "pyramid" and cfg.render.fetch == "source"
         need = 4 * (4 * n * 4 + n + 4 * total + total) + (4 * 4 * n * 2 + 4 * n if aovs else 0)
-        # the second chain: Iser's separated pixels and/or the lights' twice-scattered light
-        self.sep = cfg.render.method == "pyramid" and (cfg.render.separation.enabled or bool(cfg.lights))
+        # the second chain: Iser's separated pixels
+        self.sep = cfg.render.method == "pyramid" and cfg.render.separation.enabled
         need += 16 * total if self.source else 0
         need += (36 * total + 16 * n) if self.sep else 0
         need += 32 * n if cfg.lights else 0
@@ -303,7 +303,7 @@ class Plan:
 
     def lights(self, t: Timings) -> None:
         """Every light's airlight (kernels/lights.cl): a_dir kept for after the pyramid, a_sc
-        into level 0 of the second chain (merged with the separated pixels, if any)."""
+        into level 0 of the colour chain (merged with the image's scattered light)."""
         from .lights import gauss_legendre, light_struct, medium_struct
 
         cl, q, n = self.rt.cl, self.rt.queue, self.w * self.h
@@ -338,8 +338,7 @@ class Plan:
                 q, *self.rt.nd(self.w, self.h), self.depth, self.a_dir, self.a_sc, np.int32(self.w), np.int32(self.h),
                 cam, lm, pbuf, gl, light_struct(self.cfg, light), np.int32(k > 0)))
         t.add("lights", self.k_lights.airlight_to_chain(
-            q, *self.rt.nd(n), self.a_sc, self.chain2, self.prep2, self.lut, np.int32(n),
-            np.int32(self.cfg.render.separation.enabled)))
+            q, *self.rt.nd(n), self.a_sc, self.chain, self.prep, self.lut, np.int32(n), np.int32(1)))
 
     def _airlight_tables(self):
         """The medium's airlight tables on the device (fogcli/airlight_table.py), kept while
