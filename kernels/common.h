@@ -97,10 +97,14 @@ inline float smoothstep_(float e0, float e1, float x)
  * is a scalar library call that cost half of the preprocess stage. */
 inline float log_pos(float x)
 {
+    /* the mantissa halved above sqrt(2) by integer arithmetic on its bits: the same numbers
+     * as a float compare and select, which kept PoCL from vectorising every kernel that
+     * called this (measured: the light table kernel, benchmarks/pocl_vectorisation.py) */
     int bits = as_int(x);
-    int e = ((bits >> 23) & 0xff) - 127;
-    float mant = as_float((bits & 0x007fffff) | 0x3f800000);   /* [1, 2) */
-    if (mant > 1.41421356f) { mant *= 0.5f; e += 1; }
+    int m = (bits & 0x007fffff) | 0x3f800000;                  /* mantissa in [1, 2) */
+    int big = m > 0x3fb504f3 ? 1 : 0;                          /* above sqrt(2) */
+    int e = ((bits >> 23) & 0xff) - 127 + big;
+    float mant = as_float(m - (big << 23));
     float t = (mant - 1.0f) / (mant + 1.0f), t2 = t * t;
     float series = t * (2.0f + t2 * (0.66666667f + t2 * (0.4f + t2 * 0.28571429f)));
     return series + (float)e * 0.69314718f;

@@ -196,7 +196,7 @@ inline float pk_phi(float k, float p0, float p1)
 
 __kernel void airlight_pk(__global const float *depth, __global float4 *a_dir, __global float4 *a_sc,
                           const int width, const int height, const camera_t cam, const lmedium_t m,
-                          const light_t L, const int accumulate)
+                          const light_t L)
 {
     int i = get_global_id(0), j = get_global_id(1);
     if (i >= width || j >= height) return;
@@ -222,14 +222,13 @@ __kernel void airlight_pk(__global const float *depth, __global float4 *a_dir, _
     sc += (L.gain.xyz - 1.0f) * (dir + sc);
     float P = m.homogeneous * sf;
     float4 od = (float4)(dir, 0.0f), os = (float4)(sc, (0.2126f * sc.x + 0.7152f * sc.y + 0.0722f * sc.z) * P);
-    a_dir[idx] = accumulate ? a_dir[idx] + od : od;
-    a_sc[idx] = accumulate ? a_sc[idx] + os : os;
+    a_dir[idx] = od;
+    a_sc[idx] = os;
 }
 
 __kernel void airlight(__global const float *depth, __global float4 *a_dir, __global float4 *a_sc,
                        const int width, const int height, const camera_t cam, const lmedium_t m,
-                       __global const float4 *prims, __global const float2 *gl, const light_t L,
-                       const int accumulate)
+                       __global const float4 *prims, __global const float2 *gl, const light_t L)
 {
     int i = get_global_id(0), j = get_global_id(1);
     if (i >= width || j >= height) return;
@@ -331,8 +330,8 @@ __kernel void airlight(__global const float *depth, __global float4 *a_dir, __gl
         wp = (0.2126f * sc.x + 0.7152f * sc.y + 0.0722f * sc.z) * optical_depth(prims, &m, c, w, clamp(d1, 0.0f, D));
     }
     float4 od = (float4)(dir, 0.0f), os = (float4)(sc, wp);
-    a_dir[idx] = accumulate ? a_dir[idx] + od : od;
-    a_sc[idx] = accumulate ? a_sc[idx] + os : os;
+    a_dir[idx] = od;
+    a_sc[idx] = os;
 }
 
 /* ---- point and directional lights in a homogeneous medium: tables, not quadrature ----
@@ -344,12 +343,16 @@ __kernel void airlight(__global const float *depth, __global float4 *a_dir, __gl
  * sums that would lose its digits (less than half of either) is integrated directly: the
  * interval is then short against the integrand's scale and 8 Gauss-Legendre nodes do. */
 #ifdef AL_NX
+/* Forced inline: past LLVM's inline budget a helper stays a call, and a call keeps PoCL from
+ * vectorising the kernel across work-items (measured: the sun kernel 5x slower). */
+#define AL_INLINE __attribute__((always_inline)) inline
+
 /* exp_poly, log_pos and SQRT_ (common.h) instead of PoCL's library calls, which cost more
  * than everything else here; sinh, cosh, asinh from e^x, which the geometry gives directly:
  * e^x = (q + t) / R with q = s - d1, t = |x - l| (R / (t - q) where q < 0, without
  * cancellation). */
 /* bilinear look-up of table entry `e` (0: F, 1: C) at continuous (u, v); scalar loads */
-inline float al_fetch(__global const float *tab, float u, float v, int e)
+AL_INLINE float al_fetch(__global const float *tab, float u, float v, int e)
 {
     u = clampf_(u, 0.0f, AL_NB - 1.001f);
     v = clampf_(v, 0.0f, AL_NX - 1.001f);
@@ -360,14 +363,14 @@ inline float al_fetch(__global const float *tab, float u, float v, int e)
     return a + (b - a) * fu;
 }
 
-inline float al_ex(float q, float R)
+AL_INLINE float al_ex(float q, float R)
 {
     float t = SQRT_(q * q + R * R);
     return q >= 0.0f ? (q + t) / R : R / (t - q);
 }
 
 /* ln of h(x) exp(-beta E_r(x)) at x = ln ex, h = p_g(-tanh x) / cosh x */
-inline float al_log_integrand(float g, float r, float beta, float x)
+AL_INLINE float al_log_integrand(float g, float r, float beta, float x)
 {
     float ex = exp_poly(x), e2 = ex * ex;
     float d = 1.0f + g * g + 2.0f * g * (e2 - 1.0f) / (e2 + 1.0f);
@@ -379,7 +382,7 @@ inline float al_log_integrand(float g, float r, float beta, float x)
  * where E_r is smallest and its value (r < 1; r = 1: -inf and 0). Where the difference of the
  * cumulative sums would lose its digits the interval is short against the integrand's scale:
  * 4 Gauss-Legendre nodes, written out (a loop here keeps PoCL from vectorising the kernel). */
-inline float al_segment(__global const float *tab, float g, float r, float xm, float em, float beta,
+AL_INLINE float al_segment(__global const float *tab, float g, float r, float xm, float em, float beta,
                         float lb, float x0, float x1, float ex0, float ex1)
 {
     const float u = (lb - AL_LB0) * ((AL_NB - 1) / (AL_LB1 - AL_LB0));
@@ -412,19 +415,21 @@ inline float al_segment(__global const float *tab, float g, float r, float xm, f
     return top + log_pos(hw * sum);
 }
 
-/* One channel's (ln dir, ln tot) per unit of ss I / R: light leg and camera leg in
- * extinction st (dir), camera leg in absorption sa only (tot = dir + what scatters again). */
-inline float2 al_channel(__global const float *tab, float g, float st, float sa, float r, int kind,
-                         float R, float d1, float x0, float x1, float ex0, float ex1)
+/* One channel's ln dir and ln tot per unit of ss I / R: light leg and camera leg in
+ * extinction st (dir), camera leg in absorption sa only (tot = dir + what scatters again).
+ * Scalars out, not a float2: a vector-typed value keeps PoCL from vectorising the kernel. */
+AL_INLINE void al_channel(__global const float *tab, float g, float st, float sa, float r, int kind,
+                          float R, float d1, float x0, float x1, float ex0, float ex1, float *ld, float *lt)
 {
     float beta = st * R;
     float lb = log_pos(beta > AL_BMIN ? beta : AL_BMIN);
-    float ld = -st * d1 + al_segment(tab, g, 1.0f, -1e30f, 0.0f, beta, lb, x0, x1, ex0, ex1);
+    float d = -st * d1 + al_segment(tab, g, 1.0f, -1e30f, 0.0f, beta, lb, x0, x1, ex0, ex1);
     float sq = SQRT_(1.0f - r * r);
     float xm = -0.5f * log_pos((1.0f + r) / (r < 1.0f ? 1.0f - r : 1.0f));     /* -atanh(r) */
-    float lt = r < 1.0f ? -sa * d1 + al_segment(tab + (size_t)kind * 2 * AL_NB * AL_NX, g, r, xm, sq, beta, lb,
-                                                 x0, x1, ex0, ex1) : ld;
-    return beta < AL_BMAX ? (float2)(ld, lt) : (float2)(-1e30f, -1e30f);
+    float t = r < 1.0f ? -sa * d1 + al_segment(tab + kind * 2 * AL_NB * AL_NX, g, r, xm, sq, beta, lb,
+                                                x0, x1, ex0, ex1) : d;
+    *ld = beta < AL_BMAX ? d : -1e30f;
+    *lt = beta < AL_BMAX ? t : -1e30f;
 }
 
 /* Point lights when every density primitive is homogeneous (factor hf). tab: tables of
@@ -436,7 +441,7 @@ inline float2 al_channel(__global const float *tab, float g, float st, float sa,
 __kernel void airlight_table(__global const float *depth, __global float4 *a_dir, __global float4 *a_sc,
                              const int width, const int height, const camera_t cam, const lmedium_t m,
                              __global const float *tab, const float4 rs, const int4 kind, const int grey,
-                             const light_t L, const int accumulate)
+                             const light_t L)
 {
     int i = get_global_id(0), j = get_global_id(1);
     if (i >= width || j >= height) return;
@@ -451,18 +456,20 @@ __kernel void airlight_table(__global const float *depth, __global float4 *a_dir
     float x0 = log_pos(ex0), x1 = log_pos(ex1);
     float sstar = hf * clampf_(d1, 0.0f, D), lR = log_pos(R);
     float sa0 = hf * m.sa.x, ss0 = hf * m.ss.x;
-    float2 l0 = al_channel(tab, m.g, sa0 + ss0, sa0, rs.x, kind.x, R, d1, x0, x1, ex0, ex1);
-    float2 l1 = l0, l2 = l0;
+    float l0x, l0y, l1x, l1y, l2x, l2y;
+    al_channel(tab, m.g, sa0 + ss0, sa0, rs.x, kind.x, R, d1, x0, x1, ex0, ex1, &l0x, &l0y);
+    l1x = l2x = l0x;
+    l1y = l2y = l0y;
     if (!grey) {        /* uniform: the loop over work-items is split on it, not predicated */
         float sa1 = hf * m.sa.y, ss1 = hf * m.ss.y, sa2 = hf * m.sa.z, ss2 = hf * m.ss.z;
-        l1 = al_channel(tab, m.g, sa1 + ss1, sa1, rs.y, kind.y, R, d1, x0, x1, ex0, ex1);
-        l2 = al_channel(tab, m.g, sa2 + ss2, sa2, rs.z, kind.z, R, d1, x0, x1, ex0, ex1);
+        al_channel(tab, m.g, sa1 + ss1, sa1, rs.y, kind.y, R, d1, x0, x1, ex0, ex1, &l1x, &l1y);
+        al_channel(tab, m.g, sa2 + ss2, sa2, rs.z, kind.z, R, d1, x0, x1, ex0, ex1, &l2x, &l2y);
     }
     float k0 = hf * m.ss.x * L.intensity.x, k1 = hf * m.ss.y * L.intensity.y, k2 = hf * m.ss.z * L.intensity.z;
     float q0 = k0 > 0.0f ? log_pos(k0) - lR : -1e30f, q1 = k1 > 0.0f ? log_pos(k1) - lR : -1e30f;
     float q2 = k2 > 0.0f ? log_pos(k2) - lR : -1e30f;
-    float d0r = exp_poly(q0 + l0.x), d1r = exp_poly(q1 + l1.x), d2r = exp_poly(q2 + l2.x);
-    float s0 = exp_poly(q0 + l0.y) - d0r, s1 = exp_poly(q1 + l1.y) - d1r, s2 = exp_poly(q2 + l2.y) - d2r;
+    float d0r = exp_poly(q0 + l0x), d1r = exp_poly(q1 + l1x), d2r = exp_poly(q2 + l2x);
+    float s0 = exp_poly(q0 + l0y) - d0r, s1 = exp_poly(q1 + l1y) - d1r, s2 = exp_poly(q2 + l2y) - d2r;
     s0 = s0 > 0.0f ? s0 : 0.0f;
     s1 = s1 > 0.0f ? s1 : 0.0f;
     s2 = s2 > 0.0f ? s2 : 0.0f;
@@ -470,12 +477,6 @@ __kernel void airlight_table(__global const float *depth, __global float4 *a_dir
     s1 += (L.gain.y - 1.0f) * (d1r + s1);
     s2 += (L.gain.z - 1.0f) * (d2r + s2);
     float wp = sstar * (0.2126f * s0 + 0.7152f * s1 + 0.0722f * s2);
-    if (accumulate) {
-        float a0, a1, a2, a3, b0, b1, b2, b3;
-        load4(a_dir, idx, &a0, &a1, &a2, &a3);
-        load4(a_sc, idx, &b0, &b1, &b2, &b3);
-        d0r += a0; d1r += a1; d2r += a2; s0 += b0; s1 += b1; s2 += b2; wp += b3;
-    }
     store4(a_dir, idx, d0r, d1r, d2r, 0.0f);
     store4(a_sc, idx, s0, s1, s2, wp);
 }
@@ -484,13 +485,13 @@ __kernel void airlight_table(__global const float *depth, __global float4 *a_dir
  * does not dim a directional light: docs/lights.md). a_sc.w: the luminance-weighted optical
  * depth of its twice-scattered light. */
 /* int_0^D e^{-q s} ds and int_0^D s e^{-q s} ds, finite as q -> 0 */
-inline float sun_int0(float q, float D)
+AL_INLINE float sun_int0(float q, float D)
 {
     float qd = q * D;
     return qd > 1e-3f ? one_minus_exp(qd) / q : D * (1.0f - 0.5f * qd);
 }
 
-inline float sun_int1(float q, float D)
+AL_INLINE float sun_int1(float q, float D)
 {
     float qd = q * D;
     return qd > 1e-2f ? (one_minus_exp(qd) - qd * exp_poly(-qd)) / (q * q) : D * D * (0.5f - qd / 3.0f);
@@ -498,7 +499,7 @@ inline float sun_int1(float q, float D)
 
 __kernel void airlight_sun(__global const float *depth, __global float4 *a_dir, __global float4 *a_sc,
                            const int width, const int height, const camera_t cam, const lmedium_t m,
-                           const light_t L, const int accumulate)
+                           const light_t L)
 {
     int i = get_global_id(0), j = get_global_id(1);
     if (i >= width || j >= height) return;
@@ -523,12 +524,6 @@ __kernel void airlight_sun(__global const float *depth, __global float4 *a_dir, 
     SUN_CHANNEL(z, d2, s2, c2)
 #undef SUN_CHANNEL
     float wp = 0.2126f * c0 + 0.7152f * c1 + 0.0722f * c2;
-    if (accumulate) {
-        float a0, a1, a2, a3, b0, b1, b2, b3;
-        load4(a_dir, idx, &a0, &a1, &a2, &a3);
-        load4(a_sc, idx, &b0, &b1, &b2, &b3);
-        d0 += a0; d1 += a1; d2 += a2; s0 += b0; s1 += b1; s2 += b2; wp += b3;
-    }
     store4(a_dir, idx, d0, d1, d2, 0.0f);
     store4(a_sc, idx, s0, s1, s2, wp);
 }
@@ -556,6 +551,22 @@ __kernel void airlight_to_chain(__global const float4 *a_sc, __global float4 *ch
     store_prep_apsf(prep0, idx, r, g, b, lp, lut, 0);
 }
 #endif
+
+/* Lights after the first: their airlight (written to t_dir, t_sc) added to the sums. The
+ * airlight kernels never read what they write: a read there keeps PoCL from vectorising. */
+__kernel void add_light(__global float4 *a_dir, __global const float4 *t_dir, __global float4 *a_sc,
+                        __global const float4 *t_sc, const int n)
+{
+    int idx = get_global_id(0);
+    if (idx >= n) return;
+    float a0, a1, a2, a3, b0, b1, b2, b3;
+    load4(a_dir, idx, &a0, &a1, &a2, &a3);
+    load4(t_dir, idx, &b0, &b1, &b2, &b3);
+    store4(a_dir, idx, a0 + b0, a1 + b1, a2 + b2, a3 + b3);
+    load4(a_sc, idx, &a0, &a1, &a2, &a3);
+    load4(t_sc, idx, &b0, &b1, &b2, &b3);
+    store4(a_sc, idx, a0 + b0, a1 + b1, a2 + b2, a3 + b3);
+}
 
 /* out += a_dir after the pyramid: the 1/R core of a light stays sharp */
 __kernel void add_airlight(__global float4 *out, __global const float4 *a_dir, const int n)

@@ -223,6 +223,7 @@ class Plan:
         else:
             self.k_lights = None
         self._al_tables = None     # (key, device buffer) of airlight_table.tables
+        self._light_tmp = None     # (t_dir, t_sc): the airlight of the second and later lights
 
     # -- stages --------------------------------------------------------------------
     def upload(self, rgba: np.ndarray, depth: np.ndarray, t: Timings) -> None:
@@ -314,29 +315,30 @@ class Plan:
         cam = camera_struct(self.cfg, self.w, self.h)
         pk = self.cfg.render.lights.airlight == "pk"
         homogeneous = int(lm["nprims"]) == 0
-        for k, light in enumerate(x for x in self.cfg.lights if x.type != "auto"):
+        lights = [x for x in self.cfg.lights if x.type != "auto"]
+        if len(lights) > 1 and self._light_tmp is None:     # the second light on: summed after
+            self._light_tmp = (cl.Buffer(self.rt.ctx, mf.READ_WRITE, 16 * n), cl.Buffer(self.rt.ctx, mf.READ_WRITE, 16 * n))
+        size = self.rt.nd(self.w, self.h)
+        for k, light in enumerate(lights):
+            dst = (self.a_dir, self.a_sc) if k == 0 else self._light_tmp
+            ls = light_struct(self.cfg, light)
             if pk and light.type == "point":        # Pradhan & Kumar's closed form
-                t.add("lights", self.k_lights.airlight_pk(
-                    q, *self.rt.nd(self.w, self.h), self.depth, self.a_dir, self.a_sc, np.int32(self.w),
-                    np.int32(self.h), cam, lm, light_struct(self.cfg, light), np.int32(k > 0)))
-                continue
-            if homogeneous and light.type == "point":    # tables instead of quadrature
+                ev = self.k_lights.airlight_pk(q, *size, self.depth, *dst, np.int32(self.w), np.int32(self.h), cam, lm, ls)
+            elif homogeneous and light.type == "point":    # tables instead of quadrature
                 tab, rs, kind = self._airlight_tables()
                 m = self.cfg.medium
                 grey = len(set(m.absorption)) == 1 and len(set(m.scattering)) == 1
-                t.add("lights", self.k_lights.airlight_table(
-                    q, *self.rt.nd(self.w, self.h), self.depth, self.a_dir, self.a_sc, np.int32(self.w),
-                    np.int32(self.h), cam, lm, tab, rs, kind, np.int32(grey), light_struct(self.cfg, light),
-                    np.int32(k > 0)))
-                continue
-            if homogeneous and light.type == "directional":     # closed form
-                t.add("lights", self.k_lights.airlight_sun(
-                    q, *self.rt.nd(self.w, self.h), self.depth, self.a_dir, self.a_sc, np.int32(self.w),
-                    np.int32(self.h), cam, lm, light_struct(self.cfg, light), np.int32(k > 0)))
-                continue
-            t.add("lights", self.k_lights.airlight(
-                q, *self.rt.nd(self.w, self.h), self.depth, self.a_dir, self.a_sc, np.int32(self.w), np.int32(self.h),
-                cam, lm, pbuf, gl, light_struct(self.cfg, light), np.int32(k > 0)))
+                ev = self.k_lights.airlight_table(q, *size, self.depth, *dst, np.int32(self.w), np.int32(self.h), cam,
+                                                  lm, tab, rs, kind, np.int32(grey), ls)
+            elif homogeneous and light.type == "directional":     # closed form
+                ev = self.k_lights.airlight_sun(q, *size, self.depth, *dst, np.int32(self.w), np.int32(self.h), cam, lm, ls)
+            else:
+                ev = self.k_lights.airlight(q, *size, self.depth, *dst, np.int32(self.w), np.int32(self.h), cam, lm,
+                                            pbuf, gl, ls)
+            t.add("lights", ev)
+            if k > 0:
+                t.add("lights", self.k_lights.add_light(q, *self.rt.nd(n), self.a_dir, dst[0], self.a_sc, dst[1],
+                                                        np.int32(n)))
         t.add("lights", self.k_lights.airlight_to_chain(
             q, *self.rt.nd(n), self.a_sc, self.chain, self.prep, self.lut, np.int32(n), np.int32(1)))
 
