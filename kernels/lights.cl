@@ -481,6 +481,123 @@ __kernel void airlight_table(__global const float *depth, __global float4 *a_dir
     store4(a_sc, idx, s0, s1, s2, wp);
 }
 
+/* v, made to depend on prev (0 * prev is not folded without fast math): LLVM's SLP
+ * vectoriser pairs two isomorphic computations side by side into 2-wide vector code before
+ * PoCL builds the loop over work-items, and a vector-typed value stops that loop's
+ * vectoriser ("instruction return type cannot be vectorized"). */
+#define AL_AFTER(v, prev) ((v) + 0.0f * (prev))
+
+/* ln of int_{x0}^{x1} h exp(-beta E_r) dx as al_segment, its steps chained with AL_AFTER and
+ * the table indices clamped with __builtin_fabsf (a compare-and-select clamp stops the
+ * vectoriser); `after`: a value of the caller's to chain the first step to. */
+AL_INLINE float al_clamp(float v, float hi)
+{
+    v = 0.5f * (v + __builtin_fabsf(v));
+    return hi - 0.5f * ((hi - v) + __builtin_fabsf(hi - v));
+}
+
+AL_INLINE float al_fetch_v(__global const float *tab, float u, float v, int e)
+{
+    u = al_clamp(u, AL_NB - 1.001f);
+    v = al_clamp(v, AL_NX - 1.001f);
+    int i = (int)u, j = (int)v;
+    float fu = u - (float)i, fv = v - (float)j;
+    __global const float *p = tab + 2 * (i * AL_NX + j) + e;
+    float a = p[0] + (p[2] - p[0]) * fv, b = p[2 * AL_NX] + (p[2 * AL_NX + 2] - p[2 * AL_NX]) * fv;
+    return a + (b - a) * fu;
+}
+
+/* h(x) exp(-beta E_r(x) + mid) */
+AL_INLINE float al_node(float g, float r, float beta, float mid, float x)
+{
+    float ex = exp_poly(x), e2 = ex * ex;
+    float d = 1.0f + g * g + 2.0f * g * (e2 - 1.0f) / (e2 + 1.0f);
+    float h = (1.0f - g * g) / (6.283185307f * d * SQRT_(d) * (ex + 1.0f / ex));
+    return h * exp_poly(mid - beta * 0.5f * ((1.0f + r) * ex + (1.0f - r) / ex));
+}
+
+AL_INLINE float al_segment_v(__global const float *tab, float g, float r, float xm, float em, float beta,
+                             float lb, float x0, float x1, float ex0, float ex1, float after)
+{
+    const float sx = (AL_NX - 1) / (AL_X1 - AL_X0);
+    float u = AL_AFTER((lb - AL_LB0) * ((AL_NB - 1) / (AL_LB1 - AL_LB0)), after);
+    float v0 = (x0 - AL_X0) * sx;
+    float v1 = AL_AFTER((x1 - AL_X0) * sx, v0);
+    float e0 = 0.5f * ((1.0f + r) * ex0 + (1.0f - r) / ex0);
+    float e1 = 0.5f * ((1.0f + r) * ex1 + (1.0f - r) / AL_AFTER(ex1, e0));
+    float F0 = al_fetch_v(tab, u, v0, 0) - beta * (x0 < xm ? e0 : em);
+    float F1 = al_fetch_v(tab, u, AL_AFTER(v1, F0), 0) - beta * (x1 < xm ? e1 : em);
+    float C0 = al_fetch_v(tab, u, AL_AFTER(v0, F1), 1) - beta * (x0 > xm ? e0 : em);
+    float C1 = al_fetch_v(tab, u, AL_AFTER(v1, C0), 1) - beta * (x1 > xm ? e1 : em);
+    F0 += r >= 1.0f && x0 < AL_X0 ? x0 - AL_X0 : 0.0f;
+    F1 += r >= 1.0f && x1 < AL_X0 ? x1 - AL_X0 : 0.0f;
+    C0 -= x0 > AL_X1 ? x0 - AL_X1 : 0.0f;
+    C1 -= x1 > AL_X1 ? x1 - AL_X1 : 0.0f;
+    float big = F1 < C0 ? F1 : C0, small = F1 < C0 ? F0 : C1;
+    float tabled = big + log_pos(1.0f - exp_poly(small - big));
+    /* the short interval directly, in the linear domain with the exponent at its middle
+     * factored out (one exp_poly a node; the vectorised loop evaluates this for every pixel) */
+    float xc = 0.5f * (x0 + x1), hw = 0.5f * (x1 - x0);
+    float exc = exp_poly(xc);
+    float mid = beta * 0.5f * ((1.0f + r) * exc + (1.0f - r) / exc);
+    float n0 = al_node(g, r, beta, mid, xc - 0.5773502692f * hw);
+    float n1 = al_node(g, r, beta, mid, AL_AFTER(xc + 0.5773502692f * hw, n0));
+    float direct = -mid + log_pos(hw * (n0 + n1));
+    return small - big <= -0.6931472f ? tabled : direct;
+}
+
+/* airlight_table for grey media (the three channels share st and sa), written so that PoCL
+ * vectorises it: uniform values come from the host as scalars (st, sa, r = sa / st, where
+ * E_r is smallest and its value, the table offset, ln(ss I_c) per channel, the gain, the
+ * camera-to-light vector), every pair of isomorphic steps is chained with AL_AFTER. */
+__kernel void airlight_table_grey(__global const float *depth, __global float4 *a_dir, __global float4 *a_sc,
+                                  const int width, const int height, const camera_t cam,
+                                  __global const float *tab, const float g, const float hf,
+                                  const float st, const float sa, const float r, const float xm, const float em,
+                                  const int kind_off, const float lk0, const float lk1, const float lk2,
+                                  const float gn0, const float gn1, const float gn2,
+                                  const float vx, const float vy, const float vz, const float rad2)
+{
+    int i = get_global_id(0), j = get_global_id(1);
+    if (i >= width || j >= height) return;
+    int idx = j * width + i;
+    float wx, wy, wz;
+    float D = pixel_ray(&cam, i, j, depth[idx], &wx, &wy, &wz);
+    float cx = wy * vz - wz * vy;
+    float cy = AL_AFTER(wz * vx - wx * vz, cx);
+    float cz = AL_AFTER(wx * vy - wy * vx, cy);
+    float d1 = AL_AFTER(wx * vx + wy * vy + wz * vz, cz);
+    float R = SQRT_(cx * cx + cy * cy + cz * cz + rad2);
+    float ex0 = al_ex(-d1, R);
+    float ex1 = al_ex(AL_AFTER(D - d1, ex0), R);
+    float x0 = log_pos(ex0);
+    float x1 = log_pos(AL_AFTER(ex1, x0));
+    float lR = log_pos(AL_AFTER(R, x1));
+    float beta = st * R;
+    float lb = log_pos(AL_AFTER(beta > AL_BMIN ? beta : AL_BMIN, lR));
+    float ld = -st * d1 + al_segment_v(tab, g, 1.0f, -1e30f, 0.0f, beta, lb, x0, x1, ex0, ex1, lb);
+    float lt = r < 1.0f ? -sa * d1 + al_segment_v(tab + kind_off, g, r, xm, em, beta, lb, x0, x1, ex0, ex1, ld) : ld;
+    ld = beta < AL_BMAX ? ld - lR : -1e30f;
+    lt = beta < AL_BMAX ? lt - lR : -1e30f;
+    float d0r = exp_poly(lk0 + ld);
+    float d1r = exp_poly(AL_AFTER(lk1 + ld, d0r));
+    float d2r = exp_poly(AL_AFTER(lk2 + ld, d1r));
+    float t0 = exp_poly(AL_AFTER(lk0 + lt, d2r));
+    float t1 = exp_poly(AL_AFTER(lk1 + lt, t0));
+    float t2 = exp_poly(AL_AFTER(lk2 + lt, t1));
+    float s0 = t0 - d0r, s1 = AL_AFTER(t1 - d1r, s0), s2 = AL_AFTER(t2 - d2r, s1);
+    s0 = 0.5f * (s0 + __builtin_fabsf(s0));
+    s1 = 0.5f * (s1 + __builtin_fabsf(s1));
+    s2 = 0.5f * (s2 + __builtin_fabsf(s2));
+    s0 += (gn0 - 1.0f) * (d0r + s0);
+    s1 = AL_AFTER(s1 + (gn1 - 1.0f) * (d1r + s1), s0);
+    s2 = AL_AFTER(s2 + (gn2 - 1.0f) * (d2r + s2), s1);
+    float sstar = hf * 0.5f * ((d1 + __builtin_fabsf(d1)) - ((d1 - D) + __builtin_fabsf(d1 - D)));
+    float wp = sstar * (0.2126f * s0 + 0.7152f * s1 + 0.0722f * s2);
+    store4(a_dir, idx, d0r, d1r, d2r, 0.0f);
+    store4(a_sc, idx, s0, s1, s2, wp);
+}
+
 /* Directional lights in homogeneous media: the airlight in closed form (the homogeneous part
  * does not dim a directional light: docs/lights.md). a_sc.w: the luminance-weighted optical
  * depth of its twice-scattered light. */
@@ -533,21 +650,24 @@ __kernel void airlight_sun(__global const float *depth, __global float4 *a_dir, 
  * summed with what is there, log P weighted by luminance, and its per-level shares (apsf)
  * from the table at that log P. (A second chain of its own, like Iser's separated pixels,
  * measured the same on the night scenes with known lights and worse with detected lamps,
- * and cost a second pyramid.) merge = 0: the chain had nothing. */
+ * and cost a second pyramid.) */
 #ifdef PSF_APSF
 __kernel void airlight_to_chain(__global const float4 *a_sc, __global float4 *chain0, __global float4 *prep0,
-                                __global const float *lut, const int n, const int merge)
+                                __global const float *lut, const int n)
 {
     int idx = get_global_id(0);
     if (idx >= n) return;
-    float4 a = a_sc[idx];
-    float ya = 0.2126f * a.x + 0.7152f * a.y + 0.0722f * a.z;
-    float lpa = log(fmax(ya > 0.0f ? a.w / ya : 1e-30f, 1e-30f));
-    float4 c = merge ? chain0[idx] : (float4)(0.0f);
-    float yc = 0.2126f * c.x + 0.7152f * c.y + 0.0722f * c.z;
-    float lp = (yc + ya) > 0.0f ? (merge ? (yc * c.w + ya * lpa) / (yc + ya) : lpa) : lpa;
-    float r = c.x + a.x, g = c.y + a.y, b = c.z + a.z;
-    chain0[idx] = (float4)(r, g, b, lp);
+    /* scalar loads and stores, log_pos: PoCL vectorises it (common.h) */
+    float ar, ag, ab, aw, cr, cg, cb, cw;
+    load4(a_sc, idx, &ar, &ag, &ab, &aw);
+    load4(chain0, idx, &cr, &cg, &cb, &cw);
+    float ya = 0.2126f * ar + 0.7152f * ag + 0.0722f * ab;
+    float yc = 0.2126f * cr + 0.7152f * cg + 0.0722f * cb;
+    float pa = ya > 0.0f ? aw / ya : 1e-30f;
+    float lpa = log_pos(pa > 1e-30f ? pa : 1e-30f);
+    float lp = (yc + ya) > 0.0f ? (yc * cw + ya * lpa) / (yc + ya) : lpa;
+    float r = cr + ar, g = cg + ag, b = cb + ab;
+    store4(chain0, idx, r, g, b, lp);
     store_prep_apsf(prep0, idx, r, g, b, lp, lut, 0);
 }
 #endif

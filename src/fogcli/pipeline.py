@@ -327,9 +327,12 @@ class Plan:
             elif homogeneous and light.type == "point":    # tables instead of quadrature
                 tab, rs, kind = self._airlight_tables()
                 m = self.cfg.medium
-                grey = len(set(m.absorption)) == 1 and len(set(m.scattering)) == 1
-                ev = self.k_lights.airlight_table(q, *size, self.depth, *dst, np.int32(self.w), np.int32(self.h), cam,
-                                                  lm, tab, rs, kind, np.int32(grey), ls)
+                if len(set(m.absorption)) == 1 and len(set(m.scattering)) == 1:     # grey: vectorised
+                    ev = self.k_lights.airlight_table_grey(q, *size, self.depth, *dst, np.int32(self.w),
+                                                           np.int32(self.h), cam, tab, *self._grey_args(ls, rs, kind))
+                else:
+                    ev = self.k_lights.airlight_table(q, *size, self.depth, *dst, np.int32(self.w), np.int32(self.h),
+                                                      cam, lm, tab, rs, kind, np.int32(0), ls)
             elif homogeneous and light.type == "directional":     # closed form
                 ev = self.k_lights.airlight_sun(q, *size, self.depth, *dst, np.int32(self.w), np.int32(self.h), cam, lm, ls)
             else:
@@ -340,7 +343,7 @@ class Plan:
                 t.add("lights", self.k_lights.add_light(q, *self.rt.nd(n), self.a_dir, dst[0], self.a_sc, dst[1],
                                                         np.int32(n)))
         t.add("lights", self.k_lights.airlight_to_chain(
-            q, *self.rt.nd(n), self.a_sc, self.chain, self.prep, self.lut, np.int32(n), np.int32(1)))
+            q, *self.rt.nd(n), self.a_sc, self.chain, self.prep, self.lut, np.int32(n)))
 
     def _airlight_tables(self):
         """The medium's airlight tables on the device (fogcli/airlight_table.py), kept while
@@ -360,6 +363,25 @@ class Plan:
         rs = np.array([*r, 1.0], np.float32)
         kind = np.array([1 + distinct.index(x) if x < 1.0 else 0 for x in r] + [0], np.int32)
         return self._al_tables[1], rs, kind
+
+    def _grey_args(self, ls, rs, kind) -> list:
+        """The uniform values of airlight_table_grey as scalars (a float4 argument's lanes
+        computed on the same way are paired by LLVM and stop PoCL's vectoriser)."""
+        import math
+
+        from .airlight_table import NB, NX
+
+        m = self.cfg.medium
+        hf = sum(d.factor for d in m.density if d.type == "homogeneous")
+        st, sa, r = hf * (m.absorption[0] + m.scattering[0]), hf * m.absorption[0], float(rs[0])
+        xm, em = (-math.atanh(r), math.sqrt(1.0 - r * r)) if r < 1.0 else (-1e30, 0.0)
+        lk = [math.log(hf * m.scattering[c] * float(ls["intensity"][c])) if hf * m.scattering[c] * float(ls["intensity"][c]) > 0
+              else -1e30 for c in range(3)]
+        cam_pos = np.array(self.cfg.camera.position, np.float64)
+        v = np.array(ls["pos"][:3], np.float64) - cam_pos
+        f = np.float32
+        return ([f(m.asymmetry), f(hf), f(st), f(sa), f(r), f(xm), f(em), np.int32(int(kind[0]) * 2 * NB * NX)]
+                + [f(x) for x in lk] + [f(x) for x in ls["gain"][:3]] + [f(x) for x in v] + [f(float(ls["radius"]) ** 2)])
 
     def clear_sources(self, t: Timings, mask: np.ndarray) -> None:
         cl, n = self.rt.cl, self.w * self.h
