@@ -322,10 +322,10 @@ def main() -> int:
              "within 3e-3.", "",
              f"Speed at 1920 x 1080 (kernel time, best of 5, one run): one point light in fog costs "
              f"{stage:.0f} ms = {stage / copy:.0f} numpy copies of the image ({copy:.1f} ms a copy); the fog itself "
-             f"{base:.0f} ms. Of the light's cost, its airlight kernel (`airlight_table_grey`, the one PoCL "
-             f"vectorises) is {kern:.0f} ms = {kern / copy:.0f} copies, the rest adds its twice-scattered part to "
-             "level 0 and its light after the pyramid. A chromatic medium (sea water) takes `airlight_table`, "
-             f"which PoCL does not vectorise: {kern_rgb:.0f} ms = {kern_rgb / copy:.0f} copies.", "",
+             f"{base:.0f} ms. Of the light's cost, its airlight kernel (`airlight_table_grey`: fog is grey, one "
+             f"channel integrated) is {kern:.0f} ms = {kern / copy:.0f} copies, the rest adds its twice-scattered "
+             "part to level 0 and its light after the pyramid. A chromatic medium (sea water) integrates three "
+             f"channels (`airlight_table`): {kern_rgb:.0f} ms = {kern_rgb / copy:.0f} copies.", "",
              "Lamps found by `{type: auto}` on synthetic disc lamps facing the camera (anti-aliased, radiance",
              "(300, 250, 200); expected intensity L pi r^2 cos(theta)):", "",
              "| lamp centre (m) | radius (m) | intensity error (worst channel) | distance error |", "|---|---|---|---|",

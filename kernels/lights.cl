@@ -343,19 +343,35 @@ __kernel void airlight(__global const float *depth, __global float4 *a_dir, __gl
  * sums that would lose its digits (less than half of either) is integrated directly: the
  * interval is then short against the integrand's scale and 8 Gauss-Legendre nodes do. */
 #ifdef AL_NX
-/* Forced inline: past LLVM's inline budget a helper stays a call, and a call keeps PoCL from
- * vectorising the kernel across work-items (measured: the sun kernel 5x slower). */
+/* Written for PoCL's vectoriser, which only widens the loop over work-items when the body
+ * has no calls, no conditional loads and no vector-typed values (measured on this kernel):
+ *  - helpers forced inline (past LLVM's budget they stay calls);
+ *  - exp_poly, log_pos and SQRT_ (common.h), not the library's exp, log, sqrt;
+ *  - sinh, cosh, asinh from e^x, which the geometry gives directly: e^x = (q + t) / R with
+ *    q = s - d1, t = |x - l| (R / (t - q) where q < 0, without cancellation);
+ *  - table indices clamped by fabs (a compare-and-select clamp before a gather stops it);
+ *  - uniform values from the host as scalars, and isomorphic steps chained by AL_AFTER:
+ *    LLVM's SLP pass pairs two side-by-side copies of a computation into 2-wide vectors
+ *    before PoCL builds the work-item loop, and such a value stops the loop's vectoriser
+ *    ("instruction return type cannot be vectorized"; seen with llvm-dis on PoCL's
+ *    parallel.bc, POCL_LEAVE_KERNEL_COMPILER_TEMP_FILES=1). */
 #define AL_INLINE __attribute__((always_inline)) inline
+/* v, made to depend on prev (0 * prev is not folded without fast math) */
+#define AL_AFTER(v, prev) ((v) + 0.0f * (prev))
 
-/* exp_poly, log_pos and SQRT_ (common.h) instead of PoCL's library calls, which cost more
- * than everything else here; sinh, cosh, asinh from e^x, which the geometry gives directly:
- * e^x = (q + t) / R with q = s - d1, t = |x - l| (R / (t - q) where q < 0, without
- * cancellation). */
-/* bilinear look-up of table entry `e` (0: F, 1: C) at continuous (u, v); scalar loads */
+/* v clamped to [0, hi], exact inside */
+AL_INLINE float al_clamp(float v, float hi)
+{
+    v = 0.5f * (v + __builtin_fabsf(v));
+    float d = v - hi;
+    return v - 0.5f * (d + __builtin_fabsf(d));
+}
+
+/* bilinear look-up of table entry `e` (0: F, 1: C) at continuous (u, v) */
 AL_INLINE float al_fetch(__global const float *tab, float u, float v, int e)
 {
-    u = clampf_(u, 0.0f, AL_NB - 1.001f);
-    v = clampf_(v, 0.0f, AL_NX - 1.001f);
+    u = al_clamp(u, AL_NB - 1.001f);
+    v = al_clamp(v, AL_NX - 1.001f);
     int i = (int)u, j = (int)v;
     float fu = u - (float)i, fv = v - (float)j;
     __global const float *p = tab + 2 * (i * AL_NX + j) + e;
@@ -369,145 +385,7 @@ AL_INLINE float al_ex(float q, float R)
     return q >= 0.0f ? (q + t) / R : R / (t - q);
 }
 
-/* ln of h(x) exp(-beta E_r(x)) at x = ln ex, h = p_g(-tanh x) / cosh x */
-AL_INLINE float al_log_integrand(float g, float r, float beta, float x)
-{
-    float ex = exp_poly(x), e2 = ex * ex;
-    float d = 1.0f + g * g + 2.0f * g * (e2 - 1.0f) / (e2 + 1.0f);
-    return log_pos((1.0f - g * g) / (6.283185307f * d * SQRT_(d) * (ex + 1.0f / ex)))
-           - beta * 0.5f * ((1.0f + r) * ex + (1.0f - r) / ex);
-}
-
-/* ln of int_{x0}^{x1} h exp(-beta E_r) dx, E_r = ((1 + r) e^x + (1 - r) e^-x) / 2; xm, em:
- * where E_r is smallest and its value (r < 1; r = 1: -inf and 0). Where the difference of the
- * cumulative sums would lose its digits the interval is short against the integrand's scale:
- * 4 Gauss-Legendre nodes, written out (a loop here keeps PoCL from vectorising the kernel). */
-AL_INLINE float al_segment(__global const float *tab, float g, float r, float xm, float em, float beta,
-                        float lb, float x0, float x1, float ex0, float ex1)
-{
-    const float u = (lb - AL_LB0) * ((AL_NB - 1) / (AL_LB1 - AL_LB0));
-    const float sx = (AL_NX - 1) / (AL_X1 - AL_X0);
-    float v0 = (x0 - AL_X0) * sx, v1 = (x1 - AL_X0) * sx;
-    float e0 = 0.5f * ((1.0f + r) * ex0 + (1.0f - r) / ex0), e1 = 0.5f * ((1.0f + r) * ex1 + (1.0f - r) / ex1);
-    float F0 = al_fetch(tab, u, v0, 0) - beta * (x0 < xm ? e0 : em);
-    float F1 = al_fetch(tab, u, v1, 0) - beta * (x1 < xm ? e1 : em);
-    float C0 = al_fetch(tab, u, v0, 1) - beta * (x0 > xm ? e0 : em);
-    float C1 = al_fetch(tab, u, v1, 1) - beta * (x1 > xm ? e1 : em);
-    /* outside the table h ~ 2 p e^{-|x|}: ln F (r = 1, left) and ln C (right) go with slope +-1 */
-    F0 += r >= 1.0f && x0 < AL_X0 ? x0 - AL_X0 : 0.0f;
-    F1 += r >= 1.0f && x1 < AL_X0 ? x1 - AL_X0 : 0.0f;
-    C0 -= x0 > AL_X1 ? x0 - AL_X1 : 0.0f;
-    C1 -= x1 > AL_X1 ? x1 - AL_X1 : 0.0f;
-    float big = F1 < C0 ? F1 : C0, small = F1 < C0 ? F0 : C1;
-    float tabled = big + log_pos(1.0f - exp_poly(small - big));
-    if (small - big <= -0.6931472f)
-        return tabled;
-    float xc = 0.5f * (x0 + x1), hw = 0.5f * (x1 - x0);
-    float l0 = al_log_integrand(g, r, beta, xc - 0.8611363116f * hw);
-    float l1 = al_log_integrand(g, r, beta, xc - 0.3399810436f * hw);
-    float l2 = al_log_integrand(g, r, beta, xc + 0.3399810436f * hw);
-    float l3 = al_log_integrand(g, r, beta, xc + 0.8611363116f * hw);
-    float top = l0 > l1 ? l0 : l1;
-    top = top > l2 ? top : l2;
-    top = top > l3 ? top : l3;
-    float sum = 0.3478548451f * (exp_poly(l0 - top) + exp_poly(l3 - top))
-              + 0.6521451549f * (exp_poly(l1 - top) + exp_poly(l2 - top));
-    return top + log_pos(hw * sum);
-}
-
-/* One channel's ln dir and ln tot per unit of ss I / R: light leg and camera leg in
- * extinction st (dir), camera leg in absorption sa only (tot = dir + what scatters again).
- * Scalars out, not a float2: a vector-typed value keeps PoCL from vectorising the kernel. */
-AL_INLINE void al_channel(__global const float *tab, float g, float st, float sa, float r, int kind,
-                          float R, float d1, float x0, float x1, float ex0, float ex1, float *ld, float *lt)
-{
-    float beta = st * R;
-    float lb = log_pos(beta > AL_BMIN ? beta : AL_BMIN);
-    float d = -st * d1 + al_segment(tab, g, 1.0f, -1e30f, 0.0f, beta, lb, x0, x1, ex0, ex1);
-    float sq = SQRT_(1.0f - r * r);
-    float xm = -0.5f * log_pos((1.0f + r) / (r < 1.0f ? 1.0f - r : 1.0f));     /* -atanh(r) */
-    float t = r < 1.0f ? -sa * d1 + al_segment(tab + kind * 2 * AL_NB * AL_NX, g, r, xm, sq, beta, lb,
-                                                x0, x1, ex0, ex1) : d;
-    *ld = beta < AL_BMAX ? d : -1e30f;
-    *lt = beta < AL_BMAX ? t : -1e30f;
-}
-
-/* Point lights when every density primitive is homogeneous (factor hf). tab: tables of
- * (AL_NB, AL_NX) float2, r = 1 first; kind.xyz: the table of each channel's r = sa / st
- * (rs.xyz). a_sc.w: luminance times the optical depth where the ray passes the light.
- * grey: the three channels have the same coefficients, integrated once. Scalar code
- * without OpenCL builtins (fmax, dot, cross ...): PoCL calls those, and a call keeps the
- * kernel from being vectorised across work-items. */
-__kernel void airlight_table(__global const float *depth, __global float4 *a_dir, __global float4 *a_sc,
-                             const int width, const int height, const camera_t cam, const lmedium_t m,
-                             __global const float *tab, const float4 rs, const int4 kind, const int grey,
-                             const light_t L)
-{
-    int i = get_global_id(0), j = get_global_id(1);
-    if (i >= width || j >= height) return;
-    int idx = j * width + i;
-    float wx, wy, wz;
-    float D = pixel_ray(&cam, i, j, depth[idx], &wx, &wy, &wz);
-    float hf = m.homogeneous;
-    float vx = L.pos.x - cam.pos.x, vy = L.pos.y - cam.pos.y, vz = L.pos.z - cam.pos.z;
-    float cx = wy * vz - wz * vy, cy = wz * vx - wx * vz, cz = wx * vy - wy * vx;
-    float d1 = wx * vx + wy * vy + wz * vz, R = SQRT_(cx * cx + cy * cy + cz * cz + L.radius * L.radius);
-    float ex0 = al_ex(-d1, R), ex1 = al_ex(D - d1, R);
-    float x0 = log_pos(ex0), x1 = log_pos(ex1);
-    float sstar = hf * clampf_(d1, 0.0f, D), lR = log_pos(R);
-    float sa0 = hf * m.sa.x, ss0 = hf * m.ss.x;
-    float l0x, l0y, l1x, l1y, l2x, l2y;
-    al_channel(tab, m.g, sa0 + ss0, sa0, rs.x, kind.x, R, d1, x0, x1, ex0, ex1, &l0x, &l0y);
-    l1x = l2x = l0x;
-    l1y = l2y = l0y;
-    if (!grey) {        /* uniform: the loop over work-items is split on it, not predicated */
-        float sa1 = hf * m.sa.y, ss1 = hf * m.ss.y, sa2 = hf * m.sa.z, ss2 = hf * m.ss.z;
-        al_channel(tab, m.g, sa1 + ss1, sa1, rs.y, kind.y, R, d1, x0, x1, ex0, ex1, &l1x, &l1y);
-        al_channel(tab, m.g, sa2 + ss2, sa2, rs.z, kind.z, R, d1, x0, x1, ex0, ex1, &l2x, &l2y);
-    }
-    float k0 = hf * m.ss.x * L.intensity.x, k1 = hf * m.ss.y * L.intensity.y, k2 = hf * m.ss.z * L.intensity.z;
-    float q0 = k0 > 0.0f ? log_pos(k0) - lR : -1e30f, q1 = k1 > 0.0f ? log_pos(k1) - lR : -1e30f;
-    float q2 = k2 > 0.0f ? log_pos(k2) - lR : -1e30f;
-    float d0r = exp_poly(q0 + l0x), d1r = exp_poly(q1 + l1x), d2r = exp_poly(q2 + l2x);
-    float s0 = exp_poly(q0 + l0y) - d0r, s1 = exp_poly(q1 + l1y) - d1r, s2 = exp_poly(q2 + l2y) - d2r;
-    s0 = s0 > 0.0f ? s0 : 0.0f;
-    s1 = s1 > 0.0f ? s1 : 0.0f;
-    s2 = s2 > 0.0f ? s2 : 0.0f;
-    s0 += (L.gain.x - 1.0f) * (d0r + s0);
-    s1 += (L.gain.y - 1.0f) * (d1r + s1);
-    s2 += (L.gain.z - 1.0f) * (d2r + s2);
-    float wp = sstar * (0.2126f * s0 + 0.7152f * s1 + 0.0722f * s2);
-    store4(a_dir, idx, d0r, d1r, d2r, 0.0f);
-    store4(a_sc, idx, s0, s1, s2, wp);
-}
-
-/* v, made to depend on prev (0 * prev is not folded without fast math): LLVM's SLP
- * vectoriser pairs two isomorphic computations side by side into 2-wide vector code before
- * PoCL builds the loop over work-items, and a vector-typed value stops that loop's
- * vectoriser ("instruction return type cannot be vectorized"). */
-#define AL_AFTER(v, prev) ((v) + 0.0f * (prev))
-
-/* ln of int_{x0}^{x1} h exp(-beta E_r) dx as al_segment, its steps chained with AL_AFTER and
- * the table indices clamped with __builtin_fabsf (a compare-and-select clamp stops the
- * vectoriser); `after`: a value of the caller's to chain the first step to. */
-AL_INLINE float al_clamp(float v, float hi)
-{
-    v = 0.5f * (v + __builtin_fabsf(v));
-    return hi - 0.5f * ((hi - v) + __builtin_fabsf(hi - v));
-}
-
-AL_INLINE float al_fetch_v(__global const float *tab, float u, float v, int e)
-{
-    u = al_clamp(u, AL_NB - 1.001f);
-    v = al_clamp(v, AL_NX - 1.001f);
-    int i = (int)u, j = (int)v;
-    float fu = u - (float)i, fv = v - (float)j;
-    __global const float *p = tab + 2 * (i * AL_NX + j) + e;
-    float a = p[0] + (p[2] - p[0]) * fv, b = p[2 * AL_NX] + (p[2 * AL_NX + 2] - p[2 * AL_NX]) * fv;
-    return a + (b - a) * fu;
-}
-
-/* h(x) exp(-beta E_r(x) + mid) */
+/* h(x) exp(-beta E_r(x) + mid), h = p_g(-tanh x) / cosh x */
 AL_INLINE float al_node(float g, float r, float beta, float mid, float x)
 {
     float ex = exp_poly(x), e2 = ex * ex;
@@ -516,8 +394,14 @@ AL_INLINE float al_node(float g, float r, float beta, float mid, float x)
     return h * exp_poly(mid - beta * 0.5f * ((1.0f + r) * ex + (1.0f - r) / ex));
 }
 
-AL_INLINE float al_segment_v(__global const float *tab, float g, float r, float xm, float em, float beta,
-                             float lb, float x0, float x1, float ex0, float ex1, float after)
+/* ln of int_{x0}^{x1} h exp(-beta E_r) dx, E_r = ((1 + r) e^x + (1 - r) e^-x) / 2; xm, em:
+ * where E_r is smallest and its value (r < 1; r = 1: -inf and 0); `after`: a value of the
+ * caller's to chain the first step to. Where the difference of the cumulative sums would
+ * lose its digits the interval is short against the integrand's scale: 2 Gauss-Legendre
+ * nodes in the linear domain, the exponent at the middle factored out (the vectorised loop
+ * evaluates this branch for every pixel, so it has to be cheap). */
+AL_INLINE float al_segment(__global const float *tab, float g, float r, float xm, float em, float beta,
+                           float lb, float x0, float x1, float ex0, float ex1, float after)
 {
     const float sx = (AL_NX - 1) / (AL_X1 - AL_X0);
     float u = AL_AFTER((lb - AL_LB0) * ((AL_NB - 1) / (AL_LB1 - AL_LB0)), after);
@@ -525,18 +409,17 @@ AL_INLINE float al_segment_v(__global const float *tab, float g, float r, float 
     float v1 = AL_AFTER((x1 - AL_X0) * sx, v0);
     float e0 = 0.5f * ((1.0f + r) * ex0 + (1.0f - r) / ex0);
     float e1 = 0.5f * ((1.0f + r) * ex1 + (1.0f - r) / AL_AFTER(ex1, e0));
-    float F0 = al_fetch_v(tab, u, v0, 0) - beta * (x0 < xm ? e0 : em);
-    float F1 = al_fetch_v(tab, u, AL_AFTER(v1, F0), 0) - beta * (x1 < xm ? e1 : em);
-    float C0 = al_fetch_v(tab, u, AL_AFTER(v0, F1), 1) - beta * (x0 > xm ? e0 : em);
-    float C1 = al_fetch_v(tab, u, AL_AFTER(v1, C0), 1) - beta * (x1 > xm ? e1 : em);
+    float F0 = al_fetch(tab, u, v0, 0) - beta * (x0 < xm ? e0 : em);
+    float F1 = al_fetch(tab, u, AL_AFTER(v1, F0), 0) - beta * (x1 < xm ? e1 : em);
+    float C0 = al_fetch(tab, u, AL_AFTER(v0, F1), 1) - beta * (x0 > xm ? e0 : em);
+    float C1 = al_fetch(tab, u, AL_AFTER(v1, C0), 1) - beta * (x1 > xm ? e1 : em);
+    /* outside the table h ~ 2 p e^{-|x|}: ln F (r = 1, left) and ln C (right) go with slope +-1 */
     F0 += r >= 1.0f && x0 < AL_X0 ? x0 - AL_X0 : 0.0f;
     F1 += r >= 1.0f && x1 < AL_X0 ? x1 - AL_X0 : 0.0f;
     C0 -= x0 > AL_X1 ? x0 - AL_X1 : 0.0f;
     C1 -= x1 > AL_X1 ? x1 - AL_X1 : 0.0f;
     float big = F1 < C0 ? F1 : C0, small = F1 < C0 ? F0 : C1;
     float tabled = big + log_pos(1.0f - exp_poly(small - big));
-    /* the short interval directly, in the linear domain with the exponent at its middle
-     * factored out (one exp_poly a node; the vectorised loop evaluates this for every pixel) */
     float xc = 0.5f * (x0 + x1), hw = 0.5f * (x1 - x0);
     float exc = exp_poly(xc);
     float mid = beta * 0.5f * ((1.0f + r) * exc + (1.0f - r) / exc);
@@ -546,56 +429,95 @@ AL_INLINE float al_segment_v(__global const float *tab, float g, float r, float 
     return small - big <= -0.6931472f ? tabled : direct;
 }
 
-/* airlight_table for grey media (the three channels share st and sa), written so that PoCL
- * vectorises it: uniform values come from the host as scalars (st, sa, r = sa / st, where
- * E_r is smallest and its value, the table offset, ln(ss I_c) per channel, the gain, the
- * camera-to-light vector), every pair of isomorphic steps is chained with AL_AFTER. */
+/* One channel: ln of A (both legs in extinction st) and of A + A_sc (camera leg in
+ * absorption sa) per unit of ss I / R, out through ld, lt. The channel's uniform values:
+ * r = sa / st, xm = -atanh(r), em = sqrt(1 - r^2), off = its table's offset in floats. */
+AL_INLINE void al_channel(__global const float *tab, float g, float st, float sa, float r, float xm, float em,
+                          int off, float R, float d1, float x0, float x1, float ex0, float ex1, float lR,
+                          float after, float *ld, float *lt)
+{
+    float beta = st * R;
+    float lb = log_pos(AL_AFTER(beta > AL_BMIN ? beta : AL_BMIN, after));
+    float d = -st * d1 + al_segment(tab, g, 1.0f, -1e30f, 0.0f, beta, lb, x0, x1, ex0, ex1, lb);
+    float t = r < 1.0f ? -sa * d1 + al_segment(tab + off, g, r, xm, em, beta, lb, x0, x1, ex0, ex1, d) : d;
+    *ld = beta < AL_BMAX ? d - lR : -1e30f;
+    *lt = beta < AL_BMAX ? t - lR : -1e30f;
+}
+
+/* The per-pixel part the kernels share: ray, d1, R, e^x and x at both ends, ln R. */
+#define AL_GEOMETRY                                                                            \
+    int i = get_global_id(0), j = get_global_id(1);                                            \
+    if (i >= width || j >= height) return;                                                     \
+    int idx = j * width + i;                                                                   \
+    float wx, wy, wz;                                                                          \
+    float D = pixel_ray(&cam, i, j, depth[idx], &wx, &wy, &wz);                                \
+    float cx = wy * vz - wz * vy;                                                              \
+    float cy = AL_AFTER(wz * vx - wx * vz, cx);                                                \
+    float cz = AL_AFTER(wx * vy - wy * vx, cy);                                                \
+    float d1 = AL_AFTER(wx * vx + wy * vy + wz * vz, cz);                                      \
+    float R = SQRT_(cx * cx + cy * cy + cz * cz + rad2);                                       \
+    float ex0 = al_ex(-d1, R);                                                                 \
+    float ex1 = al_ex(AL_AFTER(D - d1, ex0), R);                                               \
+    float x0 = log_pos(ex0);                                                                   \
+    float x1 = log_pos(AL_AFTER(ex1, x0));                                                     \
+    float lR = log_pos(AL_AFTER(R, x1));
+
+/* The end the kernels share: the airlight of the three channels from their logs (ld, lt),
+ * ln(ss I) per channel (lk), the gain; A_sc spread at the optical depth where the ray passes
+ * the light (hf clamp(d1, 0, D)). */
+#define AL_STORE                                                                               \
+    float d0r = exp_poly(lk0 + ld0);                                                           \
+    float d1r = exp_poly(AL_AFTER(lk1 + ld1, d0r));                                            \
+    float d2r = exp_poly(AL_AFTER(lk2 + ld2, d1r));                                            \
+    float t0 = exp_poly(AL_AFTER(lk0 + lt0, d2r));                                             \
+    float t1 = exp_poly(AL_AFTER(lk1 + lt1, t0));                                              \
+    float t2 = exp_poly(AL_AFTER(lk2 + lt2, t1));                                              \
+    float s0 = t0 - d0r, s1 = AL_AFTER(t1 - d1r, s0), s2 = AL_AFTER(t2 - d2r, s1);             \
+    s0 = 0.5f * (s0 + __builtin_fabsf(s0));                                                    \
+    s1 = 0.5f * (s1 + __builtin_fabsf(s1));                                                    \
+    s2 = 0.5f * (s2 + __builtin_fabsf(s2));                                                    \
+    s0 += (gn0 - 1.0f) * (d0r + s0);                                                           \
+    s1 = AL_AFTER(s1 + (gn1 - 1.0f) * (d1r + s1), s0);                                         \
+    s2 = AL_AFTER(s2 + (gn2 - 1.0f) * (d2r + s2), s1);                                         \
+    float sstar = hf * (0.5f * (d1 + __builtin_fabsf(d1)) - 0.5f * ((d1 - D) + __builtin_fabsf(d1 - D))); \
+    store4(a_dir, idx, d0r, d1r, d2r, 0.0f);                                                   \
+    store4(a_sc, idx, s0, s1, s2, sstar * (0.2126f * s0 + 0.7152f * s1 + 0.0722f * s2));
+
+/* Point lights when every density primitive is homogeneous (factor hf): grey media (the three
+ * channels share st, sa), integrated once. vx, vy, vz: camera to light (world); rad2: the
+ * light's radius squared; lk*: ln(ss I) per channel (-1e30 for none); gn*: the gain. */
 __kernel void airlight_table_grey(__global const float *depth, __global float4 *a_dir, __global float4 *a_sc,
                                   const int width, const int height, const camera_t cam,
                                   __global const float *tab, const float g, const float hf,
                                   const float st, const float sa, const float r, const float xm, const float em,
-                                  const int kind_off, const float lk0, const float lk1, const float lk2,
+                                  const int off, const float lk0, const float lk1, const float lk2,
                                   const float gn0, const float gn1, const float gn2,
                                   const float vx, const float vy, const float vz, const float rad2)
 {
-    int i = get_global_id(0), j = get_global_id(1);
-    if (i >= width || j >= height) return;
-    int idx = j * width + i;
-    float wx, wy, wz;
-    float D = pixel_ray(&cam, i, j, depth[idx], &wx, &wy, &wz);
-    float cx = wy * vz - wz * vy;
-    float cy = AL_AFTER(wz * vx - wx * vz, cx);
-    float cz = AL_AFTER(wx * vy - wy * vx, cy);
-    float d1 = AL_AFTER(wx * vx + wy * vy + wz * vz, cz);
-    float R = SQRT_(cx * cx + cy * cy + cz * cz + rad2);
-    float ex0 = al_ex(-d1, R);
-    float ex1 = al_ex(AL_AFTER(D - d1, ex0), R);
-    float x0 = log_pos(ex0);
-    float x1 = log_pos(AL_AFTER(ex1, x0));
-    float lR = log_pos(AL_AFTER(R, x1));
-    float beta = st * R;
-    float lb = log_pos(AL_AFTER(beta > AL_BMIN ? beta : AL_BMIN, lR));
-    float ld = -st * d1 + al_segment_v(tab, g, 1.0f, -1e30f, 0.0f, beta, lb, x0, x1, ex0, ex1, lb);
-    float lt = r < 1.0f ? -sa * d1 + al_segment_v(tab + kind_off, g, r, xm, em, beta, lb, x0, x1, ex0, ex1, ld) : ld;
-    ld = beta < AL_BMAX ? ld - lR : -1e30f;
-    lt = beta < AL_BMAX ? lt - lR : -1e30f;
-    float d0r = exp_poly(lk0 + ld);
-    float d1r = exp_poly(AL_AFTER(lk1 + ld, d0r));
-    float d2r = exp_poly(AL_AFTER(lk2 + ld, d1r));
-    float t0 = exp_poly(AL_AFTER(lk0 + lt, d2r));
-    float t1 = exp_poly(AL_AFTER(lk1 + lt, t0));
-    float t2 = exp_poly(AL_AFTER(lk2 + lt, t1));
-    float s0 = t0 - d0r, s1 = AL_AFTER(t1 - d1r, s0), s2 = AL_AFTER(t2 - d2r, s1);
-    s0 = 0.5f * (s0 + __builtin_fabsf(s0));
-    s1 = 0.5f * (s1 + __builtin_fabsf(s1));
-    s2 = 0.5f * (s2 + __builtin_fabsf(s2));
-    s0 += (gn0 - 1.0f) * (d0r + s0);
-    s1 = AL_AFTER(s1 + (gn1 - 1.0f) * (d1r + s1), s0);
-    s2 = AL_AFTER(s2 + (gn2 - 1.0f) * (d2r + s2), s1);
-    float sstar = hf * 0.5f * ((d1 + __builtin_fabsf(d1)) - ((d1 - D) + __builtin_fabsf(d1 - D)));
-    float wp = sstar * (0.2126f * s0 + 0.7152f * s1 + 0.0722f * s2);
-    store4(a_dir, idx, d0r, d1r, d2r, 0.0f);
-    store4(a_sc, idx, s0, s1, s2, wp);
+    AL_GEOMETRY
+    float ld0, lt0;
+    al_channel(tab, g, st, sa, r, xm, em, off, R, d1, x0, x1, ex0, ex1, lR, lR, &ld0, &lt0);
+    float ld1 = ld0, ld2 = ld0, lt1 = lt0, lt2 = lt0;
+    AL_STORE
+}
+
+/* The same for media whose channels differ (sea water): three channels, one after another. */
+__kernel void airlight_table(__global const float *depth, __global float4 *a_dir, __global float4 *a_sc,
+                             const int width, const int height, const camera_t cam,
+                             __global const float *tab, const float g, const float hf,
+                             const float st0, const float sa0, const float r0, const float xm0, const float em0, const int off0,
+                             const float st1, const float sa1, const float r1, const float xm1, const float em1, const int off1,
+                             const float st2, const float sa2, const float r2, const float xm2, const float em2, const int off2,
+                             const float lk0, const float lk1, const float lk2,
+                             const float gn0, const float gn1, const float gn2,
+                             const float vx, const float vy, const float vz, const float rad2)
+{
+    AL_GEOMETRY
+    float ld0, lt0, ld1, lt1, ld2, lt2;
+    al_channel(tab, g, st0, sa0, r0, xm0, em0, off0, R, d1, x0, x1, ex0, ex1, lR, lR, &ld0, &lt0);
+    al_channel(tab, g, st1, sa1, r1, xm1, em1, off1, R, d1, x0, x1, ex0, ex1, lR, lt0, &ld1, &lt1);
+    al_channel(tab, g, st2, sa2, r2, xm2, em2, off2, R, d1, x0, x1, ex0, ex1, lR, lt1, &ld2, &lt2);
+    AL_STORE
 }
 
 /* Directional lights in homogeneous media: the airlight in closed form (the homogeneous part

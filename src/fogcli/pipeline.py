@@ -325,14 +325,15 @@ class Plan:
             if pk and light.type == "point":        # Pradhan & Kumar's closed form
                 ev = self.k_lights.airlight_pk(q, *size, self.depth, *dst, np.int32(self.w), np.int32(self.h), cam, lm, ls)
             elif homogeneous and light.type == "point":    # tables instead of quadrature
-                tab, rs, kind = self._airlight_tables()
-                m = self.cfg.medium
-                if len(set(m.absorption)) == 1 and len(set(m.scattering)) == 1:     # grey: vectorised
+                tab, grey, per_channel, common = self._table_args(ls)
+                if grey:
                     ev = self.k_lights.airlight_table_grey(q, *size, self.depth, *dst, np.int32(self.w),
-                                                           np.int32(self.h), cam, tab, *self._grey_args(ls, rs, kind))
+                                                           np.int32(self.h), cam, tab, *common[:2], *per_channel[0],
+                                                           *common[2:])
                 else:
                     ev = self.k_lights.airlight_table(q, *size, self.depth, *dst, np.int32(self.w), np.int32(self.h),
-                                                      cam, lm, tab, rs, kind, np.int32(0), ls)
+                                                      cam, tab, *common[:2], *[x for c in per_channel for x in c],
+                                                      *common[2:])
             elif homogeneous and light.type == "directional":     # closed form
                 ev = self.k_lights.airlight_sun(q, *size, self.depth, *dst, np.int32(self.w), np.int32(self.h), cam, lm, ls)
             else:
@@ -364,24 +365,31 @@ class Plan:
         kind = np.array([1 + distinct.index(x) if x < 1.0 else 0 for x in r] + [0], np.int32)
         return self._al_tables[1], rs, kind
 
-    def _grey_args(self, ls, rs, kind) -> list:
-        """The uniform values of airlight_table_grey as scalars (a float4 argument's lanes
-        computed on the same way are paired by LLVM and stop PoCL's vectoriser)."""
+    def _table_args(self, ls):
+        """The airlight tables on the device and the uniform values of airlight_table(_grey)
+        as scalars (a float4 argument's lanes worked on the same way get paired by LLVM and
+        stop PoCL's vectoriser): (tables, grey, per channel (st, sa, r, xm, em, table
+        offset), (g, hf, ln(ss I) x 3, gain x 3, camera-to-light x 3, radius^2))."""
         import math
 
         from .airlight_table import NB, NX
 
+        tab, rs, kind = self._airlight_tables()
         m = self.cfg.medium
         hf = sum(d.factor for d in m.density if d.type == "homogeneous")
-        st, sa, r = hf * (m.absorption[0] + m.scattering[0]), hf * m.absorption[0], float(rs[0])
-        xm, em = (-math.atanh(r), math.sqrt(1.0 - r * r)) if r < 1.0 else (-1e30, 0.0)
-        lk = [math.log(hf * m.scattering[c] * float(ls["intensity"][c])) if hf * m.scattering[c] * float(ls["intensity"][c]) > 0
-              else -1e30 for c in range(3)]
-        cam_pos = np.array(self.cfg.camera.position, np.float64)
-        v = np.array(ls["pos"][:3], np.float64) - cam_pos
         f = np.float32
-        return ([f(m.asymmetry), f(hf), f(st), f(sa), f(r), f(xm), f(em), np.int32(int(kind[0]) * 2 * NB * NX)]
-                + [f(x) for x in lk] + [f(x) for x in ls["gain"][:3]] + [f(x) for x in v] + [f(float(ls["radius"]) ** 2)])
+        per = []
+        for c in range(3):
+            r = float(rs[c])
+            xm, em = (-math.atanh(r), math.sqrt(1.0 - r * r)) if r < 1.0 else (-1e30, 0.0)
+            per.append((f(hf * (m.absorption[c] + m.scattering[c])), f(hf * m.absorption[c]), f(r), f(xm), f(em),
+                        np.int32(int(kind[c]) * 2 * NB * NX)))
+        k = [hf * m.scattering[c] * float(ls["intensity"][c]) for c in range(3)]
+        v = np.array(ls["pos"][:3], np.float64) - np.array(self.cfg.camera.position, np.float64)
+        common = ([f(m.asymmetry), f(hf)] + [f(math.log(x)) if x > 0 else f(-1e30) for x in k]
+                  + [f(x) for x in ls["gain"][:3]] + [f(x) for x in v] + [f(float(ls["radius"]) ** 2)])
+        grey = len(set(m.absorption)) == 1 and len(set(m.scattering)) == 1
+        return tab, grey, per, common
 
     def clear_sources(self, t: Timings, mask: np.ndarray) -> None:
         cl, n = self.rt.cl, self.w * self.h
