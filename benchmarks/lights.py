@@ -198,17 +198,24 @@ def pk_errors(n_cases: int = 60) -> dict:
     return bins
 
 
-def path_traced() -> list[tuple]:
-    """The path-traced scenes with lamps of benchmarks/groundtruth (emissive discs and spheres,
-    nothing else lit): the default pipeline and the same with `lights: [{type: auto}]`."""
+def _groundtruth():
+    """benchmarks/groundtruth.py as a module (its loader, case_sets, blend, blocks)."""
     import importlib.util
-    import warnings
-
-    from fogcli.metrics import rel_l1, ssim
 
     spec = importlib.util.spec_from_file_location("gt_bench", ROOT / "benchmarks" / "groundtruth.py")
     G = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(G)
+    return G
+
+
+def path_traced() -> list[tuple]:
+    """The path-traced scenes with lamps of benchmarks/groundtruth (emissive discs and spheres,
+    nothing else lit): the default pipeline and the same with `lights: [{type: auto}]`."""
+    import warnings
+
+    from fogcli.metrics import rel_l1, ssim
+
+    G = _groundtruth()
     rows = []
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
@@ -263,15 +270,12 @@ def known_lights() -> list[tuple]:
     lights, and with the scene's lights given as `lights:` entries (position, intensity);
     relative L1 / SSIM at full resolution and on 4 x 4 pixel blocks (the path tracer's noise
     about 4x lower)."""
-    import importlib.util
     import json
     import warnings
 
     from fogcli.metrics import rel_l1, ssim
 
-    spec = importlib.util.spec_from_file_location("gt_bench", ROOT / "benchmarks" / "groundtruth.py")
-    G = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(G)
+    G = _groundtruth()
     rows = []
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
