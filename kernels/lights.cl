@@ -15,7 +15,7 @@
  * times the optical depth where the ray passes the light (a directional light: the
  * luminance-weighted optical depth of the scatter points). This kernel serves spots and media
  * with exponential or sphere primitives; points and directional lights in homogeneous media
- * use the tables of airlight_homogeneous below. Builtins, not the polynomial
+ * use airlight_table(_grey) and airlight_sun below. Builtins, not the polynomial
  * forms of common.h: this kernel is not vectorised across work-items anyway (loops over
  * nodes and primitives); native_ sin/cos/exp/sqrt where the airlight test measured no loss
  * on PoCL (a GPU driver's native_ may be coarser: tests/test_lights.py would show it). */

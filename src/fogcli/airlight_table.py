@@ -1,5 +1,6 @@
 """Tables of the airlight of a point light in a homogeneous medium (kernels/lights.cl,
-`airlight_homogeneous`): the quadrature of every pixel replaced by four table look-ups.
+`airlight_table`, `airlight_table_grey`): the quadrature of every pixel replaced by four
+table look-ups per channel.
 
 With s = d1 + R sinh(x) along the ray (so t = R cosh(x) is the distance to the light and
 ds / t^2 = dx / R), the airlight between the camera and the surface is
