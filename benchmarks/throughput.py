@@ -22,7 +22,9 @@ from pathlib import Path
 import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
-sys.path[:0] = [str(ROOT / "src"), str(ROOT / "tests")]
+sys.path[:0] = [str(ROOT / "src"), str(ROOT / "tests"), str(ROOT / "benchmarks")]
+
+from docblock import write_block  # noqa: E402
 
 BEGIN, END = "<!-- batch-throughput: begin -->", "<!-- batch-throughput: end -->"
 
@@ -149,13 +151,7 @@ def main():
     lines.append(END)
     block = "\n".join(lines)
     print(block)
-    doc = Path(args.out)
-    text = doc.read_text() if doc.exists() else "# Performance\n"
-    if BEGIN in text:
-        text = text[: text.index(BEGIN)] + block + text[text.index(END) + len(END):]
-    else:
-        text = text.rstrip("\n") + "\n\n" + block + "\n"
-    doc.write_text(text)
+    write_block(Path(args.out), BEGIN, END, block, new_doc="# Performance\n")
 
 
 if __name__ == "__main__":
