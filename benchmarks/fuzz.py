@@ -57,6 +57,9 @@ RSS_LIMIT_MB = 4096            # flagged above this
 RSS_KILL_MB = 10240            # a runaway case is killed (and flagged) above this
 H, W = 24, 32                  # the default frame: tiny, 4:3
 
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
+from test_cli import write_img  # noqa: E402  (the test suite's OpenImageIO writer)
+
 # ============================================================================ files
 
 
@@ -64,30 +67,6 @@ def _oiio():
     import OpenImageIO as oiio
 
     return oiio
-
-
-def write_img(path, data, names=None, fmt="float", tile=None, attrs=(), window=None):
-    """data (h, w, c) -> an image file through OpenImageIO (format from the extension)."""
-    oiio = _oiio()
-    data = np.ascontiguousarray(data)
-    if data.ndim == 2:
-        data = data[:, :, None]
-    h, w, c = data.shape
-    spec = oiio.ImageSpec(w, h, c, fmt)
-    if names:
-        spec.channelnames = tuple(names)
-        if "A" in names:
-            spec.alpha_channel = list(names).index("A")
-    if tile:
-        spec.tile_width, spec.tile_height = tile
-    if window:
-        spec.x, spec.y = window
-    for a in attrs:
-        spec.attribute(*a)
-    out = oiio.ImageOutput.create(str(path))
-    assert out is not None and out.open(str(path), spec), oiio.geterror()
-    assert out.write_image(data), out.geterror()
-    out.close()
 
 
 def colour(nr, h=H, w=W, c=3, hdr=True):
@@ -1700,7 +1679,7 @@ def judge(case: Case, rc, stderr: str, timed_out: bool, before: dict, after: dic
         elif rc == 1:
             kinds.append("exit-1")
         else:
-            kinds.append(f"bad-exit")
+            kinds.append("bad-exit")
         if case.expect == "refuse" and rc == 0:
             kinds.append("accepted-bad-input")
         if case.expect == "ok" and rc == 2:

@@ -18,22 +18,29 @@ ROOT = Path(__file__).resolve().parents[1]
 SAMPLE = ROOT / "samples" / "harbour.exr"
 
 
-def write_img(path, data, names, fmt="float", window=None, display=None, attrs=()):
+def write_img(path, data, names, fmt="float", window=None, display=None, attrs=(), tile=None):
+    """data (h, w, c) or (h, w) -> an image file through OpenImageIO (format from the
+    extension); attrs: (name, value) or (name, TypeDesc, value) items. Also the fuzz
+    harness's writer (benchmarks/fuzz.py)."""
     data = np.ascontiguousarray(data, np.float32 if fmt in ("float", "half") else None)
+    if data.ndim == 2:
+        data = data[:, :, None]
     h, w, c = data.shape
     spec = oiio.ImageSpec(w, h, c, fmt)
     spec.channelnames = tuple(names)
     if "A" in names:
         spec.alpha_channel = list(names).index("A")
+    if tile:
+        spec.tile_width, spec.tile_height = tile
     if window:
         spec.x, spec.y = window
     if display:
         spec.full_x, spec.full_y, spec.full_width, spec.full_height = display
-    for k, v in attrs:
-        spec.attribute(k, v)
+    for a in attrs:
+        spec.attribute(*a)
     out = oiio.ImageOutput.create(str(path))
-    assert out.open(str(path), spec), oiio.geterror()
-    assert out.write_image(data)
+    assert out is not None and out.open(str(path), spec), oiio.geterror()
+    assert out.write_image(data), out.geterror()
     out.close()
 
 
