@@ -123,6 +123,11 @@ class Medium(_Model):
         object.__setattr__(self, "scattering", tuple(a * t for t in st))
         return self
 
+    @property
+    def homogeneous(self) -> float:
+        """The summed factor of the homogeneous density primitives."""
+        return sum(d.factor for d in self.density if d.type == "homogeneous")
+
     def for_depth(self, median_depth: float) -> "Medium":
         """A relative visibility ('40%') made metres: the coefficients scaled so that the mean
         extinction gives that visibility at this share of the frame's median depth."""

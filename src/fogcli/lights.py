@@ -106,7 +106,7 @@ def medium_struct(cfg: Config) -> tuple[np.ndarray, np.ndarray]:
     s = np.zeros((), LMEDIUM_T)
     s["sa"], s["ss"] = [*m.absorption, 0.0], [*m.scattering, 0.0]
     s["g"] = m.asymmetry
-    s["homogeneous"] = sum(d.factor for d in m.density if d.type == "homogeneous")
+    s["homogeneous"] = m.homogeneous
     s["nodes"] = cfg.render.lights.nodes
     prims = []
     for d in m.density:
@@ -337,8 +337,7 @@ def airlight_reference(cfg: Config, light, c: np.ndarray, w: np.ndarray, D: floa
             ct = (-to / tl[:, None]) @ axis
             tt = np.clip((ct - cc_o) / max(cc_i - cc_o, 1e-12), 0, 1)
             I = I * (tt * tt * (3 - 2 * tt))[:, None]
-        hf = sum(d.factor for d in m.density if d.type == "homogeneous")
-        Pl = _tau(x, to / tl[:, None], tl, cfg) + hf * (np.sqrt(teff2) - tl)   # widened like 1 / t^2
+        Pl = _tau(x, to / tl[:, None], tl, cfg) + m.homogeneous * (np.sqrt(teff2) - tl)   # widened like 1 / t^2
         geo = 1.0 / teff2
     phase = (1 - g * g) / (4 * math.pi * (1 + g * g - 2 * g * cosa) ** 1.5)
     src = (ws * rho * phase * geo)[:, None] * ss[None, :] * I * np.exp(-st[None, :] * Pl[:, None])

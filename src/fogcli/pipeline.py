@@ -111,7 +111,7 @@ def medium_struct(cfg: Config, width: int, height: int) -> np.ndarray:
     s["cam"] = camera_struct(cfg, width, height)
     s["g"] = m.asymmetry
     s["spread_scale"] = cfg.render.spread_scale
-    s["homogeneous"] = sum(d.factor for d in m.density if d.type == "homogeneous")
+    s["homogeneous"] = m.homogeneous
     s["has_medium_light"] = int(any(m.emission) or any(m.ambient))
     s["has_p"] = int(any(d.type != "homogeneous" for d in m.density))
     return s
@@ -310,8 +310,7 @@ class Plan:
         cl, q, n = self.rt.cl, self.rt.queue, self.w * self.h
         lm, prims = medium_struct(self.cfg)
         mf = cl.mem_flags
-        pbuf = cl.Buffer(self.rt.ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=prims)
-        gl = cl.Buffer(self.rt.ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=gauss_legendre(int(lm["nodes"])))
+        quad = None         # (primitives, Gauss-Legendre nodes) on the device, for the quadrature kernel
         cam = camera_struct(self.cfg, self.w, self.h)
         pk = self.cfg.render.lights.airlight == "pk"
         homogeneous = int(lm["nprims"]) == 0
@@ -337,8 +336,12 @@ class Plan:
             elif homogeneous and light.type == "directional":     # closed form
                 ev = self.k_lights.airlight_sun(q, *size, self.depth, *dst, np.int32(self.w), np.int32(self.h), cam, lm, ls)
             else:
+                if quad is None:
+                    quad = (cl.Buffer(self.rt.ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=prims),
+                            cl.Buffer(self.rt.ctx, mf.READ_ONLY | mf.COPY_HOST_PTR,
+                                      hostbuf=gauss_legendre(int(lm["nodes"]))))
                 ev = self.k_lights.airlight(q, *size, self.depth, *dst, np.int32(self.w), np.int32(self.h), cam, lm,
-                                            pbuf, gl, ls)
+                                            *quad, ls)
             t.add("lights", ev)
             if k > 0:
                 t.add("lights", self.k_lights.add_light(q, *self.rt.nd(n), self.a_dir, dst[0], self.a_sc, dst[1],
@@ -347,8 +350,9 @@ class Plan:
             q, *self.rt.nd(n), self.a_sc, self.chain, self.prep, self.lut, np.int32(n)))
 
     def _airlight_tables(self):
-        """The medium's airlight tables on the device (fogcli/airlight_table.py), kept while
-        g and the channels' sa / st stay the same: r = 1, then one table per distinct r."""
+        """(the medium's airlight tables on the device (fogcli/airlight_table.py), kept while
+        g and the channels' sa / st stay the same: r = 1, then one table per distinct r;
+        each channel's r = sa / st; each channel's table)."""
         from .airlight_table import tables
 
         m = self.cfg.medium
@@ -361,9 +365,8 @@ class Plan:
             buf = self.rt.cl.Buffer(self.rt.ctx, self.rt.cl.mem_flags.READ_ONLY | self.rt.cl.mem_flags.COPY_HOST_PTR,
                                     hostbuf=host)
             self._al_tables = (key, buf)
-        rs = np.array([*r, 1.0], np.float32)
-        kind = np.array([1 + distinct.index(x) if x < 1.0 else 0 for x in r] + [0], np.int32)
-        return self._al_tables[1], rs, kind
+        kind = [1 + distinct.index(x) if x < 1.0 else 0 for x in r]
+        return self._al_tables[1], r, kind
 
     def _table_args(self, ls):
         """The airlight tables on the device and the uniform values of airlight_table(_grey)
@@ -376,14 +379,14 @@ class Plan:
 
         tab, rs, kind = self._airlight_tables()
         m = self.cfg.medium
-        hf = sum(d.factor for d in m.density if d.type == "homogeneous")
+        hf = m.homogeneous
         f = np.float32
         per = []
         for c in range(3):
-            r = float(rs[c])
+            r = rs[c]
             xm, em = (-math.atanh(r), math.sqrt(1.0 - r * r)) if r < 1.0 else (-1e30, 0.0)
             per.append((f(hf * (m.absorption[c] + m.scattering[c])), f(hf * m.absorption[c]), f(r), f(xm), f(em),
-                        np.int32(int(kind[c]) * 2 * NB * NX)))
+                        np.int32(kind[c] * 2 * NB * NX)))
         k = [hf * m.scattering[c] * float(ls["intensity"][c]) for c in range(3)]
         v = np.array(ls["pos"][:3], np.float64) - np.array(self.cfg.camera.position, np.float64)
         common = ([f(m.asymmetry), f(hf)] + [f(math.log(x)) if x > 0 else f(-1e30) for x in k]
