@@ -325,10 +325,13 @@ class Plan:
                 ev = self.k_lights.airlight_pk(q, *size, self.depth, *dst, np.int32(self.w), np.int32(self.h), cam, lm, ls)
             elif homogeneous and light.type == "point":    # tables instead of quadrature
                 tab, grey, per_channel, common = self._table_args(ls)
-                if grey:
+                if grey:        # ln(ss I) per channel as its largest and exp(each - largest)
+                    lk = [float(x) for x in common[2:5]]
+                    lkm = max(lk)
+                    scale = [np.float32(math.exp(x - lkm)) for x in lk]
                     ev = self.k_lights.airlight_table_grey(q, *size, self.depth, *dst, np.int32(self.w),
                                                            np.int32(self.h), cam, tab, *common[:2], *per_channel[0],
-                                                           *common[2:])
+                                                           np.float32(lkm), *scale, *common[5:])
                 else:
                     ev = self.k_lights.airlight_table(q, *size, self.depth, *dst, np.int32(self.w), np.int32(self.h),
                                                       cam, tab, *common[:2], *[x for c in per_channel for x in c],
@@ -371,7 +374,7 @@ class Plan:
     def _table_args(self, ls):
         """The airlight tables on the device and the uniform values of airlight_table(_grey)
         as scalars (a float4 argument's lanes worked on the same way get paired by LLVM and
-        stop PoCL's vectoriser): (tables, grey, per channel (st, sa, r, xm, em, table
+        stop PoCL's vectoriser): (tables, grey, per channel (st, ln st, sa, r, xm, em, table
         offset), (g, hf, ln(ss I) x 3, gain x 3, camera-to-light x 3, radius^2))."""
         import math
 
@@ -385,7 +388,8 @@ class Plan:
         for c in range(3):
             r = rs[c]
             xm, em = (-math.atanh(r), math.sqrt(1.0 - r * r)) if r < 1.0 else (-1e30, 0.0)
-            per.append((f(hf * (m.absorption[c] + m.scattering[c])), f(hf * m.absorption[c]), f(r), f(xm), f(em),
+            st = hf * (m.absorption[c] + m.scattering[c])
+            per.append((f(st), f(math.log(st)) if st > 0 else f(-1e30), f(hf * m.absorption[c]), f(r), f(xm), f(em),
                         np.int32(kind[c] * 2 * NB * NX)))
         k = [hf * m.scattering[c] * float(ls["intensity"][c]) for c in range(3)]
         v = np.array(ls["pos"][:3], np.float64) - np.array(self.cfg.camera.position, np.float64)
