@@ -20,67 +20,9 @@
  * nodes and primitives); native_ sin/cos/exp/sqrt where the airlight test measured no loss
  * on PoCL (a GPU driver's native_ may be coarser: tests/test_lights.py would show it). */
 #include "density.h"
+#include "lights.h"
 
 #define MAX_CUTS 24
-
-typedef struct {
-    float4 sa, ss;          /* per RGB, 1/m */
-    float g;                /* HG asymmetry */
-    float homogeneous;      /* summed factor of the homogeneous primitives */
-    int nprims;             /* other primitives in prims[3 k .. 3 k + 2] */
-    int nodes;              /* Gauss-Legendre nodes per piece */
-} lmedium_t;
-
-typedef struct {
-    float4 pos;             /* world position (point, spot); .w unused */
-    float4 axis;            /* spot axis / directional: towards the light, unit, world */
-    float4 intensity;       /* RGB intensity or irradiance */
-    float radius;
-    float cos_outer, cos_inner;
-    int type;               /* 0 point, 1 spot, 2 directional */
-    float4 gain;            /* all orders of scattering over what single scattering carries
-                             * (fogcli.lights.gain), per RGB: the rest joins the scattered part */
-} light_t;
-
-inline float hg(float g, float c)
-{
-    float d = 1.0f + g * g - 2.0f * g * c;
-    return (1.0f - g * g) / (12.566370614f * d * native_sqrt(d));
-}
-
-/* prims[3k] = (type 1 exponential | 2 sphere, factor, falloff | radius, 0),
- * prims[3k+1] = direction n (unit) | centre, prims[3k+2] = offset */
-inline float density_at(__global const float4 *prims, const lmedium_t *m, float3 x)
-{
-    float rho = m->homogeneous;
-    for (int k = 0; k < m->nprims; ++k) {
-        float4 a = prims[3 * k], b = prims[3 * k + 1], o = prims[3 * k + 2];
-        if (a.x == 1.0f) {
-            rho += a.y * exp(-a.z * dot(x - o.xyz, b.xyz));
-        } else {
-            float3 r = x - b.xyz;
-            rho += a.y * fmax(0.0f, 1.0f - dot(r, r) / (a.z * a.z));
-        }
-    }
-    return rho;
-}
-
-/* optical depth (in units of the coefficients) from p along unit u over length L */
-inline float optical_depth(__global const float4 *prims, const lmedium_t *m, float3 p, float3 u, float L)
-{
-    float P = m->homogeneous * L;
-    for (int k = 0; k < m->nprims; ++k) {
-        float4 a = prims[3 * k], b = prims[3 * k + 1], o = prims[3 * k + 2];
-        if (a.x == 1.0f) {
-            float pre = a.y * exp(fmin(-a.z * dot(p - o.xyz, b.xyz), 80.0f));
-            P += exponential_p(pre, a.z, dot(u, b.xyz), L);
-        } else {
-            float3 co = p - b.xyz;
-            P += sphere_p(a.y, a.z, co.x, co.y, co.z, u.x, u.y, u.z, L);
-        }
-    }
-    return P;
-}
 
 /* ray parameters s in (lo, hi) where the ray c + s w crosses the sphere primitives */
 inline int sphere_cuts(__global const float4 *prims, const lmedium_t *m, float3 c, float3 w,
@@ -285,36 +227,8 @@ __kernel void airlight(__global const float *depth, __global float4 *a_dir, __gl
         float hw = 0.5f * (a1 - a0), mid = 0.5f * (a1 + a0);
         for (int k = 0; k < m.nodes; ++k) {
             float2 nw = gl[k];
-            float a = mid + hw * nw.x, wt = hw * nw.y;
-            float s, cosa, weight;
-            float3 I = L.intensity.xyz;
-            if (L.type == 2) {
-                s = a;
-                cosa = dot(ax, w);
-                weight = wt;
-            } else {
-                float sn = native_sin(a), cs = native_cos(a);
-                s = d1 + R * sn / cs;
-                cosa = -sn;
-                weight = wt / R;
-            }
-            float3 x = c + s * w;
-            float rho = density_at(prims, &m, x);
-            float P = optical_depth(prims, &m, c, w, s);
-            float Pl;
-            if (L.type == 2) {
-                Pl = optical_depth(prims, &het, x, ax, 1e6f);
-            } else {
-                float3 to = l - x;
-                float tl = length(to);
-                /* the homogeneous part over the widened distance (R / cos(phi)), like 1 / t^2 */
-                Pl = (tl > 0.0f ? optical_depth(prims, &m, x, to / tl, tl) : 0.0f) + m.homogeneous * (hypot(s - d1, R) - tl);
-                if (L.type == 1) {
-                    float ct = tl > 0.0f ? dot(-to / tl, ax) : 1.0f;
-                    I *= smoothstep(L.cos_outer, L.cos_inner, ct);
-                }
-            }
-            float3 src = weight * rho * hg(m.g, cosa) * ss * I * native_exp(-st * Pl);
+            float P;
+            float3 src = hw * nw.y * al_integrand(&L, &m, &het, prims, c, w, d1, R, mid + hw * nw.x, &P);
             float3 tdir = native_exp(-st * P);
             float3 tsc = native_exp(-sa * P) - tdir;
             dir += src * tdir;

@@ -319,3 +319,54 @@ def _up2_conserving(E, h, w, cubic, open_border=False):
         return M * (2.0 / np.maximum(M.sum(axis=0), 1e-12))[None, :]
     My, Mx = weights(h, E.shape[0]), weights(w, E.shape[1])
     return np.einsum("yi,xj,ijc->yxc", My, Mx, E)
+
+
+def shadow_fraction(ray_len, f, light, directional=False, radius=0.05, thickness=1.0, sa=0.01, ss=0.1, g=0.85,
+                    n=128, steps=1000, reach=80.0, pixels=None):
+    """Lit share of each pixel's airlight integrand under the screen-space occluder model of
+    kernels/shadows.cl, by brute force: every cell's segment to the light (point: camera
+    frame position; directional: unit direction towards it, for `reach` metres) marched in 3-D in
+    `steps` points,
+    each point tested at its nearest pixel: blocked when D(q) + b < |x| < D(q) + thickness,
+    b = min(max(0.05, 0.01 D(q)), thickness / 4), and (points) the surface there is farther than
+    max(0.05, 2 % of the light's distance, 2 radii) from the light. Camera at the origin looking
+    down -z, principal point at the centre; homogeneous medium. Cells: n uniform in phi (points,
+    s = d1 + R tan phi) or in s (directional). pixels: the (j, i) to do (default all)."""
+    h, w = ray_len.shape
+    cx, cy = w / 2, h / 2
+    L = np.asarray(light, float)
+    st = sa + ss
+    bl = max(0.05, 0.02 * np.linalg.norm(L), 2 * radius)
+    out = np.full((h, w), np.nan)
+    for j, i in pixels if pixels is not None else np.ndindex(h, w):
+        d = np.array([(i + 0.5 - cx) / f, -(j + 0.5 - cy) / f, -1.0])
+        d /= np.linalg.norm(d)
+        D = ray_len[j, i]
+        if directional:
+            s = (np.arange(n) + 0.5) * D / n
+            y = s[:, None] * d
+            ends = y + reach * L            # far enough to leave the scene's depths
+            wgt = np.exp(-st * s)
+        else:
+            d1 = d @ L
+            R = math.hypot(np.linalg.norm(L - d1 * d), radius)
+            phi = math.atan2(-d1, R) + (np.arange(n) + 0.5) * (math.atan2(D - d1, R) - math.atan2(-d1, R)) / n
+            s = d1 + R * np.tan(phi)
+            y = s[:, None] * d
+            ends = np.broadcast_to(L, y.shape)
+            wgt = (1 - g * g) / (1 + g * g + 2 * g * np.sin(phi)) ** 1.5 * np.exp(-st * s - st * R / np.cos(phi))
+        u = (np.arange(steps) + 0.5) / steps
+        x = y[:, None, :] + u[None, :, None] * (ends - y)[:, None, :]
+        zc = -x[..., 2]
+        front = zc > 1e-9
+        zs = np.where(front, zc, 1.0)
+        qx, qy = cx + f * x[..., 0] / zs, cy - f * x[..., 1] / zs
+        inside = front & (qx >= 0) & (qy >= 0) & (qx < w) & (qy < h)
+        Dq = ray_len[np.clip(qy.astype(int), 0, h - 1), np.clip(qx.astype(int), 0, w - 1)]
+        t = np.linalg.norm(x, axis=-1)
+        b = np.minimum(np.maximum(0.05, 0.01 * Dq), 0.25 * thickness)
+        blocked = inside & (t > Dq + b) & (t < Dq + thickness)
+        if not directional:
+            blocked &= np.linalg.norm(x / t[..., None] * Dq[..., None] - L, axis=-1) >= bl
+        out[j, i] = wgt[~blocked.any(axis=1)].sum() / wgt.sum()
+    return out

@@ -254,6 +254,12 @@ class LightsRender(_Model):
         "closed form for point lights, isotropic phase, homogeneous media (its error: docs/lights.md)")
     nodes: Annotated[int, Field(ge=4, le=64, strict=True)] = Field(
         16, description="Gauss-Legendre nodes per piece of each ray (accuracy per node count: docs/lights.md)")
+    shadows: Literal["none", "screen"] = Field(
+        "none", description="screen: the visible surfaces of the depth map shadow the lights (docs/lights.md, Shadows)")
+    method: Literal["march"] = Field("march", description="shadows: march, per pixel along its epipolar line")
+    thickness: Annotated[Num, Field(gt=0)] = Field(1.0, description="m, how far behind a visible surface it blocks light")
+    offscreen: Literal["lit", "shadowed"] = Field(
+        "lit", description="what the part of a shadow ray outside the frame meets: nothing (lit) or an occluder (shadowed)")
 
 
 # ----------------------------------------------------------------------------- render, output

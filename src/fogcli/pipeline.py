@@ -310,7 +310,14 @@ class Plan:
         cl, q, n = self.rt.cl, self.rt.queue, self.w * self.h
         lm, prims = medium_struct(self.cfg)
         mf = cl.mem_flags
-        quad = None         # (primitives, Gauss-Legendre nodes) on the device, for the quadrature kernel
+        quad = []           # (primitives, Gauss-Legendre nodes) on the device, made when a kernel needs them
+
+        def device_quad():
+            if not quad:
+                quad.extend((cl.Buffer(self.rt.ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=prims),
+                             cl.Buffer(self.rt.ctx, mf.READ_ONLY | mf.COPY_HOST_PTR,
+                                       hostbuf=gauss_legendre(int(lm["nodes"])))))
+            return quad
         cam = camera_struct(self.cfg, self.w, self.h)
         pk = self.cfg.render.lights.airlight == "pk"
         homogeneous = int(lm["nprims"]) == 0
@@ -339,13 +346,15 @@ class Plan:
             elif homogeneous and light.type == "directional":     # closed form
                 ev = self.k_lights.airlight_sun(q, *size, self.depth, *dst, np.int32(self.w), np.int32(self.h), cam, lm, ls)
             else:
-                if quad is None:
-                    quad = (cl.Buffer(self.rt.ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=prims),
-                            cl.Buffer(self.rt.ctx, mf.READ_ONLY | mf.COPY_HOST_PTR,
-                                      hostbuf=gauss_legendre(int(lm["nodes"]))))
                 ev = self.k_lights.airlight(q, *size, self.depth, *dst, np.int32(self.w), np.int32(self.h), cam, lm,
-                                            *quad, ls)
+                                            *device_quad(), ls)
             t.add("lights", ev)
+            if self.cfg.render.lights.shadows == "screen":      # built once per process (runtime.program)
+                k_shadows = self.rt.program("shadows", **defines(self.cfg))
+                sh = self.cfg.render.lights
+                t.add("shadows", k_shadows.shadow_march(
+                    q, *size, self.depth, *dst, np.int32(self.w), np.int32(self.h), cam, lm, device_quad()[0], ls,
+                    np.float32(sh.thickness), np.int32(sh.offscreen == "shadowed")))
             if k > 0:
                 t.add("lights", self.k_lights.add_light(q, *self.rt.nd(n), self.a_dir, dst[0], self.a_sc, dst[1],
                                                         np.int32(n)))

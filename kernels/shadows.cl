@@ -1,0 +1,187 @@
+/* Stage 1d (lights, shadows: screen): the visible surfaces of the depth map as occluders of
+ * a light (docs/lights.md, Shadows). A point y on a pixel's ray is in shadow when its segment
+ * to the light passes behind a visible surface within `thickness` metres of it:
+ *
+ *   D(q) + b(q) < |x| < D(q) + thickness,   b(q) = min(max(0.05 m, 0.01 D(q)), thickness / 4)
+ *
+ * at the pixel q (nearest) where the segment's point x is seen; b keeps a surface from
+ * shadowing itself. Occluder points within max(0.05 m, 2 % of the light's distance, 2 radii)
+ * of the light do not count (a lamp found in the image sits just behind its own pixels).
+ *
+ * Every segment from a point of pixel p's ray to the light lies in the plane of the camera,
+ * the light and that ray, so they all project onto one image line, from p towards the
+ * light's image (the epipole; away from its antipode for a light behind the camera, along
+ * the light's direction when it lies in the camera plane). Walking that line once, each
+ * pixel q blocks one interval of the ray: the points whose segments pass behind q's surface.
+ * With the ray cut into SH_N cells uniform in phi (points, spots: s = d1 + R tan phi, where
+ * the airlight's integrand is smooth) or in s (directional), the cells' visibility is a bit
+ * mask. What the light still gives is the lit share of the airlight's own integrand
+ * (al_integrand, midpoint rule on the cells), for the light reaching the camera (camera leg
+ * in extinction) and for all of it (in absorption), applied to the light's a_dir and a_sc
+ * from whichever airlight kernel made them: an unshadowed pixel keeps its value exactly.
+ * This is the per-pixel march (render.lights.method: march): the reference. */
+#include "density.h"
+#include "lights.h"
+
+#ifndef SH_N
+#define SH_N 128            /* visibility cells per ray */
+#endif
+
+/* world vector -> camera frame (R's transpose; rot0..2 are R's rows) */
+inline float3 to_camera(const camera_t *cam, float3 v)
+{
+    return (float3)(cam->rot0.x * v.x + cam->rot1.x * v.y + cam->rot2.x * v.z,
+                    cam->rot0.y * v.x + cam->rot1.y * v.y + cam->rot2.y * v.z,
+                    cam->rot0.z * v.x + cam->rot1.z * v.y + cam->rot2.z * v.z);
+}
+
+/* unit world ray through the continuous image point (qx, qy) */
+inline float3 ray_at(const camera_t *cam, float qx, float qy)
+{
+    float dx = (qx - cam->cx) / cam->focal_px, dy = -(qy - cam->cy) / cam->focal_y;
+    float3 v = (float3)(cam->rot0.x * dx + cam->rot0.y * dy - cam->rot0.z,
+                        cam->rot1.x * dx + cam->rot1.y * dy - cam->rot1.z,
+                        cam->rot2.x * dx + cam->rot2.y * dy - cam->rot2.z);
+    return normalize(v);
+}
+
+inline void mark(uint *bits, float lo, float hi, float a0, float da)
+{
+    int k0 = (int)ceil((lo - a0) / da - 0.5f), k1 = (int)floor((hi - a0) / da - 0.5f);
+    k0 = max(k0, 0);
+    k1 = min(k1, SH_N - 1);
+    for (int k = k0; k <= k1; ++k) bits[k >> 5] |= 1u << (k & 31);
+}
+
+__kernel void shadow_march(__global const float *depth, __global float4 *a_dir, __global float4 *a_sc,
+                           const int width, const int height, const camera_t cam, const lmedium_t m,
+                           __global const float4 *prims, const light_t L, const float thickness,
+                           const int offscreen_shadowed)
+{
+    int i = get_global_id(0), j = get_global_id(1);
+    if (i >= width || j >= height) return;
+    int idx = j * width + i;
+    float4 od = a_dir[idx], os = a_sc[idx];
+    if (od.x + od.y + od.z + os.x + os.y + os.z <= 0.0f) return;      /* no light here to shadow */
+    float wx, wy, wz;
+    float D = pixel_ray(&cam, i, j, depth[idx], &wx, &wy, &wz);
+    float3 w = (float3)(wx, wy, wz), c = cam.pos.xyz;
+    lmedium_t het = m;
+    het.homogeneous = 0.0f;
+    int directional = L.type == 2;
+
+    /* the plane's second axis e2 (towards the light), the light's in-plane place (d1, Rt),
+     * the integration variable's range [a0, a1] (phi or s) */
+    float3 v = directional ? L.axis.xyz : L.pos.xyz - c;
+    float d1 = dot(w, v);
+    float3 perp = v - d1 * w;
+    float Rt = length(perp);
+    float R = directional ? 1.0f : sqrt(Rt * Rt + L.radius * L.radius);
+    float a0 = directional ? 0.0f : atan2(-d1, R), a1 = directional ? D : atan2(D - d1, R);
+    float da = (a1 - a0) / SH_N;
+    if (!(da > 0.0f)) return;
+    float3 e2 = Rt > 0.0f ? perp / Rt : (float3)(0.0f);
+    float dl = length(v);
+    float bl = fmax(fmax(0.05f, 0.02f * dl), 2.0f * L.radius);
+
+    uint bits[SH_N / 32];
+    for (int k = 0; k < SH_N / 32; ++k) bits[k] = 0u;
+
+    /* the walk: from p along g, for at most len pixels (to the epipole of a light in front) */
+    float3 vc = to_camera(&cam, v);
+    float px = i + 0.5f, py = j + 0.5f;
+    float gx = (cam.cx - px) * (-vc.z) + cam.focal_px * vc.x;
+    float gy = (cam.cy - py) * (-vc.z) - cam.focal_y * vc.y;
+    float glen = hypot(gx, gy);
+    int off = 0;
+    if (glen <= 1e-6f * (fabs(vc.z) * (width + height) + cam.focal_px * hypot(vc.x, vc.y)) || Rt <= 1e-6f * dl) {
+        /* the light on this pixel's ray: its segments run along the ray itself, past the
+         * pixel's own surface when the light is behind it */
+        float b = fmin(fmax(0.05f, 0.01f * D), 0.25f * thickness);
+        if (!directional && d1 > D + b && d1 - bl > D + b && D < cam.max_depth)
+            for (int k = 0; k < SH_N / 32; ++k) bits[k] = ~0u;
+    } else {
+        float ux = gx / glen, uy = gy / glen;
+        float len = vc.z < 0.0f ? glen / (-vc.z) : INFINITY;
+        /* pixel by pixel along the line (Amanatides-Woo): each pixel's surface blocks, over
+         * the stretch of the line it covers, the segments that pass behind it; the stretch's
+         * two ends bound the interval of the ray they come from (s is monotonic along it) */
+        int qi = i, qj = j;
+        int sx_ = ux > 0.0f ? 1 : -1, sy_ = uy > 0.0f ? 1 : -1;
+        float tdx = ux != 0.0f ? fabs(1.0f / ux) : INFINITY, tdy = uy != 0.0f ? fabs(1.0f / uy) : INFINITY;
+        float tnx = ux != 0.0f ? (ux > 0.0f ? (qi + 1 - px) : (px - qi)) * tdx : INFINITY;
+        float tny = uy != 0.0f ? (uy > 0.0f ? (qj + 1 - py) : (py - qj)) * tdy : INFINITY;
+        float ct0 = 1.0f, st0 = 0.0f;           /* the ray where the stretch starts: p's own */
+        for (float t0 = 0.0f; t0 < len;) {
+            if (qi < 0 || qj < 0 || qi >= width || qj >= height) { off = 1; break; }
+            float t1 = fmin(fmin(tnx, tny), len);
+            float3 wq = ray_at(&cam, px + t1 * ux, py + t1 * uy);
+            float ct1 = dot(wq, w), st1 = dot(wq, e2);
+            float cta = ct0, sta = st0;
+            int ci = qi, cj = qj;
+            ct0 = ct1;
+            st0 = st1;
+            t0 = t1;
+            if (tnx < tny) { qi += sx_; tnx += tdx; } else { qj += sy_; tny += tdy; }
+            float ex, ey, ez;
+            float Dq = pixel_ray(&cam, ci, cj, depth[cj * width + ci], &ex, &ey, &ez);
+            if (Dq >= cam.max_depth) continue;                  /* sky: nothing there */
+            float b = fmin(fmax(0.05f, 0.01f * Dq), 0.25f * thickness);
+            float tlo = Dq + b, thi = Dq + thickness;
+            float lo, hi;
+            if (directional) {
+                /* the light's direction in the plane is (d1, Rt) (unit); the point t wq lies
+                 * on the line from s w along it where s = t (cos - sin d1 / Rt) */
+                float k0 = cta - sta * d1 / Rt, k1 = ct1 - st1 * d1 / Rt;
+                if (fmax(k0, k1) <= 0.0f) continue;
+                lo = fmax(fmin(k0, k1), 0.0f) * tlo;
+                hi = fmax(k0, k1) * thi;
+            } else {
+                float ctm = 0.5f * (cta + ct1), stm = 0.5f * (sta + st1);
+                float sx = Dq * ctm - d1, sy = Dq * stm - Rt;
+                if (sx * sx + sy * sy < bl * bl) continue;      /* the light's own surface */
+                /* the segment from s w to the light meets the ray at angle (c, s) at
+                 * t = s Rt / (Rt c - d1 s' + s s'), i.e. s = t aa / (Rt - t s'), aa = Rt c - d1 s' */
+                float aa0 = Rt * cta - d1 * sta, aa1 = Rt * ct1 - d1 * st1;
+                if (aa0 <= 0.0f && aa1 <= 0.0f) continue;       /* it meets the ray behind the camera */
+                /* where aa changes sign over the step, s sweeps down to 0; where the window
+                 * lies beyond the light (n <= 0), that end blocks nothing */
+                float n0 = Rt - tlo * sta, n1 = Rt - tlo * st1;
+                float slo = fmin(aa0 <= 0.0f ? 0.0f : (n0 > 0.0f ? tlo * aa0 / n0 : INFINITY),
+                                 aa1 <= 0.0f ? 0.0f : (n1 > 0.0f ? tlo * aa1 / n1 : INFINITY));
+                if (slo == INFINITY) continue;
+                float m0 = Rt - thi * sta, m1 = Rt - thi * st1;
+                float shi = fmax(aa0 > 0.0f ? (m0 > 0.0f ? thi * aa0 / m0 : INFINITY) : 0.0f,
+                                 aa1 > 0.0f ? (m1 > 0.0f ? thi * aa1 / m1 : INFINITY) : 0.0f);
+                lo = atan2(slo - d1, R);
+                hi = shi < INFINITY ? atan2(shi - d1, R) : 0.5f * M_PI_F;
+            }
+            mark(bits, lo, hi, a0, da);
+        }
+        if (off && offscreen_shadowed)
+            for (int k = 0; k < SH_N / 32; ++k) bits[k] = ~0u;
+    }
+
+    /* the lit share of the integrand, camera leg in extinction (A) and in absorption (all) */
+    float3 st = m.sa.xyz + m.ss.xyz;
+    float3 litA = (float3)(0.0f), totA = litA, litT = litA, totT = litA;
+    for (int k = 0; k < SH_N; ++k) {
+        float P;
+        float3 src = al_integrand(&L, &m, &het, prims, c, w, d1, R, a0 + (k + 0.5f) * da, &P);
+        float3 fa = src * exp(-st * P), ft = src * exp(-m.sa.xyz * P);
+        totA += fa;
+        totT += ft;
+        if (!((bits[k >> 5] >> (k & 31)) & 1u)) {
+            litA += fa;
+            litT += ft;
+        }
+    }
+    float3 fA = select((float3)(1.0f), litA / totA, totA > 0.0f);
+    float3 fT = select((float3)(1.0f), litT / totT, totT > 0.0f);
+    /* a_dir = A, a_sc = gain (A + A_sc) - A (lights.cl): A -> fA A, A + A_sc -> fT (A + A_sc) */
+    float3 dir = fA * od.xyz;
+    float3 sc = fmax(fT * (os.xyz + od.xyz) - dir, 0.0f);
+    float y0 = luminance(os.xyz), y1 = luminance(sc);
+    a_dir[idx] = (float4)(dir, od.w);
+    a_sc[idx] = (float4)(sc, y0 > 0.0f ? os.w * (y1 / y0) : 0.0f);
+}

@@ -1,0 +1,56 @@
+"""Screen-space shadows (kernels/shadows.cl, render.lights.shadows: screen) against a brute-force
+numpy march of the same occluder model, and against exact geometric shadows of a facade quad."""
+import math
+
+import numpy as np
+
+import fogcli
+from oracles import shadow_fraction
+
+H, W = 24, 32
+F = (W / 2) / math.tan(math.radians(30.0))         # camera.fov 60
+SA, SS, G = 0.005, 0.03, 0.85       # thin enough that the far part of a ray still counts
+MEDIUM = [f"medium.scattering={SS}", f"medium.absorption={SA}", f"medium.asymmetry={G}"]
+
+
+def panel_scene(near=15.0, far=30.0):
+    """z-depths: a wall at `far` m, a panel at `near` m in the middle; and the ray lengths."""
+    z = np.full((H, W), far, np.float32)
+    z[7:17, 11:21] = near
+    jj, ii = np.mgrid[0:H, 0:W]
+    dlen = np.sqrt(((ii + 0.5 - W / 2) / F) ** 2 + ((jj + 0.5 - H / 2) / F) ** 2 + 1.0)
+    return z, z * dlen
+
+
+def airlight(z, light, *sets):
+    _, planes = fogcli.apply(np.zeros(z.shape + (3,), np.float32), z, fogcli.make_config(None, sets=[
+        *MEDIUM, f"lights=[{light}]", *sets]), aovs=("airlight",), return_aovs=True)
+    return planes["airlight.G"].astype(np.float64)
+
+
+def lit_share(z, light, *sets):
+    base = airlight(z, light, *sets)
+    return airlight(z, light, "render.lights.shadows=screen", *sets) / np.where(base > 0, base, np.nan)
+
+
+def test_screen_shadows_match_a_brute_force_march_of_the_same_model():
+    """Point lights in front (behind the panel) and behind the camera, and a directional light
+    behind the camera: the kernel walks each pixel's epipolar line pixel by pixel; the oracle
+    marches every cell's segment in 3-D (1000-2000 points). Lit share of the integrand on 96
+    pixels: mean difference <= 2e-3, worst <= 0.02 (measured: mean 6e-5 / 1.3e-4 / 1.1e-4, worst
+    0.006 / 0.006 / 0.006)."""
+    rng = np.random.default_rng(3)
+    pixels = [tuple(p) for p in rng.integers(0, [H, W], (96, 2))]
+    cases = [((15.0, 30.0), "{type: point, position: [0.5, 0.2, -20], intensity: 800, radius: 0.05}", [0.5, 0.2, -20.0]),
+             ((3.0, 10.0), "{type: point, position: [0.2, 3.0, 0.5], intensity: 800, radius: 0.05}", [0.2, 3.0, 0.5]),
+             ((15.0, 30.0), "{type: directional, direction: [0.3, 0.5, 0.8], irradiance: 1}", [0.3, 0.5, 0.8])]
+    for (near, far), spec, light in cases:
+        z, ray_len = panel_scene(near, far)
+        directional = "directional" in spec
+        got = lit_share(z, spec)
+        u = np.asarray(light) / (np.linalg.norm(light) if directional else 1.0)
+        want = shadow_fraction(ray_len, F, u, directional=directional, sa=SA, ss=SS, g=G,
+                               steps=2000 if directional else 1000, pixels=pixels)
+        diff = np.array([abs(got[p] - want[p]) for p in pixels])
+        assert min(want[p] for p in pixels) < 0.9, (spec, "the case has to have shadows")
+        assert diff.mean() <= 2e-3 and diff.max() <= 0.02, (spec, diff.mean(), diff.max())
