@@ -1,5 +1,6 @@
 """Pictures of docs/lights.md: the bundled sample in fog without and with lights
-(samples/harbour-lights.yaml), and the same lights in smoke.
+(samples/harbour-lights.yaml), and the same lights in smoke; a colonnade with a lamp and the
+sun behind it, without and with shadows (render.lights.shadows: screen).
 
     python docs/make_lights_pictures.py
 """
@@ -20,6 +21,33 @@ from fogcli.config_source import load_yaml  # noqa: E402
 OUT = ROOT / "docs" / "images"
 
 
+def write_png(img: np.ndarray, name: str) -> None:
+    path = OUT / name
+    spec = oiio.ImageSpec(img.shape[1], img.shape[0], 3, "uint8")
+    o = oiio.ImageOutput.create(str(path))
+    o.open(str(path), spec)
+    o.write_image(np.ascontiguousarray(img, np.float32))
+    o.close()
+    print("wrote", path)
+
+
+def colonnade(h: int = 180, w: int = 320) -> tuple[np.ndarray, np.ndarray]:
+    """z-depth and colour of a dark colonnade against the sky: five pillars 1 m wide and 7 m
+    high at 12 m under a lintel, a floor; camera at 1.6 m looking along -z (camera.fov 60)."""
+    f = (w / 2) / np.tan(np.radians(30.0))
+    jj, ii = np.mgrid[0:h, 0:w]
+    dx, dy = (ii + 0.5 - w / 2) / f, -(jj + 0.5 - h / 2) / f
+    floor = dy < 0
+    z = np.where(floor, 1.6 / np.where(floor, -dy, 1.0), np.inf)       # the floor, 1.6 m below
+    rgb = np.full((h, w, 3), 0.02)
+    x12, y12 = dx * 12.0, dy * 12.0
+    pillar = (np.abs(((x12 + 1.25) % 2.5) - 1.25) < 0.5) & (np.abs(x12) < 6.5) & (y12 > -1.6) & (y12 < 5.4)
+    lintel = (np.abs(x12) < 6.5) & (y12 >= 4.6) & (y12 < 5.6)
+    z[(pillar | lintel) & (12.0 < z)] = 12.0
+    rgb[pillar | lintel] = 0.05
+    return z.astype(np.float32), rgb.astype(np.float32)
+
+
 def main() -> int:
     fr = fogcli.read_image(ROOT / "samples" / "harbour.exr")
     lights = load_yaml(ROOT / "samples" / "harbour-lights.yaml", {})["lights"]
@@ -32,14 +60,20 @@ def main() -> int:
         for medium, extra in (("fog", []), ("fog", sets), ("smoke", sets)):
             out = fogcli.apply(fr.rgb, fr.depth, fogcli.make_config(medium, sets=extra))
             row.append(linear_to_srgb(np.clip(out * 2.0, 0, None))[::2, ::2])
-    img = np.concatenate(row, axis=1)
-    path = OUT / "lights-harbour.png"
-    spec = oiio.ImageSpec(img.shape[1], img.shape[0], 3, "uint8")
-    o = oiio.ImageOutput.create(str(path))
-    o.open(str(path), spec)
-    o.write_image(np.ascontiguousarray(img, np.float32))
-    o.close()
-    print("wrote", path)
+    write_png(np.concatenate(row, axis=1), "lights-harbour.png")
+
+    z, rgb = colonnade()
+    rows = []
+    for light in ("{type: directional, direction: [-0.2, 0.1, -0.97], irradiance: 0.15}",      # the sun
+                  "{type: point, position: [0.3, 1.5, -16], intensity: 60, radius: 0.1}"):       # a lamp
+        row = []
+        for shadows in ("none", "screen"):
+            out = fogcli.apply(rgb, z, fogcli.make_config("fog", sets=[f"lights=[{light}]", "medium.visibility=80",
+                                                                       f"render.lights.shadows={shadows}"]))
+            row.append(linear_to_srgb(np.clip(out, 0, None)))
+        rows.append(np.concatenate(row, axis=1))
+    row = rows
+    write_png(np.concatenate(row, axis=0), "lights-shadows.png")
     return 0
 
 

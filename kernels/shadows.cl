@@ -2,10 +2,10 @@
  * a light (docs/lights.md, Shadows). A point y on a pixel's ray is in shadow when its segment
  * to the light passes behind a visible surface within `thickness` metres of it:
  *
- *   D(q) + b(q) < |x| < D(q) + thickness,   b(q) = min(max(0.05 m, 0.01 D(q)), thickness / 4)
+ *   z(q) + b(q) < z(x) < z(q) + thickness,   b(q) = min(max(0.05 m, 0.01 z(q)), thickness / 4)
  *
- * at the pixel q (nearest) where the segment's point x is seen; b keeps a surface from
- * shadowing itself. Occluder points within max(0.05 m, 2 % of the light's distance, 2 radii)
+ * in depth along the view axis, at the pixel q (nearest) where the segment's point x is
+ * seen; b keeps a surface from shadowing itself. Occluder points within max(0.05 m, 2 % of the light's distance, 2 radii)
  * of the light do not count (a lamp found in the image sits just behind its own pixels).
  *
  * Every segment from a point of pixel p's ray to the light lies in the plane of the camera,
@@ -14,8 +14,8 @@
  * the light's direction when it lies in the camera plane). Walking that line once, each
  * pixel q blocks one interval of the ray: the points whose segments pass behind q's surface.
  * With the ray cut into SH_N cells uniform in phi (points, spots: s = d1 + R tan phi, where
- * the airlight's integrand is smooth) or in s (directional), the cells' visibility is a bit
- * mask. What the light still gives is the lit share of the airlight's own integrand
+ * the airlight's integrand is smooth) or in s (directional), visibility is a bit mask of
+ * SH_SUB bits per cell. What the light still gives is the lit share of the airlight's own integrand
  * (al_integrand, midpoint rule on the cells), for the light reaching the camera (camera leg
  * in extinction) and for all of it (in absorption), applied to the light's a_dir and a_sc
  * from whichever airlight kernel made them: an unshadowed pixel keeps its value exactly.
@@ -24,8 +24,10 @@
 #include "lights.h"
 
 #ifndef SH_N
-#define SH_N 128            /* visibility cells per ray */
+#define SH_N 128            /* cells per ray: integrand evaluations */
 #endif
+#define SH_SUB 8            /* visibility bits per cell: a shadow's edge lands within 1/8 cell */
+#define SH_WORDS (SH_N * SH_SUB / 32)
 
 /* world vector -> camera frame (R's transpose; rot0..2 are R's rows) */
 inline float3 to_camera(const camera_t *cam, float3 v)
@@ -35,22 +37,28 @@ inline float3 to_camera(const camera_t *cam, float3 v)
                     cam->rot0.z * v.x + cam->rot1.z * v.y + cam->rot2.z * v.z);
 }
 
-/* unit world ray through the continuous image point (qx, qy) */
-inline float3 ray_at(const camera_t *cam, float qx, float qy)
+/* unit world ray through the continuous image point (qx, qy); *dlen: its length per metre of
+ * depth along the view axis */
+inline float3 ray_at(const camera_t *cam, float qx, float qy, float *dlen)
 {
     float dx = (qx - cam->cx) / cam->focal_px, dy = -(qy - cam->cy) / cam->focal_y;
     float3 v = (float3)(cam->rot0.x * dx + cam->rot0.y * dy - cam->rot0.z,
                         cam->rot1.x * dx + cam->rot1.y * dy - cam->rot1.z,
                         cam->rot2.x * dx + cam->rot2.y * dy - cam->rot2.z);
-    return normalize(v);
+    *dlen = sqrt(dx * dx + dy * dy + 1.0f);
+    return v / *dlen;
 }
 
+/* set the visibility bits of [lo, hi] (in the integration variable): whole words at once */
 inline void mark(uint *bits, float lo, float hi, float a0, float da)
 {
-    int k0 = (int)ceil((lo - a0) / da - 0.5f), k1 = (int)floor((hi - a0) / da - 0.5f);
-    k0 = max(k0, 0);
-    k1 = min(k1, SH_N - 1);
-    for (int k = k0; k <= k1; ++k) bits[k >> 5] |= 1u << (k & 31);
+    float sub = da / SH_SUB;
+    int k0 = max((int)ceil((lo - a0) / sub - 0.5f), 0), k1 = min((int)floor((hi - a0) / sub - 0.5f), SH_N * SH_SUB - 1);
+    for (int wd = k0 >> 5; wd <= (k1 >> 5) && k0 <= k1; ++wd) {
+        int b0 = max(k0 - 32 * wd, 0), b1 = min(k1 - 32 * wd, 31);
+        uint hi_mask = b1 == 31 ? ~0u : (1u << (b1 + 1)) - 1u;
+        bits[wd] |= hi_mask & ~((1u << b0) - 1u);
+    }
 }
 
 __kernel void shadow_march(__global const float *depth, __global float4 *a_dir, __global float4 *a_sc,
@@ -84,8 +92,8 @@ __kernel void shadow_march(__global const float *depth, __global float4 *a_dir, 
     float dl = length(v);
     float bl = fmax(fmax(0.05f, 0.02f * dl), 2.0f * L.radius);
 
-    uint bits[SH_N / 32];
-    for (int k = 0; k < SH_N / 32; ++k) bits[k] = 0u;
+    uint bits[SH_WORDS];
+    for (int k = 0; k < SH_WORDS; ++k) bits[k] = 0u;
 
     /* the walk: from p along g, for at most len pixels (to the epipole of a light in front) */
     float3 vc = to_camera(&cam, v);
@@ -99,7 +107,7 @@ __kernel void shadow_march(__global const float *depth, __global float4 *a_dir, 
          * pixel's own surface when the light is behind it */
         float b = fmin(fmax(0.05f, 0.01f * D), 0.25f * thickness);
         if (!directional && d1 > D + b && d1 - bl > D + b && D < cam.max_depth)
-            for (int k = 0; k < SH_N / 32; ++k) bits[k] = ~0u;
+            for (int k = 0; k < SH_WORDS; ++k) bits[k] = ~0u;
     } else {
         float ux = gx / glen, uy = gy / glen;
         float len = vc.z < 0.0f ? glen / (-vc.z) : INFINITY;
@@ -111,31 +119,40 @@ __kernel void shadow_march(__global const float *depth, __global float4 *a_dir, 
         float tdx = ux != 0.0f ? fabs(1.0f / ux) : INFINITY, tdy = uy != 0.0f ? fabs(1.0f / uy) : INFINITY;
         float tnx = ux != 0.0f ? (ux > 0.0f ? (qi + 1 - px) : (px - qi)) * tdx : INFINITY;
         float tny = uy != 0.0f ? (uy > 0.0f ? (qj + 1 - py) : (py - qj)) * tdy : INFINITY;
-        float ct0 = 1.0f, st0 = 0.0f;           /* the ray where the stretch starts: p's own */
+        float ct0 = 1.0f, st0 = 0.0f, dl0;      /* the ray where the stretch starts: p's own */
+        ray_at(&cam, px, py, &dl0);
         for (float t0 = 0.0f; t0 < len;) {
             if (qi < 0 || qj < 0 || qi >= width || qj >= height) { off = 1; break; }
             float t1 = fmin(fmin(tnx, tny), len);
-            float3 wq = ray_at(&cam, px + t1 * ux, py + t1 * uy);
+            float dl1;
+            float3 wq = ray_at(&cam, px + t1 * ux, py + t1 * uy, &dl1);
             float ct1 = dot(wq, w), st1 = dot(wq, e2);
-            float cta = ct0, sta = st0;
+            float cta = ct0, sta = st0, dla = dl0;
             int ci = qi, cj = qj;
             ct0 = ct1;
             st0 = st1;
+            dl0 = dl1;
             t0 = t1;
             if (tnx < tny) { qi += sx_; tnx += tdx; } else { qj += sy_; tny += tdy; }
             float ex, ey, ez;
             float Dq = pixel_ray(&cam, ci, cj, depth[cj * width + ci], &ex, &ey, &ez);
             if (Dq >= cam.max_depth) continue;                  /* sky: nothing there */
-            float b = fmin(fmax(0.05f, 0.01f * Dq), 0.25f * thickness);
-            float tlo = Dq + b, thi = Dq + thickness;
+            /* the window behind the surface in depth along the view axis (z), where a surface
+             * facing the camera is exact across the pixel, as ray lengths at the stretch's ends */
+            float dlq;
+            ray_at(&cam, ci + 0.5f, cj + 0.5f, &dlq);
+            float zq = Dq / dlq;
+            float b = fmin(fmax(0.05f, 0.01f * zq), 0.25f * thickness);
+            float tlo0 = (zq + b) * dla, thi0 = (zq + thickness) * dla;
+            float tlo1 = (zq + b) * dl1, thi1 = (zq + thickness) * dl1;
             float lo, hi;
             if (directional) {
                 /* the light's direction in the plane is (d1, Rt) (unit); the point t wq lies
                  * on the line from s w along it where s = t (cos - sin d1 / Rt) */
                 float k0 = cta - sta * d1 / Rt, k1 = ct1 - st1 * d1 / Rt;
                 if (fmax(k0, k1) <= 0.0f) continue;
-                lo = fmax(fmin(k0, k1), 0.0f) * tlo;
-                hi = fmax(k0, k1) * thi;
+                lo = fmin(fmax(k0, 0.0f) * tlo0, fmax(k1, 0.0f) * tlo1);
+                hi = fmax(k0 * thi0, k1 * thi1);
             } else {
                 float ctm = 0.5f * (cta + ct1), stm = 0.5f * (sta + st1);
                 float sx = Dq * ctm - d1, sy = Dq * stm - Rt;
@@ -144,22 +161,22 @@ __kernel void shadow_march(__global const float *depth, __global float4 *a_dir, 
                  * t = s Rt / (Rt c - d1 s' + s s'), i.e. s = t aa / (Rt - t s'), aa = Rt c - d1 s' */
                 float aa0 = Rt * cta - d1 * sta, aa1 = Rt * ct1 - d1 * st1;
                 if (aa0 <= 0.0f && aa1 <= 0.0f) continue;       /* it meets the ray behind the camera */
-                /* where aa changes sign over the step, s sweeps down to 0; where the window
-                 * lies beyond the light (n <= 0), that end blocks nothing */
-                float n0 = Rt - tlo * sta, n1 = Rt - tlo * st1;
-                float slo = fmin(aa0 <= 0.0f ? 0.0f : (n0 > 0.0f ? tlo * aa0 / n0 : INFINITY),
-                                 aa1 <= 0.0f ? 0.0f : (n1 > 0.0f ? tlo * aa1 / n1 : INFINITY));
+                /* where the window lies beyond the light (n <= 0) that end blocks nothing;
+                 * where aa changes sign over the stretch, s sweeps down to 0 */
+                float n0 = Rt - tlo0 * sta, n1 = Rt - tlo1 * st1;
+                float slo = fmin(n0 > 0.0f ? (aa0 <= 0.0f ? 0.0f : tlo0 * aa0 / n0) : INFINITY,
+                                 n1 > 0.0f ? (aa1 <= 0.0f ? 0.0f : tlo1 * aa1 / n1) : INFINITY);
                 if (slo == INFINITY) continue;
-                float m0 = Rt - thi * sta, m1 = Rt - thi * st1;
-                float shi = fmax(aa0 > 0.0f ? (m0 > 0.0f ? thi * aa0 / m0 : INFINITY) : 0.0f,
-                                 aa1 > 0.0f ? (m1 > 0.0f ? thi * aa1 / m1 : INFINITY) : 0.0f);
+                float m0 = Rt - thi0 * sta, m1 = Rt - thi1 * st1;
+                float shi = fmax(aa0 > 0.0f ? (m0 > 0.0f ? thi0 * aa0 / m0 : INFINITY) : 0.0f,
+                                 aa1 > 0.0f ? (m1 > 0.0f ? thi1 * aa1 / m1 : INFINITY) : 0.0f);
                 lo = atan2(slo - d1, R);
                 hi = shi < INFINITY ? atan2(shi - d1, R) : 0.5f * M_PI_F;
             }
             mark(bits, lo, hi, a0, da);
         }
         if (off && offscreen_shadowed)
-            for (int k = 0; k < SH_N / 32; ++k) bits[k] = ~0u;
+            for (int k = 0; k < SH_WORDS; ++k) bits[k] = ~0u;
     }
 
     /* the lit share of the integrand, camera leg in extinction (A) and in absorption (all) */
@@ -169,12 +186,11 @@ __kernel void shadow_march(__global const float *depth, __global float4 *a_dir, 
         float P;
         float3 src = al_integrand(&L, &m, &het, prims, c, w, d1, R, a0 + (k + 0.5f) * da, &P);
         float3 fa = src * exp(-st * P), ft = src * exp(-m.sa.xyz * P);
+        float open = 1.0f - popcount((bits[k >> 2] >> (8 * (k & 3))) & 0xffu) * (1.0f / SH_SUB);
         totA += fa;
         totT += ft;
-        if (!((bits[k >> 5] >> (k & 31)) & 1u)) {
-            litA += fa;
-            litT += ft;
-        }
+        litA += open * fa;
+        litT += open * ft;
     }
     float3 fA = select((float3)(1.0f), litA / totA, totA > 0.0f);
     float3 fT = select((float3)(1.0f), litT / totT, totT > 0.0f);

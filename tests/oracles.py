@@ -324,14 +324,14 @@ def _up2_conserving(E, h, w, cubic, open_border=False):
 def shadow_fraction(ray_len, f, light, directional=False, radius=0.05, thickness=1.0, sa=0.01, ss=0.1, g=0.85,
                     n=128, steps=1000, reach=80.0, pixels=None):
     """Lit share of each pixel's airlight integrand under the screen-space occluder model of
-    kernels/shadows.cl, by brute force: every cell's segment to the light (point: camera
-    frame position; directional: unit direction towards it, for `reach` metres) marched in 3-D in
-    `steps` points,
-    each point tested at its nearest pixel: blocked when D(q) + b < |x| < D(q) + thickness,
-    b = min(max(0.05, 0.01 D(q)), thickness / 4), and (points) the surface there is farther than
-    max(0.05, 2 % of the light's distance, 2 radii) from the light. Camera at the origin looking
-    down -z, principal point at the centre; homogeneous medium. Cells: n uniform in phi (points,
-    s = d1 + R tan phi) or in s (directional). pixels: the (j, i) to do (default all)."""
+    kernels/shadows.cl, by brute force: every cell's segment to the light (point: camera-frame
+    position; directional: unit direction towards it, for `reach` metres) marched in 3-D in
+    `steps` points, each point tested at its nearest pixel: blocked when z(q) + b < z(x) <
+    z(q) + thickness (depth along the view axis), b = min(max(0.05, 0.01 z(q)), thickness / 4),
+    and (points) the surface there is farther than max(0.05, 2 % of the light's distance,
+    2 radii) from the light. Camera at the origin looking down -z, principal point at the centre;
+    homogeneous medium. Cells: n uniform in phi (points, s = d1 + R tan phi) or in s
+    (directional), visibility at their middles. pixels: the (j, i) to do (default all)."""
     h, w = ray_len.shape
     cx, cy = w / 2, h / 2
     L = np.asarray(light, float)
@@ -362,11 +362,13 @@ def shadow_fraction(ray_len, f, light, directional=False, radius=0.05, thickness
         zs = np.where(front, zc, 1.0)
         qx, qy = cx + f * x[..., 0] / zs, cy - f * x[..., 1] / zs
         inside = front & (qx >= 0) & (qy >= 0) & (qx < w) & (qy < h)
-        Dq = ray_len[np.clip(qy.astype(int), 0, h - 1), np.clip(qx.astype(int), 0, w - 1)]
-        t = np.linalg.norm(x, axis=-1)
-        b = np.minimum(np.maximum(0.05, 0.01 * Dq), 0.25 * thickness)
-        blocked = inside & (t > Dq + b) & (t < Dq + thickness)
+        qi, qj = np.clip(qx.astype(int), 0, w - 1), np.clip(qy.astype(int), 0, h - 1)
+        Dq = ray_len[qj, qi]
+        zq = Dq / np.sqrt(((qi + 0.5 - cx) / f) ** 2 + ((qj + 0.5 - cy) / f) ** 2 + 1.0)
+        b = np.minimum(np.maximum(0.05, 0.01 * zq), 0.25 * thickness)
+        blocked = inside & (zc > zq + b) & (zc < zq + thickness)
         if not directional:
+            t = np.linalg.norm(x, axis=-1)
             blocked &= np.linalg.norm(x / t[..., None] * Dq[..., None] - L, axis=-1) >= bl
         out[j, i] = wgt[~blocked.any(axis=1)].sum() / wgt.sum()
     return out
