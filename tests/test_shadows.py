@@ -75,9 +75,11 @@ def test_screen_shadows_of_facade_quads_match_geometric_shadows():
 
 def test_awkward_lights_give_finite_shares_and_no_false_shadows():
     """A light on the wall itself, one whose image is on the frame's edge, one exactly on a
-    pixel's ray, one behind the camera and the sun in the image plane (parallel epipolar
-    lines): in front of a flat wall nothing may be shadowed (no streaks, no self-shadowing:
-    share 1 to 1e-5); with the panel in front of the wall every share is finite, in [0, 1]."""
+    pixel's ray, one behind the camera, the sun in the image plane (parallel epipolar lines)
+    and a spot; the sun and the spot also in height fog (their airlight from the quadrature
+    kernel): in front of a flat wall nothing may be shadowed (no streaks, no self-shadowing:
+    share 1 to 1e-5); with the panel in front of the wall every share is finite, in [0, 1],
+    and the panel shadows something."""
     wall = np.full((H, W), 20.0, np.float32)
     panel, _ = panel_scene(8.0, 20.0)
     ray = np.array([(5 + 0.5 - W / 2) / F, -(9 + 0.5 - H / 2) / F, -1.0])     # pixel (5, 9)
@@ -86,8 +88,16 @@ def test_awkward_lights_give_finite_shares_and_no_false_shadows():
     lights = [f"{{type: point, position: [{p[0]:.5f}, {p[1]:.5f}, {p[2]:.5f}], intensity: 500, radius: 0.05}}"
               for p in (on_wall, on_ray, edge, (1.0, 0.5, 3.0))]
     lights.append("{type: directional, direction: [1, 0.3, 0], irradiance: 1}")
-    for spec in lights:
-        flat = lit_share(wall, spec)
-        assert np.all(np.isfinite(flat)) and np.abs(flat - 1.0).max() <= 1e-5, (spec, np.nanmin(flat))
-        shaded = lit_share(panel, spec)
-        assert np.all(np.isfinite(shaded)) and shaded.min() >= 0.0 and shaded.max() <= 1.0 + 1e-6, spec
+    lights.append("{type: spot, position: [0.2, 0.3, -14], direction: [0, 0.1, 1], angle: 30, intensity: 900}")
+    height_fog = "medium.density=[{type: homogeneous, factor: 0.5}, {type: exponential, factor: 1, falloff: 0.2}]"
+    cases = [(spec, ()) for spec in lights] + [(lights[-2], (height_fog,)), (lights[-1], (height_fog,))]
+    for spec, sets in cases:
+        for z in (wall, panel):
+            free, got = airlight(z, spec, *sets), airlight(z, spec, "render.lights.shadows=screen", *sets)
+            assert np.all(np.isfinite(got)) and free.max() > 0, (spec, sets)
+            share = got[free > 0] / free[free > 0]
+            assert share.min() >= 0.0 and share.max() <= 1.0 + 1e-5, (spec, sets)
+            if z is wall:
+                assert np.abs(share - 1.0).max() <= 1e-5, (spec, sets, share.min())
+            else:
+                assert share.min() < 0.995, (spec, sets, "the panel has to shadow something")
