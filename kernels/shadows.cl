@@ -61,6 +61,13 @@ inline void mark(uint *bits, float lo, float hi, float a0, float da)
     }
 }
 
+inline int all_set(const uint *bits)
+{
+    uint all = ~0u;
+    for (int k = 0; k < SH_WORDS; ++k) all &= bits[k];
+    return all == ~0u;
+}
+
 __kernel void shadow_march(__global const float *depth, __global float4 *a_dir, __global float4 *a_sc,
                            const int width, const int height, const camera_t cam, const lmedium_t m,
                            __global const float4 *prims, const light_t L, const float thickness,
@@ -121,6 +128,7 @@ __kernel void shadow_march(__global const float *depth, __global float4 *a_dir, 
         float tny = uy != 0.0f ? (uy > 0.0f ? (qj + 1 - py) : (py - qj)) * tdy : INFINITY;
         float ct0 = 1.0f, st0 = 0.0f, dl0;      /* the ray where the stretch starts: p's own */
         ray_at(&cam, px, py, &dl0);
+        int marks = 0;
         for (float t0 = 0.0f; t0 < len;) {
             if (qi < 0 || qj < 0 || qi >= width || qj >= height) { off = 1; break; }
             float t1 = fmin(fmin(tnx, tny), len);
@@ -174,9 +182,19 @@ __kernel void shadow_march(__global const float *depth, __global float4 *a_dir, 
                 hi = shi < INFINITY ? atan2(shi - d1, R) : 0.5f * M_PI_F;
             }
             mark(bits, lo, hi, a0, da);
+            if ((++marks & 15) == 0 && all_set(bits)) break;      /* nothing left to shadow */
         }
         if (off && offscreen_shadowed)
             for (int k = 0; k < SH_WORDS; ++k) bits[k] = ~0u;
+    }
+
+    uint any = 0u;
+    for (int k = 0; k < SH_WORDS; ++k) any |= bits[k];
+    if (any == 0u) return;                                       /* all lit: as it was */
+    if (all_set(bits)) {                                          /* all in shadow */
+        a_dir[idx] = (float4)(0.0f, 0.0f, 0.0f, od.w);
+        a_sc[idx] = (float4)(0.0f);
+        return;
     }
 
     /* the lit share of the integrand, camera leg in extinction (A) and in absorption (all) */
