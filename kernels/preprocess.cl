@@ -20,7 +20,8 @@ typedef struct {
 
 #ifdef EMISSION_LAMBERT
 /* Camera-space point of pixel (i, j), clamped to the image; unclamped depth (surfaces) */
-inline void cam_point(const camera_t *c, __global const float *depth, int w, int h, int i, int j,
+__attribute__((always_inline)) inline void cam_point(const camera_t *c, __global const float *depth, int w, int h,
+                                                     int i, int j,
                       float *x, float *y, float *z)
 {
     i = clampi_(i, 0, w - 1);
@@ -35,7 +36,8 @@ inline void cam_point(const camera_t *c, __global const float *depth, int w, int
  * depth map with, along each axis, the one-sided difference whose depth step is smaller,
  * so that a depth edge does not tilt the surfaces on either side of it. Sky and anything
  * that is not finite count as facing the camera. */
-inline float view_cosine(const camera_t *c, __global const float *depth, int w, int h, int i, int j)
+__attribute__((always_inline)) inline float view_cosine(const camera_t *c, __global const float *depth, int w, int h,
+                                                        int i, int j)
 {
     float px, py, pz, ax, ay, az, bx, by, bz;
     cam_point(c, depth, w, h, i, j, &px, &py, &pz);
@@ -66,7 +68,8 @@ __kernel void view_cosines(__global const float *depth, __global float *cosv, co
     float wx, wy, wz;
     float dist = pixel_ray(&cam, i, j, depth[j * width + i], &wx, &wy, &wz);
     /* sky and anything at max_depth: a dome facing the camera */
-    cosv[j * width + i] = dist < cam.max_depth ? view_cosine(&cam, depth, width, height, i, j) : 1.0f;
+    float v = view_cosine(&cam, depth, width, height, i, j);     /* evaluated everywhere: no conditional loads */
+    cosv[j * width + i] = dist < cam.max_depth ? v : 1.0f;
 }
 #endif
 
