@@ -68,19 +68,22 @@ inline int all_set(const uint *bits)
     return all == ~0u;
 }
 
-__kernel void shadow_march(__global const float *depth, __global float4 *a_dir, __global float4 *a_sc,
-                           const int width, const int height, const camera_t cam, const lmedium_t m,
-                           __global const float4 *prims, const light_t L, const float thickness,
-                           const int offscreen_shadowed)
+/* The lit shares of the airlight's integrand (fA: camera leg in extinction, fT: in
+ * absorption) along the ray through the continuous image point (px, py), whose surface is
+ * that of the nearest pixel taken as facing the camera. Returns 0 when nothing is in shadow
+ * (the shares are then 1). */
+inline int march_shares(__global const float *depth, const int width, const int height, const camera_t cam,
+                        const lmedium_t m, __global const float4 *prims, const light_t L, const float thickness,
+                        const int offscreen_shadowed, float px, float py, float3 *fA, float3 *fT)
 {
-    int i = get_global_id(0), j = get_global_id(1);
-    if (i >= width || j >= height) return;
-    int idx = j * width + i;
-    float4 od = a_dir[idx], os = a_sc[idx];
-    if (od.x + od.y + od.z + os.x + os.y + os.z <= 0.0f) return;      /* no light here to shadow */
-    float wx, wy, wz;
-    float D = pixel_ray(&cam, i, j, depth[idx], &wx, &wy, &wz);
-    float3 w = (float3)(wx, wy, wz), c = cam.pos.xyz;
+    *fA = (float3)(1.0f);
+    *fT = (float3)(1.0f);
+    int i = clamp((int)px, 0, width - 1), j = clamp((int)py, 0, height - 1);
+    float ex_, ey_, ez_, dlp, dli;
+    float Dn = pixel_ray(&cam, i, j, depth[j * width + i], &ex_, &ey_, &ez_);
+    ray_at(&cam, i + 0.5f, j + 0.5f, &dli);
+    float3 w = ray_at(&cam, px, py, &dlp), c = cam.pos.xyz;
+    float D = fmin(Dn / dli * dlp, cam.max_depth);
     lmedium_t het = m;
     het.homogeneous = 0.0f;
     int directional = L.type == 2;
@@ -94,7 +97,7 @@ __kernel void shadow_march(__global const float *depth, __global float4 *a_dir, 
     float R = directional ? 1.0f : sqrt(Rt * Rt + L.radius * L.radius);
     float a0 = directional ? 0.0f : atan2(-d1, R), a1 = directional ? D : atan2(D - d1, R);
     float da = (a1 - a0) / SH_N;
-    if (!(da > 0.0f)) return;
+    if (!(da > 0.0f)) return 0;
     float3 e2 = Rt > 0.0f ? perp / Rt : (float3)(0.0f);
     float dl = length(v);
     float bl = fmax(fmax(0.05f, 0.02f * dl), 2.0f * L.radius);
@@ -104,7 +107,6 @@ __kernel void shadow_march(__global const float *depth, __global float4 *a_dir, 
 
     /* the walk: from p along g, for at most len pixels (to the epipole of a light in front) */
     float3 vc = to_camera(&cam, v);
-    float px = i + 0.5f, py = j + 0.5f;
     float gx = (cam.cx - px) * (-vc.z) + cam.focal_px * vc.x;
     float gy = (cam.cy - py) * (-vc.z) - cam.focal_y * vc.y;
     float glen = hypot(gx, gy);
@@ -190,11 +192,11 @@ __kernel void shadow_march(__global const float *depth, __global float4 *a_dir, 
 
     uint any = 0u;
     for (int k = 0; k < SH_WORDS; ++k) any |= bits[k];
-    if (any == 0u) return;                                       /* all lit: as it was */
+    if (any == 0u) return 0;                                     /* all lit */
     if (all_set(bits)) {                                          /* all in shadow */
-        a_dir[idx] = (float4)(0.0f, 0.0f, 0.0f, od.w);
-        a_sc[idx] = (float4)(0.0f);
-        return;
+        *fA = (float3)(0.0f);
+        *fT = (float3)(0.0f);
+        return 1;
     }
 
     /* the lit share of the integrand, camera leg in extinction (A) and in absorption (all) */
@@ -210,12 +212,128 @@ __kernel void shadow_march(__global const float *depth, __global float4 *a_dir, 
         litA += open * fa;
         litT += open * ft;
     }
-    float3 fA = select((float3)(1.0f), litA / totA, totA > 0.0f);
-    float3 fT = select((float3)(1.0f), litT / totT, totT > 0.0f);
-    /* a_dir = A, a_sc = gain (A + A_sc) - A (lights.cl): A -> fA A, A + A_sc -> fT (A + A_sc) */
+    *fA = select((float3)(1.0f), litA / totA, totA > 0.0f);
+    *fT = select((float3)(1.0f), litT / totT, totT > 0.0f);
+    return 1;
+}
+
+/* a_dir = A, a_sc = gain (A + A_sc) - A (lights.cl): A -> fA A, A + A_sc -> fT (A + A_sc) */
+inline void apply_shares(__global float4 *a_dir, __global float4 *a_sc, int idx, float3 fA, float3 fT)
+{
+    float4 od = a_dir[idx], os = a_sc[idx];
     float3 dir = fA * od.xyz;
     float3 sc = fmax(fT * (os.xyz + od.xyz) - dir, 0.0f);
     float y0 = luminance(os.xyz), y1 = luminance(sc);
     a_dir[idx] = (float4)(dir, od.w);
     a_sc[idx] = (float4)(sc, y0 > 0.0f ? os.w * (y1 / y0) : 0.0f);
+}
+
+/* render.lights.method: march, the reference: every pixel marched */
+__kernel void shadow_march(__global const float *depth, __global float4 *a_dir, __global float4 *a_sc,
+                           const int width, const int height, const camera_t cam, const lmedium_t m,
+                           __global const float4 *prims, const light_t L, const float thickness,
+                           const int offscreen_shadowed)
+{
+    int i = get_global_id(0), j = get_global_id(1);
+    if (i >= width || j >= height) return;
+    int idx = j * width + i;
+    float4 od = a_dir[idx], os = a_sc[idx];
+    if (od.x + od.y + od.z + os.x + os.y + os.z <= 0.0f) return;      /* no light here to shadow */
+    float3 fA, fT;
+    if (march_shares(depth, width, height, cam, m, prims, L, thickness, offscreen_shadowed, i + 0.5f, j + 0.5f,
+                     &fA, &fT))
+        apply_shares(a_dir, a_sc, idx, fA, fT);
+}
+
+/* render.lights.method: epipolar (Intel's epipolar sampling, without its min/max trees):
+ * the shares are marched at samples on S slices, half-lines from the light's image e (its
+ * antipode for a light behind the camera; far away along the lines' direction when they are
+ * nearly parallel), every `step` pixels along each, four times as dense within 15 % of the
+ * image's size of e (radius r0 + m h1 up to rb, then rb + (m - m1) h2); a pixel takes them from the four samples
+ * around it in (angle, radius) about e, weighted bilinearly and by their depth's agreement,
+ * unless it is within 8 pixels of e or no sample near it sees its surface: then it is marched
+ * itself. Slice k is at angle a0 + k da. */
+__kernel void epi_samples(__global const float *depth, __global float4 *sh_a, __global float4 *sh_t,
+                          const int width, const int height, const camera_t cam, const lmedium_t m,
+                          __global const float4 *prims, const light_t L, const float thickness,
+                          const int offscreen_shadowed, const float ex, const float ey, const float a0,
+                          const float da, const float r0, const float rb, const float h1, const float h2,
+                          const int m1, const int nm, const int ns)
+{
+    int mi = get_global_id(0), k = get_global_id(1);
+    if (mi >= nm || k >= ns) return;
+    int s = k * nm + mi;
+    float a = a0 + k * da, r = mi < m1 ? r0 + mi * h1 : rb + (mi - m1) * h2;
+    float px = ex + r * cos(a), py = ey + r * sin(a);
+    if (!(px >= 0.0f && py >= 0.0f && px < width && py < height)) {     /* outside: weight 0 */
+        sh_a[s] = (float4)(0.0f);
+        sh_t[s] = (float4)(0.0f);
+        return;
+    }
+    float3 fA, fT;
+    march_shares(depth, width, height, cam, m, prims, L, thickness, offscreen_shadowed, px, py, &fA, &fT);
+    int i = (int)px, j = (int)py;
+    float exx, eyy, ezz, dli;
+    float Dn = pixel_ray(&cam, i, j, depth[j * width + i], &exx, &eyy, &ezz);
+    ray_at(&cam, i + 0.5f, j + 0.5f, &dli);
+    sh_a[s] = (float4)(fA, Dn / dli);
+    sh_t[s] = (float4)(fT, 1.0f);
+}
+
+__kernel void epi_unwarp(__global const float *depth, __global float4 *a_dir, __global float4 *a_sc,
+                         __global const float4 *sh_a, __global const float4 *sh_t,
+                         const int width, const int height, const camera_t cam, const lmedium_t m,
+                         __global const float4 *prims, const light_t L, const float thickness,
+                         const int offscreen_shadowed, const float ex, const float ey, const float a0,
+                         const float da, const float r0, const float rb, const float h1, const float h2,
+                         const int m1, const int nm, const int ns,
+                         const int full_circle, __global int *marched)         /* marched[0]: pixels marched */
+{
+    int i = get_global_id(0), j = get_global_id(1);
+    if (i >= width || j >= height) return;
+    int idx = j * width + i;
+    float4 od = a_dir[idx], os = a_sc[idx];
+    if (od.x + od.y + od.z + os.x + os.y + os.z <= 0.0f) return;      /* no light here to shadow */
+    float px = i + 0.5f, py = j + 0.5f;
+    float dx = px - ex, dy = py - ey, r = hypot(dx, dy);
+    float rel = atan2(dy, dx) - a0;
+    if (full_circle) rel -= 2.0f * M_PI_F * floor(rel / (2.0f * M_PI_F));
+    float fk = rel / da, fm = r < rb ? (r - r0) / h1 : m1 + (r - rb) / h2;
+    int k0 = (int)floor(fk), m0 = (int)floor(fm);
+    float tk = fk - k0, tm = fm - m0;
+    int k1 = k0 + 1;
+    if (full_circle) {
+        k0 = (k0 % ns + ns) % ns;
+        k1 = (k1 % ns + ns) % ns;
+    }
+    int ok = r >= 8.0f && m0 >= 0 && m0 + 1 < nm && k0 >= 0 && k1 < ns;
+    float3 fA = (float3)(0.0f), fT = (float3)(0.0f);
+    if (ok) {
+        /* Intel's unwarp: bilinear weights times (thr / max(|dz|, thr))^4, thr 3 % of the
+         * pixel's depth, so that samples on another surface hardly count; marched below when
+         * the weights sum to less than 1e-2 */
+        float ex_, ey_, ez_, dli;
+        float Dn = pixel_ray(&cam, i, j, depth[idx], &ex_, &ey_, &ez_);
+        ray_at(&cam, px, py, &dli);
+        float zp = Dn / dli, thr = 0.03f * zp, sum = 0.0f;
+        for (int c = 0; c < 4; ++c) {
+            int kk = (c & 1) ? k1 : k0, mm = m0 + (c >> 1);
+            int s = kk * nm + mm;
+            float4 a = sh_a[s], t = sh_t[s];
+            float q = thr / fmax(fabs(a.w - zp), thr);
+            float wgt = t.w * ((c & 1) ? tk : 1.0f - tk) * ((c >> 1) ? tm : 1.0f - tm) * (q * q) * (q * q);
+            sum += wgt;
+            fA += wgt * a.xyz;
+            fT += wgt * t.xyz;
+        }
+        ok = sum >= 1e-2f;
+        fA /= sum;
+        fT /= sum;
+    }
+    if (!ok) {
+        atomic_inc(marched);
+        if (!march_shares(depth, width, height, cam, m, prims, L, thickness, offscreen_shadowed, px, py, &fA, &fT))
+            return;
+    }
+    apply_shares(a_dir, a_sc, idx, fA, fT);
 }

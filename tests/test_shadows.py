@@ -10,7 +10,7 @@ import fogcli
 from oracles import shadow_fraction
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
-from shadows import against_geometry  # noqa: E402
+from shadows import CASES, against_geometry, facade_scene  # noqa: E402
 
 H, W = 24, 32
 F = (W / 2) / math.tan(math.radians(30.0))         # camera.fov 60
@@ -35,7 +35,8 @@ def airlight(z, light, *sets):
 
 def lit_share(z, light, *sets):
     base = airlight(z, light, *sets)
-    return airlight(z, light, "render.lights.shadows=screen", *sets) / np.where(base > 0, base, np.nan)
+    return airlight(z, light, "render.lights.shadows=screen", "render.lights.method=march", *sets) / \
+        np.where(base > 0, base, np.nan)
 
 
 def test_screen_shadows_match_a_brute_force_march_of_the_same_model():
@@ -93,7 +94,7 @@ def test_awkward_lights_give_finite_shares_and_no_false_shadows():
     cases = [(spec, ()) for spec in lights] + [(lights[-2], (height_fog,)), (lights[-1], (height_fog,))]
     for spec, sets in cases:
         for z in (wall, panel):
-            free, got = airlight(z, spec, *sets), airlight(z, spec, "render.lights.shadows=screen", *sets)
+            free, got = airlight(z, spec, *sets), airlight(z, spec, "render.lights.shadows=screen", *sets)   # epipolar
             assert np.all(np.isfinite(got)) and free.max() > 0, (spec, sets)
             share = got[free > 0] / free[free > 0]
             assert share.min() >= 0.0 and share.max() <= 1.0 + 1e-5, (spec, sets)
@@ -101,3 +102,16 @@ def test_awkward_lights_give_finite_shares_and_no_false_shadows():
                 assert np.abs(share - 1.0).max() <= 1e-5, (spec, sets, share.min())
             else:
                 assert share.min() < 0.995, (spec, sets, "the panel has to shadow something")
+
+
+def test_epipolar_sampling_matches_the_march():
+    """render.lights.method epipolar (the default; step 16, 1024 slices) against march on the
+    facade scene at 256 x 192, thickness 0.05 m, five lights: relative L1 of the airlight
+    <= 1 % (measured 0.02-0.95 %: the error is along the slices, where a shadow's edge falls
+    between two samples; 0.7 % at step 8)."""
+    z = facade_scene(192, 256)
+    for name, (spec, _, _) in CASES.items():
+        sets = ("render.lights.shadows=screen", "render.lights.thickness=0.05")
+        ref = airlight(z, spec, *sets, "render.lights.method=march")
+        got = airlight(z, spec, *sets)
+        assert np.abs(got - ref).sum() / ref.sum() <= 0.01, name

@@ -256,7 +256,12 @@ class LightsRender(_Model):
         16, description="Gauss-Legendre nodes per piece of each ray (accuracy per node count: docs/lights.md)")
     shadows: Literal["none", "screen"] = Field(
         "none", description="screen: the visible surfaces of the depth map shadow the lights (docs/lights.md, Shadows)")
-    method: Literal["march"] = Field("march", description="shadows: march, per pixel along its epipolar line")
+    method: Literal["epipolar", "march"] = Field(
+        "epipolar", description="shadows: epipolar (marched at samples on lines through the light's image, "
+        "interpolated) | march (every pixel marched: the reference)")
+    slices: Annotated[int, Field(ge=16, le=16384, strict=True)] = Field(
+        1024, description="epipolar: lines through the light's image")
+    step: Annotated[int, Field(ge=1, le=64, strict=True)] = Field(16, description="epipolar: pixels between samples on a line")
     thickness: Annotated[Num, Field(gt=0)] = Field(1.0, description="m, how far behind a visible surface it blocks light")
     offscreen: Literal["lit", "shadowed"] = Field(
         "lit", description="what the part of a shadow ray outside the frame meets: nothing (lit) or an occluder (shadowed)")

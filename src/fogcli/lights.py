@@ -100,6 +100,45 @@ def gain(cfg: Config, light) -> np.ndarray:
     return np.maximum(out, 1.0)
 
 
+def epipolar_layout(cfg: Config, light, width: int, height: int, slices: int, step: int) -> tuple:
+    """The samples of render.lights.method: epipolar (kernels/shadows.cl): (ex, ey) the light's
+    image (its antipode for a light behind the camera; 1e4 pixels out along the epipolar lines
+    when they are nearly parallel), the slices' angles a0 + k da, k < ns, the samples' radii
+    (r0 + m h1 below rb, rb + (m - m1) h2 beyond; m < nm), and whether the slices go all round
+    (the image holds e)."""
+    cam = cfg.camera.for_size(width, height)
+    f, fy = cam.focal(width), cam.focal_y(width)
+    cx, cy = cam.centre(width, height)
+    pos, axis = placed(cfg, light)
+    v = np.asarray(axis if light.type == "directional" else np.asarray(pos) - np.asarray(cfg.camera.position), float)
+    x, y, z = rotation(cfg).T @ v
+    g = np.array([f * x, -fy * y])          # the lines' direction where they are parallel
+    far = 1e4
+    if abs(z) * far > np.hypot(*g):
+        e = np.array([cx + f * x / -z, cy - fy * y / -z])
+    else:
+        e = np.array([cx, cy]) - far * g / max(np.hypot(*g), 1e-30)
+    corners = np.array([[0, 0], [width, 0], [0, height], [width, height]], float) - e
+    r_max = float(np.hypot(corners[:, 0], corners[:, 1]).max())
+    inside = 0 <= e[0] <= width and 0 <= e[1] <= height
+    if inside:
+        a0, span, r0, full = -math.pi, 2 * math.pi, 0.0, True
+    else:
+        mid = math.atan2(cy - e[1], cx - e[0])
+        d = (np.arctan2(corners[:, 1], corners[:, 0]) - mid + math.pi) % (2 * math.pi) - math.pi
+        a0, span, full = mid + float(d.min()), float(d.max() - d.min()), False
+        r0 = float(np.hypot(max(0 - e[0], 0, e[0] - width), max(0 - e[1], 0, e[1] - height)))
+    ns = int(slices)
+    da = span / ns if full else span / max(ns - 1, 1)
+    # four times as dense within 15 % of the image's size of e (Intel's sample: the share
+    # changes fastest near the light's image)
+    h1 = step / 4.0
+    m1 = int(math.ceil(max(0.15 * max(width, height) - r0, 0.0) / h1))
+    rb = r0 + m1 * h1
+    nm = m1 + int(math.ceil(max(r_max - rb, 0.0) / step)) + 2
+    return float(e[0]), float(e[1]), a0, da, r0, rb, h1, float(step), m1, nm, ns, full
+
+
 def medium_struct(cfg: Config) -> tuple[np.ndarray, np.ndarray]:
     """(lmedium_t, prims float4 array): the non-homogeneous primitives as 3 float4 each."""
     m = cfg.medium

@@ -352,14 +352,37 @@ class Plan:
             if self.cfg.render.lights.shadows == "screen":      # built once per process (runtime.program)
                 k_shadows = self.rt.program("shadows", **defines(self.cfg))
                 sh = self.cfg.render.lights
-                t.add("shadows", k_shadows.shadow_march(
-                    q, *size, self.depth, *dst, np.int32(self.w), np.int32(self.h), cam, lm, device_quad()[0], ls,
-                    np.float32(sh.thickness), np.int32(sh.offscreen == "shadowed")))
+                common = (cam, lm, device_quad()[0], ls, np.float32(sh.thickness), np.int32(sh.offscreen == "shadowed"))
+                if sh.method == "march":
+                    t.add("shadows", k_shadows.shadow_march(q, *size, self.depth, *dst, np.int32(self.w),
+                                                            np.int32(self.h), *common))
+                else:
+                    self._epipolar(t, k_shadows, dst, common, light)
             if k > 0:
                 t.add("lights", self.k_lights.add_light(q, *self.rt.nd(n), self.a_dir, dst[0], self.a_sc, dst[1],
                                                         np.int32(n)))
         t.add("lights", self.k_lights.airlight_to_chain(
             q, *self.rt.nd(n), self.a_sc, self.chain, self.prep, self.lut, np.int32(n)))
+
+    def _epipolar(self, t: Timings, k, dst, common, light) -> None:
+        """render.lights.method: epipolar (kernels/shadows.cl): shares marched at samples on
+        slices through the light's image, then every pixel from its four samples (or marched)."""
+        from .lights import epipolar_layout
+
+        cl, q = self.rt.cl, self.rt.queue
+        sh = self.cfg.render.lights
+        ex, ey, a0, da, r0, rb, h1, h2, m1, nm, ns, full = epipolar_layout(self.cfg, light, self.w, self.h,
+                                                                           sh.slices, sh.step)
+        mf = cl.mem_flags
+        sh_a, sh_t = (cl.Buffer(self.rt.ctx, mf.READ_WRITE, 16 * nm * ns) for _ in range(2))
+        self.epi_marched = np.zeros(1, np.int32)
+        counter = cl.Buffer(self.rt.ctx, mf.READ_WRITE | mf.COPY_HOST_PTR, hostbuf=self.epi_marched)
+        lay = (*(np.float32(x) for x in (ex, ey, a0, da, r0, rb, h1, h2)), np.int32(m1), np.int32(nm), np.int32(ns))
+        t.add("shadows", k.epi_samples(q, *self.rt.nd(nm, ns), self.depth, sh_a, sh_t, np.int32(self.w),
+                                       np.int32(self.h), *common, *lay))
+        t.add("shadows", k.epi_unwarp(q, *self.rt.nd(self.w, self.h), self.depth, *dst, sh_a, sh_t, np.int32(self.w),
+                                      np.int32(self.h), *common, *lay, np.int32(full), counter))
+        cl.enqueue_copy(q, self.epi_marched, counter)
 
     def _airlight_tables(self):
         """(the medium's airlight tables on the device (fogcli/airlight_table.py), kept while
