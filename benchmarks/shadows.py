@@ -188,7 +188,7 @@ THICKNESSES = (0.01, 0.05, 1.0)
 def main() -> int:
     geo = against_geometry(192, 256, thicknesses=THICKNESSES)
     small = epipolar_vs_march(192, 256)
-    big = epipolar_vs_march(1080, 1920, names=("point behind a quad",))
+    big = epipolar_vs_march(1080, 1920, names=("point behind a quad", "sun from the side"))
     cold, warm = copies(1080, 1920)
     row = lambda n, v: (f"| {n} | {v[0]:.2%} | {v[1]:.0f} | {v[2]:.0f} | {v[1] / v[2]:.1f}x | "  # noqa: E731
                         f"{v[3]:.2%} |")
@@ -214,7 +214,7 @@ def main() -> int:
              "| light, 256 x 192 | relative L1 | march ms | epipolar ms | faster | pixels marched |",
              "|---|---|---|---|---|---|",
              *[row(n, v) for n, v in small.items()],
-             *[row(n.replace("a quad", "a quad, 1920 x 1080"), v) for n, v in big.items()], "",
+             *[row(f"{n}, 1920 x 1080", v) for n, v in big.items()], "",
              "The samples are marched exactly as `method: march` marches a pixel (their visibility is",
              "the march's); the error is the interpolation along the slices, where a shadow's edge falls",
              "between two samples (step 8 halves it).", "",
