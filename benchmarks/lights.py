@@ -350,7 +350,8 @@ def main() -> int:
              "The same on the path tracer's vacuum image of the `lamps` scene (256 x 192, emissive spheres",
              "and a disc of 2.5-3.5 px radius; the lamp at (-14, -5, -36) is partly hidden behind the one at",
              "(-2, -0.8, -5), which lies in nearly the same direction: one bright blob at two depths, split",
-             "by depth):", "",
+             "by depth; where the two cores meet, each pixel is split between the lamps along the line",
+             "between their colours, `lights._unmix`):", "",
              "| lamp centre (m) | radius (m) | distance error | intensity error R, G, B |", "|---|---|---|---|",
              *[f"| ({c[0]:g}, {c[1]:g}, {c[2]:g}) | {r:g} | {ed:+.2%} | "
                + ", ".join(f"{v:+.1%}" for v in ei) + " |" for c, r, ed, ei, _ in found_pt], "",

@@ -5,8 +5,9 @@
  *   z(q) + b(q) < z(x) < z(q) + thickness,   b(q) = min(max(0.05 m, 0.01 z(q)), thickness / 4)
  *
  * in depth along the view axis, at the pixel q (nearest) where the segment's point x is
- * seen; b keeps a surface from shadowing itself. Occluder points within max(0.05 m, 2 % of the light's distance, 2 radii)
- * of the light do not count (a lamp found in the image sits just behind its own pixels).
+ * seen; b keeps a surface from shadowing itself. Occluder points within max(0.05 m, 2 % of
+ * the light's distance, 2 radii) of the light do not count (a lamp found in the image sits
+ * just behind its own pixels).
  *
  * Every segment from a point of pixel p's ray to the light lies in the plane of the camera,
  * the light and that ray, so they all project onto one image line, from p towards the
@@ -15,11 +16,13 @@
  * pixel q blocks one interval of the ray: the points whose segments pass behind q's surface.
  * With the ray cut into SH_N cells uniform in phi (points, spots: s = d1 + R tan phi, where
  * the airlight's integrand is smooth) or in s (directional), visibility is a bit mask of
- * SH_SUB bits per cell. What the light still gives is the lit share of the airlight's own integrand
- * (al_integrand, midpoint rule on the cells), for the light reaching the camera (camera leg
- * in extinction) and for all of it (in absorption), applied to the light's a_dir and a_sc
- * from whichever airlight kernel made them: an unshadowed pixel keeps its value exactly.
- * This is the per-pixel march (render.lights.method: march): the reference. */
+ * SH_SUB bits per cell. What the light still gives is the lit share of the airlight's own
+ * integrand (al_integrand at the cells' middles, times each cell's open share), for the
+ * light reaching the camera (camera leg in extinction) and for all of it (in absorption),
+ * applied to the light's a_dir and a_sc from whichever airlight kernel made them: an
+ * unshadowed pixel keeps its value exactly. shadow_march does this for every pixel
+ * (render.lights.method: march, the reference); epi_samples / epi_unwarp at samples on
+ * epipolar lines, interpolated (method: epipolar, below). */
 #include "density.h"
 #include "lights.h"
 

@@ -248,3 +248,37 @@ def test_a_near_lamp_in_front_of_a_far_one_is_two_lamps():
     assert len(lamps) == 2, dists
     for got, want in zip(dists, sorted([np.linalg.norm(near), np.linalg.norm(far)])):
         assert abs(got / want - 1) < 0.02, (got, want)
+
+
+def test_a_near_lamp_over_a_far_one_keeps_its_own_colour():
+    """A red lamp at 6 m over the edge of a blue one at 14 m (4 x 4 anti-aliased): the far
+    core's pixels along the near lamp's edge carry the far depth but mostly the near lamp's
+    light. Split along the line between the two lamps' colours (lights._unmix), the near lamp
+    is within 3 % of L pi r^2 per channel and the far one keeps its own colour (channel ratios
+    within 2 %). Measured: 0.7 % and 0.6 %; without the split 5.2 % and 4.5 %."""
+    h, w, ss = 120, 160, 4
+    f = (w / 2) / math.tan(math.radians(30))
+    jj, ii = np.mgrid[0:h * ss, 0:w * ss]
+    dx, dy = ((ii + 0.5) / ss - w / 2) / f, -((jj + 0.5) / ss - h / 2) / f
+    lamps = [(np.array([0.5, 0.5, -6.0]), 0.15, np.array([400.0, 200.0, 100.0])),
+             (np.array([1.55, 1.4, -14.0]), 0.4, np.array([100.0, 200.0, 400.0]))]
+    hit = []
+    for c, r, _ in lamps:
+        hit.append(((dx * -c[2] - c[0]) ** 2 + (dy * -c[2] - c[1]) ** 2) < r * r)
+    near_hit, far_hit = hit[0], hit[1] & ~hit[0]
+    sub = 0.05 + near_hit[..., None] * (lamps[0][2] - 0.05) + far_hit[..., None] * (lamps[1][2] - 0.05)
+    rgb = sub.reshape(h, ss, w, ss, 3).mean(axis=(1, 3))
+    cn, cf = near_hit.reshape(h, ss, w, ss).mean(axis=(1, 3)), far_hit.reshape(h, ss, w, ss).mean(axis=(1, 3))
+    z = np.where(cn > 0.5, 6.0, np.where(cf > 0.5, 14.0, 40.0))
+    assert ((cn > 0) & (cn < 1) & (cf > 0)).sum() >= 4, "the near lamp's edge has to lie over the far lamp"
+    from fogcli.config import AutoLights
+    from fogcli.lights import detect_lamps
+
+    found = sorted(detect_lamps(rgb.astype(np.float32), z.astype(np.float32), fogcli.make_config("fog"),
+                                AutoLights(type="auto"))[0], key=lambda x: np.linalg.norm(x.position))
+    assert len(found) == 2
+    c, r, L = lamps[0]
+    want = L * math.pi * r * r * (-c[2] / np.linalg.norm(c))
+    assert np.abs(np.array(found[0].intensity) / want - 1).max() < 0.03, found[0].intensity
+    ratio = np.array(found[1].intensity) / lamps[1][2]
+    assert np.abs(ratio / ratio.mean() - 1).max() < 0.02, found[1].intensity

@@ -197,7 +197,9 @@ def detect_lamps(rgb: np.ndarray, depth: np.ndarray, cfg: Config, spec) -> tuple
         if stats[k, cv2.CC_STAT_AREA] >= spec.min_pixels:
             cores += _split_by_depth(labels == k, ray, cam.max_depth, spec.min_pixels)
     claimed = np.logical_or.reduce(cores) if cores else np.zeros((h, w), bool)    # every core is its own
-    for core in sorted(cores, key=lambda c: _core_depth(c, ray, cam.max_depth)):   # nearest first
+    cores = sorted(cores, key=lambda c: _core_depth(c, ray, cam.max_depth))         # nearest first
+    own, lent = _unmix(rgb, cores, dlen, f, fy)
+    for core, extra in zip(cores, lent):
         t = ray[core & np.isfinite(ray) & (ray < cam.max_depth)]
         if t.size == 0:         # the sensor has a hole there: a ring around the core
             ring = (cv2.dilate(core.astype(np.uint8), kernel) > 0) & ~core
@@ -214,7 +216,7 @@ def detect_lamps(rgb: np.ndarray, depth: np.ndarray, cfg: Config, spec) -> tuple
         blob = ((cv2.dilate(core.astype(np.uint8), kernel) > 0) & ~claimed) | core
         claimed |= blob
         omega = (1.0 / dlen[blob]) ** 3 / (f * fy)
-        intensity = dist * dist * (rgb[blob] * omega[:, None]).sum(0)
+        intensity = dist * dist * ((own[blob] * omega[:, None]).sum(0) + extra)
         radius = max(dist * math.sqrt(core.sum() / math.pi) / f, 1e-3)
         pos = (dist + radius) * d
         lights.append(PointLight(type="point", position=tuple(pos), intensity=tuple(float(v) for v in intensity),
@@ -224,6 +226,36 @@ def detect_lamps(rgb: np.ndarray, depth: np.ndarray, cfg: Config, spec) -> tuple
             notes.append(f"lamp at {dist:.3g} m is clipped in this display-referred image: its intensity "
                          f"({float(intensity.mean()):.3g}) is a lower bound")
     return lights, mask, notes
+
+
+def _unmix(rgb: np.ndarray, cores: list, dlen: np.ndarray, f: float, fy: float) -> tuple[np.ndarray, list]:
+    """A lamp in front of another: where their cores meet, pixels are mixtures (the near lamp's
+    anti-aliased edge over the far lamp) and carry one core's depth. Each pixel of a core next
+    to another is split along the line between the two lamps' own colours (the median of
+    their pixels away from other cores): (the radiance each pixel keeps for its own lamp, per
+    core the radiance x solid angle it gets from the other cores' pixels)."""
+    import cv2
+
+    own = rgb.astype(np.float64).copy()
+    lent = [np.zeros(3) for _ in cores]
+    if len(cores) < 2:
+        return own, lent
+    near = [cv2.dilate(c.astype(np.uint8), np.ones((3, 3), np.uint8)) > 0 for c in cores]
+    pure = []
+    for i, c in enumerate(cores):
+        inner = c & ~np.logical_or.reduce([near[k] for k in range(len(cores)) if k != i])
+        pure.append(np.median(rgb[inner if inner.any() else c], axis=0).astype(np.float64))
+    for j, c in enumerate(cores):           # core j's pixels next to core i hold some of lamp i
+        for i in range(len(cores)):
+            edge = c & near[i]
+            ab = pure[i] - pure[j]
+            if i == j or not edge.any() or ab @ ab <= 0:
+                continue
+            alpha = np.clip(((rgb[edge] - pure[j]) @ ab) / (ab @ ab), 0.0, 1.0)
+            part = np.minimum(alpha[:, None] * pure[i], own[edge])
+            own[edge] -= part
+            lent[i] += (part * ((1.0 / dlen[edge]) ** 3 / (f * fy))[:, None]).sum(0)
+    return own, lent
 
 
 def _core_depth(core: np.ndarray, ray: np.ndarray, max_depth: float) -> float:
