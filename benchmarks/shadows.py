@@ -217,7 +217,7 @@ def main() -> int:
              *[row(f"{n}, 1920 x 1080", v) for n, v in big.items()], "",
              "The samples are marched exactly as `method: march` marches a pixel (their visibility is",
              "the march's); the error is the interpolation along the slices, where a shadow's edge falls",
-             "between two samples (step 8 halves it).", "",
+             "between two samples (a smaller `step` reduces it).", "",
              f"Cost at 1920 x 1080 of one shadowed point light: epipolar {big['point behind a quad'][2]:.0f} ms = "
              f"{big['point behind a quad'][2] / cold:.0f} numpy copies of the image ({cold:.1f} ms, as "
              f"docs/performance.md counts them; {big['point behind a quad'][2] / warm:.0f} warm copies of {warm:.1f} ms), "
