@@ -207,7 +207,7 @@ def main() -> int:
              "facade's edge and then behind it counts as blocked, so the shadows of thin facades grow:",
              "most where a light close behind a facade sends its lines past the edges, or where a ray",
              "passes a facade's edge at the facade's depth.", "",
-             "`method: epipolar` (the default: 1024 slices, step 16) against `method: march` on the same",
+             "`method: epipolar` (the default: 1024 slices, step 16, capped for small images) against `method: march` on the same",
              "scene (thickness 0.05 m): relative L1 of the airlight, the shadow stage's kernel time of",
              "each, and the share of pixels the epipolar method marched itself (near the light's image,",
              "or where no sample sees their surface):", "",
