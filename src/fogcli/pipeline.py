@@ -366,7 +366,8 @@ class Plan:
 
     def _epipolar(self, t: Timings, k, dst, common, light) -> None:
         """render.lights.method: epipolar (kernels/shadows.cl): shares marched at samples on
-        slices through the light's image, then every pixel from its four samples (or marched)."""
+        slices through the light's image, then every pixel from its four samples (or marched).
+        self.epi_marched[0]: how many pixels were marched themselves (benchmarks/shadows.py)."""
         from .lights import epipolar_layout
 
         cl, q = self.rt.cl, self.rt.queue
