@@ -9,7 +9,6 @@ import warnings
 from pathlib import Path
 
 import numpy as np
-import OpenImageIO as oiio
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "src"))
@@ -17,18 +16,14 @@ sys.path.insert(0, str(ROOT / "src"))
 import fogcli  # noqa: E402
 from fogcli.colour import linear_to_srgb  # noqa: E402
 from fogcli.config_source import load_yaml  # noqa: E402
+from make_pictures import save  # noqa: E402  (docs/: the pictures' PNG writer)
 
 OUT = ROOT / "docs" / "images"
 
 
 def write_png(img: np.ndarray, name: str) -> None:
-    path = OUT / name
-    spec = oiio.ImageSpec(img.shape[1], img.shape[0], 3, "uint8")
-    o = oiio.ImageOutput.create(str(path))
-    o.open(str(path), spec)
-    o.write_image(np.ascontiguousarray(img, np.float32))
-    o.close()
-    print("wrote", path)
+    save(OUT / name, img)
+    print("wrote", OUT / name)
 
 
 def colonnade(h: int = 180, w: int = 320) -> tuple[np.ndarray, np.ndarray]:
