@@ -52,6 +52,16 @@ inline float3 ray_at(const camera_t *cam, float qx, float qy, float *dlen)
     return v / *dlen;
 }
 
+/* pixel (i, j)'s surface: its depth along the view axis; *D: its ray length (max_depth for
+ * the sky) */
+inline float pixel_z(const camera_t *cam, __global const float *depth, int width, int i, int j, float *D)
+{
+    float wx, wy, wz, dl;
+    *D = pixel_ray(cam, i, j, depth[j * width + i], &wx, &wy, &wz);
+    ray_at(cam, i + 0.5f, j + 0.5f, &dl);
+    return *D / dl;
+}
+
 /* set the visibility bits of [lo, hi] (in the integration variable): whole words at once */
 inline void mark(uint *bits, float lo, float hi, float a0, float da)
 {
@@ -82,11 +92,10 @@ inline int march_shares(__global const float *depth, const int width, const int 
     *fA = (float3)(1.0f);
     *fT = (float3)(1.0f);
     int i = clamp((int)px, 0, width - 1), j = clamp((int)py, 0, height - 1);
-    float ex_, ey_, ez_, dlp, dli;
-    float Dn = pixel_ray(&cam, i, j, depth[j * width + i], &ex_, &ey_, &ez_);
-    ray_at(&cam, i + 0.5f, j + 0.5f, &dli);
+    float Dn, dlp;
+    float zn = pixel_z(&cam, depth, width, i, j, &Dn);
     float3 w = ray_at(&cam, px, py, &dlp), c = cam.pos.xyz;
-    float D = fmin(Dn / dli * dlp, cam.max_depth);
+    float D = fmin(zn * dlp, cam.max_depth);
     lmedium_t het = m;
     het.homogeneous = 0.0f;
     int directional = L.type == 2;
@@ -147,14 +156,11 @@ inline int march_shares(__global const float *depth, const int width, const int 
             dl0 = dl1;
             t0 = t1;
             if (tnx < tny) { qi += sx_; tnx += tdx; } else { qj += sy_; tny += tdy; }
-            float ex, ey, ez;
-            float Dq = pixel_ray(&cam, ci, cj, depth[cj * width + ci], &ex, &ey, &ez);
+            float Dq;
+            float zq = pixel_z(&cam, depth, width, ci, cj, &Dq);
             if (Dq >= cam.max_depth) continue;                  /* sky: nothing there */
             /* the window behind the surface in depth along the view axis (z), where a surface
              * facing the camera is exact across the pixel, as ray lengths at the stretch's ends */
-            float dlq;
-            ray_at(&cam, ci + 0.5f, cj + 0.5f, &dlq);
-            float zq = Dq / dlq;
             float b = fmin(fmax(0.05f, 0.01f * zq), 0.25f * thickness);
             float tlo0 = (zq + b) * dla, thi0 = (zq + thickness) * dla;
             float tlo1 = (zq + b) * dl1, thi1 = (zq + thickness) * dl1;
@@ -275,11 +281,8 @@ __kernel void epi_samples(__global const float *depth, __global float4 *sh_a, __
     }
     float3 fA, fT;
     march_shares(depth, width, height, cam, m, prims, L, thickness, offscreen_shadowed, px, py, &fA, &fT);
-    int i = (int)px, j = (int)py;
-    float exx, eyy, ezz, dli;
-    float Dn = pixel_ray(&cam, i, j, depth[j * width + i], &exx, &eyy, &ezz);
-    ray_at(&cam, i + 0.5f, j + 0.5f, &dli);
-    sh_a[s] = (float4)(fA, Dn / dli);
+    float Dn;
+    sh_a[s] = (float4)(fA, pixel_z(&cam, depth, width, (int)px, (int)py, &Dn));
     sh_t[s] = (float4)(fT, 1.0f);
 }
 
@@ -315,10 +318,8 @@ __kernel void epi_unwarp(__global const float *depth, __global float4 *a_dir, __
         /* Intel's unwarp: bilinear weights times (thr / max(|dz|, thr))^4, thr 3 % of the
          * pixel's depth, so that samples on another surface hardly count; marched below when
          * the weights sum to less than 1e-2 */
-        float ex_, ey_, ez_, dli;
-        float Dn = pixel_ray(&cam, i, j, depth[idx], &ex_, &ey_, &ez_);
-        ray_at(&cam, px, py, &dli);
-        float zp = Dn / dli, thr = 0.03f * zp, sum = 0.0f;
+        float Dn;
+        float zp = pixel_z(&cam, depth, width, i, j, &Dn), thr = 0.03f * zp, sum = 0.0f;
         for (int c = 0; c < 4; ++c) {
             int kk = (c & 1) ? k1 : k0, mm = m0 + (c >> 1);
             int s = kk * nm + mm;
