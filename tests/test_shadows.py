@@ -6,16 +6,14 @@ from pathlib import Path
 
 import numpy as np
 
-import fogcli
 from oracles import shadow_fraction
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
-from shadows import CASES, against_geometry, facade_scene  # noqa: E402
+# the medium (thin enough that the far part of a ray still counts) and the airlight AOV helper
+from shadows import CASES, SA, SS, G, against_geometry, airlight, facade_scene  # noqa: E402
 
 H, W = 24, 32
 F = (W / 2) / math.tan(math.radians(30.0))         # camera.fov 60
-SA, SS, G = 0.005, 0.03, 0.85       # thin enough that the far part of a ray still counts
-MEDIUM = [f"medium.scattering={SS}", f"medium.absorption={SA}", f"medium.asymmetry={G}"]
 
 
 def panel_scene(near=15.0, far=30.0):
@@ -25,12 +23,6 @@ def panel_scene(near=15.0, far=30.0):
     jj, ii = np.mgrid[0:H, 0:W]
     dlen = np.sqrt(((ii + 0.5 - W / 2) / F) ** 2 + ((jj + 0.5 - H / 2) / F) ** 2 + 1.0)
     return z, z * dlen
-
-
-def airlight(z, light, *sets):
-    _, planes = fogcli.apply(np.zeros(z.shape + (3,), np.float32), z, fogcli.make_config(None, sets=[
-        *MEDIUM, f"lights=[{light}]", *sets]), aovs=("airlight",), return_aovs=True)
-    return planes["airlight.G"].astype(np.float64)
 
 
 def lit_share(z, light, *sets):
