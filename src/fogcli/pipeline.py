@@ -383,7 +383,7 @@ class Plan:
                                        np.int32(self.h), *common, *lay))
         t.add("shadows", k.epi_unwarp(q, *self.rt.nd(self.w, self.h), self.depth, *dst, sh_a, sh_t, np.int32(self.w),
                                       np.int32(self.h), *common, *lay, np.int32(full), counter))
-        cl.enqueue_copy(q, self.epi_marched, counter)
+        cl.enqueue_copy(q, self.epi_marched, counter, is_blocking=False)     # read with the download
 
     def _airlight_tables(self):
         """(the medium's airlight tables on the device (fogcli/airlight_table.py), kept while
