@@ -352,19 +352,19 @@ class Plan:
             if self.cfg.render.lights.shadows == "screen":      # built once per process (runtime.program)
                 k_shadows = self.rt.program("shadows", **defines(self.cfg))
                 sh = self.cfg.render.lights
-                common = (cam, lm, device_quad()[0], ls, np.float32(sh.thickness), np.int32(sh.offscreen == "shadowed"))
+                sh_args = (cam, lm, device_quad()[0], ls, np.float32(sh.thickness), np.int32(sh.offscreen == "shadowed"))
                 if sh.method == "march":
                     t.add("shadows", k_shadows.shadow_march(q, *size, self.depth, *dst, np.int32(self.w),
-                                                            np.int32(self.h), *common))
+                                                            np.int32(self.h), *sh_args))
                 else:
-                    self._epipolar(t, k_shadows, dst, common, light)
+                    self._epipolar(t, k_shadows, dst, sh_args, light)
             if k > 0:
                 t.add("lights", self.k_lights.add_light(q, *self.rt.nd(n), self.a_dir, dst[0], self.a_sc, dst[1],
                                                         np.int32(n)))
         t.add("lights", self.k_lights.airlight_to_chain(
             q, *self.rt.nd(n), self.a_sc, self.chain, self.prep, self.lut, np.int32(n)))
 
-    def _epipolar(self, t: Timings, k, dst, common, light) -> None:
+    def _epipolar(self, t: Timings, k, dst, sh_args, light) -> None:
         """render.lights.method: epipolar (kernels/shadows.cl): shares marched at samples on
         slices through the light's image, then every pixel from its four samples (or marched).
         self.epi_marched[0]: how many pixels were marched themselves (benchmarks/shadows.py)."""
@@ -380,9 +380,9 @@ class Plan:
         counter = cl.Buffer(self.rt.ctx, mf.READ_WRITE | mf.COPY_HOST_PTR, hostbuf=self.epi_marched)
         lay = (*(np.float32(x) for x in (ex, ey, a0, da, r0, rb, h1, h2)), np.int32(m1), np.int32(nm), np.int32(ns))
         t.add("shadows", k.epi_samples(q, *self.rt.nd(nm, ns), self.depth, sh_a, sh_t, np.int32(self.w),
-                                       np.int32(self.h), *common, *lay))
+                                       np.int32(self.h), *sh_args, *lay))
         t.add("shadows", k.epi_unwarp(q, *self.rt.nd(self.w, self.h), self.depth, *dst, sh_a, sh_t, np.int32(self.w),
-                                      np.int32(self.h), *common, *lay, np.int32(full), counter))
+                                      np.int32(self.h), *sh_args, *lay, np.int32(full), counter))
         cl.enqueue_copy(q, self.epi_marched, counter, is_blocking=False)     # read with the download
 
     def _airlight_tables(self):
