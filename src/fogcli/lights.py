@@ -202,7 +202,8 @@ def detect_lamps(rgb: np.ndarray, depth: np.ndarray, cfg: Config, spec) -> tuple
             cores += _split_by_depth(labels == k, ray, cam.max_depth, spec.min_pixels)
     claimed = np.logical_or.reduce(cores) if cores else np.zeros((h, w), bool)    # every core is its own
     cores = sorted(cores, key=lambda c: _core_depth(c, ray, cam.max_depth))         # nearest first
-    own, lent = _unmix(rgb, cores, dlen, f, fy)
+    omega = (1.0 / dlen) ** 3 / (f * fy)          # each pixel's solid angle
+    own, lent = _unmix(rgb, cores, omega)
     for core, extra in zip(cores, lent):
         t = ray[core & np.isfinite(ray) & (ray < cam.max_depth)]
         if t.size == 0:         # the sensor has a hole there: a ring around the core
@@ -219,8 +220,7 @@ def detect_lamps(rgb: np.ndarray, depth: np.ndarray, cfg: Config, spec) -> tuple
         # the core and a 2 px ring; a ring pixel two lamps share goes to the nearer one
         blob = ((cv2.dilate(core.astype(np.uint8), kernel) > 0) & ~claimed) | core
         claimed |= blob
-        omega = (1.0 / dlen[blob]) ** 3 / (f * fy)
-        intensity = dist * dist * ((own[blob] * omega[:, None]).sum(0) + extra)
+        intensity = dist * dist * ((own[blob] * omega[blob][:, None]).sum(0) + extra)
         radius = max(dist * math.sqrt(core.sum() / math.pi) / f, 1e-3)
         pos = (dist + radius) * d
         lights.append(PointLight(type="point", position=tuple(pos), intensity=tuple(float(v) for v in intensity),
@@ -232,7 +232,7 @@ def detect_lamps(rgb: np.ndarray, depth: np.ndarray, cfg: Config, spec) -> tuple
     return lights, mask, notes
 
 
-def _unmix(rgb: np.ndarray, cores: list, dlen: np.ndarray, f: float, fy: float) -> tuple[np.ndarray, list]:
+def _unmix(rgb: np.ndarray, cores: list, omega: np.ndarray) -> tuple[np.ndarray, list]:
     """A lamp in front of another: where their cores meet, pixels are mixtures (the near lamp's
     anti-aliased edge over the far lamp) and carry one core's depth. Each pixel of a core next
     to another is split along the line between the two lamps' own colours (the median of
@@ -258,7 +258,7 @@ def _unmix(rgb: np.ndarray, cores: list, dlen: np.ndarray, f: float, fy: float) 
             alpha = np.clip(((rgb[edge] - pure[j]) @ ab) / (ab @ ab), 0.0, 1.0)
             part = np.minimum(alpha[:, None] * pure[i], own[edge])
             own[edge] -= part
-            lent[i] += (part * ((1.0 / dlen[edge]) ** 3 / (f * fy))[:, None]).sum(0)
+            lent[i] += (part * omega[edge][:, None]).sum(0)
     return own, lent
 
 
