@@ -1,9 +1,11 @@
 """Shadows (render.lights.shadows: screen): screen-space shadows against exact geometric
 shadows of facade quads in a scene built analytically, and the cost of the per-pixel march at
 1920 x 1080 against numpy copies of the image, measured in one run. Prints a table and writes
-the generated part of docs/lights.md (section Shadows).
+the generated part of docs/lights.md (section Shadows); then benchmarks/smoke.py (lights
+through noise: the transmittance function maps, section Smoke). `--only shadows` or
+`--only smoke` runs one of them.
 
-    python benchmarks/shadows.py
+    python benchmarks/shadows.py [--only shadows|smoke]
 """
 from __future__ import annotations
 
@@ -230,5 +232,19 @@ def main() -> int:
     return 0
 
 
+def run_all(argv: list[str]) -> int:
+    only = argv[argv.index("--only") + 1] if "--only" in argv else None
+    if only not in (None, "shadows", "smoke"):
+        print("usage: python benchmarks/shadows.py [--only shadows|smoke]", file=sys.stderr)
+        return 2
+    if only != "smoke":
+        main()
+    if only != "shadows":
+        import smoke
+
+        smoke.main()
+    return 0
+
+
 if __name__ == "__main__":
-    sys.exit(main())
+    sys.exit(run_all(sys.argv[1:]))

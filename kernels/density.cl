@@ -4,6 +4,7 @@
  * same arithmetic stopped PoCL from vectorising the whole kernel (+38 ms at 2 MPx for one
  * exponential); here each kernel vectorises and costs about 1-2 ms. */
 #include "density.h"
+#include "noise.h"
 
 __kernel void p_exponential(__global const float *depth, __global float *P,
                             const int width, const int height, const camera_t cam,
@@ -30,5 +31,19 @@ __kernel void p_sphere(__global const float *depth, __global float *P,
     float D = pixel_ray(&cam, i, j, depth[idx], &wx, &wy, &wz);
     float p = sphere_p(factor, radius, cam.pos.x - centre.x, cam.pos.y - centre.y,
                        cam.pos.z - centre.z, wx, wy, wz, D);
+    P[idx] = accumulate ? P[idx] + p : p;
+}
+
+/* the noise primitives: marched (noise.h), all of them in one launch */
+__kernel void p_noise(__global const float *depth, __global float *P,
+                      const int width, const int height, const camera_t cam,
+                      __global const noise_t *nz, const int count, const int accumulate)
+{
+    int i = get_global_id(0), j = get_global_id(1);
+    if (i >= width || j >= height) return;
+    int idx = j * width + i;
+    float wx, wy, wz;
+    float D = pixel_ray(&cam, i, j, depth[idx], &wx, &wy, &wz);
+    float p = noise_march(nz, count, cam.pos.xyz, (float3)(wx, wy, wz), D);
     P[idx] = accumulate ? P[idx] + p : p;
 }

@@ -22,83 +22,6 @@
 #include "density.h"
 #include "lights.h"
 
-#define MAX_CUTS 24
-
-/* ray parameters s in (lo, hi) where the ray c + s w crosses the sphere primitives */
-inline int sphere_cuts(__global const float4 *prims, const lmedium_t *m, float3 c, float3 w,
-                       float lo, float hi, float *cuts, int n)
-{
-    for (int k = 0; k < m->nprims && n < MAX_CUTS - 2; ++k) {
-        float4 a = prims[3 * k], b = prims[3 * k + 1];
-        if (a.x != 2.0f) continue;
-        float3 co = c - b.xyz;
-        float B = dot(w, co);
-        float3 perp = co - B * w;
-        float s2 = a.z * a.z - dot(perp, perp);
-        if (s2 <= 0.0f) continue;
-        float s = sqrt(s2);
-        float t0 = -B - s, t1 = -B + s;
-        if (t0 > lo && t0 < hi) cuts[n++] = t0;
-        if (t1 > lo && t1 < hi) cuts[n++] = t1;
-    }
-    return n;
-}
-
-/* ray parameters where the light's ray to x grazes a sphere primitive: the light leg's
- * chord through the sphere has a square-root kink there. Directional: the camera ray meets
- * the cylinder of the sphere's radius along the light direction; point: the tangent cone
- * from the light, |v x a|^2 = r^2 |v|^2 with v = x - l, a = centre - l. */
-inline int graze_cuts(__global const float4 *prims, const lmedium_t *m, float3 c, float3 w, float3 l,
-                      float3 ax, int directional, float lo, float hi, float *cuts, int n)
-{
-    for (int k = 0; k < m->nprims && n < MAX_CUTS - 2; ++k) {
-        float4 pa = prims[3 * k], pb = prims[3 * k + 1];
-        if (pa.x != 2.0f) continue;
-        float A, B, C, r2 = pa.z * pa.z;
-        if (directional) {
-            float3 q = c - pb.xyz;
-            float3 qp = q - dot(q, ax) * ax, wp = w - dot(w, ax) * ax;
-            A = dot(wp, wp); B = dot(qp, wp); C = dot(qp, qp) - r2;
-        } else {
-            float3 v0 = c - l, a = pb.xyz - l;
-            float aa = dot(a, a) - r2, wa = dot(w, a), va = dot(v0, a);
-            A = aa - wa * wa; B = aa * dot(v0, w) - va * wa; C = aa * dot(v0, v0) - va * va;
-        }
-        float disc = B * B - A * C;
-        if (disc < 0.0f || fabs(A) < 1e-12f) continue;
-        float r = sqrt(disc);
-        float t0 = (-B - r) / A, t1 = (-B + r) / A;
-        if (t0 > lo && t0 < hi) cuts[n++] = t0;
-        if (t1 > lo && t1 < hi) cuts[n++] = t1;
-    }
-    return n;
-}
-
-/* ray parameters where the ray enters or leaves the spot's (single-nappe) cone of cosine cc */
-inline int cone_cuts(float3 c, float3 w, float3 l, float3 ax, float cc, float lo, float hi, float *cuts, int n)
-{
-    float3 v = c - l;
-    float wa = dot(w, ax), va = dot(v, ax), cc2 = cc * cc;
-    float A = wa * wa - cc2, B = wa * va - cc2 * dot(w, v), C = va * va - cc2 * dot(v, v);
-    float disc = B * B - A * C;
-    if (disc < 0.0f || fabs(A) < 1e-12f) return n;
-    float r = sqrt(disc);
-    float t0 = (-B - r) / A, t1 = (-B + r) / A;
-    if (t0 > lo && t0 < hi && va + t0 * wa > 0.0f && n < MAX_CUTS) cuts[n++] = t0;
-    if (t1 > lo && t1 < hi && va + t1 * wa > 0.0f && n < MAX_CUTS) cuts[n++] = t1;
-    return n;
-}
-
-inline void sort_cuts(float *c, int n)
-{
-    for (int i = 1; i < n; ++i) {
-        float v = c[i];
-        int j = i - 1;
-        while (j >= 0 && c[j] > v) { c[j + 1] = c[j]; --j; }
-        c[j + 1] = v;
-    }
-}
-
 /* Pradhan & Kumar's closed form (render.lights.airlight: pk), isotropic phase, homogeneous
  * medium, point lights: with theta the angle at the light measured from the foot of the
  * perpendicular, the part towards the camera integrates exp(-k (sec - tan)) with their
@@ -178,7 +101,6 @@ __kernel void airlight(__global const float *depth, __global float4 *a_dir, __gl
     float wx, wy, wz;
     float D = pixel_ray(&cam, i, j, depth[idx], &wx, &wy, &wz);
     float3 w = (float3)(wx, wy, wz), c = cam.pos.xyz;
-    float3 l = L.pos.xyz, ax = L.axis.xyz;
     float3 sa = m.sa.xyz, ss = m.ss.xyz, st = sa + ss;
     float3 dir = (float3)(0.0f), sc = (float3)(0.0f);
     float wp = 0.0f;
@@ -187,36 +109,8 @@ __kernel void airlight(__global const float *depth, __global float4 *a_dir, __gl
     lmedium_t het = m;
     het.homogeneous = 0.0f;
     float cuts[MAX_CUTS];
-    int n = 0;
-    float d1 = 0.0f, R = 1.0f;
-    cuts[n++] = 0.0f;
-    if (L.type == 2) {
-        cuts[n++] = D;
-    } else {
-        float3 v = l - c;
-        d1 = dot(w, v);
-        float3 cr = cross(w, v);
-        R = sqrt(dot(cr, cr) + L.radius * L.radius);
-        cuts[n++] = D;
-        if (d1 > 0.0f && d1 < D) cuts[n++] = d1;                     /* phi = 0 */
-        /* the phase function's forward peak (light ahead, scattered back along the ray to
-         * the camera) sits at phi = -pi/2, about 2 (1 - g) wide: a piece of its own */
-        float sp = d1 - R / tan(fmin(2.0f * (1.0f - m.g), 1.0f));
-        if (sp > 0.0f && sp < D) cuts[n++] = sp;
-    }
-    /* the camera leg decays as exp(-k s): pieces that double in length from 1 / k, so that
-     * none holds more than a few e-folds (k the largest homogeneous extinction). Points and
-     * spots start at 8 / k: the phi substitution already crowds their nodes where the light
-     * is (measured: the same worst error, 1.9x faster) */
-    float k = m.homogeneous * fmax(st.x, fmax(st.y, st.z));
-    for (float e = L.type == 2 ? 1.0f : 8.0f; k > 0.0f && e < k * D && n < MAX_CUTS - 6; e *= 2.0f) cuts[n++] = e / k;
-    n = sphere_cuts(prims, &m, c, w, 0.0f, D, cuts, n);
-    n = graze_cuts(prims, &m, c, w, l, ax, L.type == 2, 0.0f, D, cuts, n);
-    if (L.type == 1) {      /* both ends of the soft edge: smoothstep's curvature jumps there */
-        n = cone_cuts(c, w, l, ax, L.cos_outer, 0.0f, D, cuts, n);
-        n = cone_cuts(c, w, l, ax, L.cos_inner, 0.0f, D, cuts, n);
-    }
-    sort_cuts(cuts, n);
+    float d1, R;
+    int n = ray_cuts(&L, &m, prims, c, w, D, &d1, &R, cuts);
 
     for (int p = 0; p + 1 < n; ++p) {
         float s0 = cuts[p], s1 = cuts[p + 1];
@@ -228,7 +122,7 @@ __kernel void airlight(__global const float *depth, __global float4 *a_dir, __gl
         for (int k = 0; k < m.nodes; ++k) {
             float2 nw = gl[k];
             float P;
-            float3 src = hw * nw.y * al_integrand(&L, &m, &het, prims, c, w, d1, R, mid + hw * nw.x, &P);
+            float3 src = hw * nw.y * al_integrand(&L, &m, &het, prims, 0, c, w, d1, R, mid + hw * nw.x, &P);
             float3 tdir = native_exp(-st * P);
             float3 tsc = native_exp(-sa * P) - tdir;
             dir += src * tdir;

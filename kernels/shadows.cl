@@ -213,7 +213,7 @@ inline int march_shares(__global const float *depth, const int width, const int 
     float3 litA = (float3)(0.0f), totA = litA, litT = litA, totT = litA;
     for (int k = 0; k < SH_N; ++k) {
         float P;
-        float3 src = al_integrand(&L, &m, &het, prims, c, w, d1, R, a0 + (k + 0.5f) * da, &P);
+        float3 src = al_integrand(&L, &m, &het, prims, 0, c, w, d1, R, a0 + (k + 0.5f) * da, &P);
         float3 fa = src * exp(-st * P), ft = src * exp(-m.sa.xyz * P);
         float open = 1.0f - popcount((bits[k >> 2] >> (8 * (k & 3))) & 0xffu) * (1.0f / SH_SUB);
         totA += fa;

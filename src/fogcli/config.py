@@ -67,7 +67,7 @@ class _Model(BaseModel):
 # ----------------------------------------------------------------------------- medium
 
 class Homogeneous(_Model):
-    type: Literal["homogeneous"] = Field(description="homogeneous | exponential | sphere")
+    type: Literal["homogeneous"] = Field(description="homogeneous | exponential | sphere | noise")
     factor: Annotated[Num, Field(ge=0)] = Field(1.0, description="density multiplier of the medium's coefficients")
 
 
@@ -90,7 +90,42 @@ class Sphere(Homogeneous):
     radius: Annotated[Num, Field(gt=0)] = Field(1.0, description="m: density factor * (1 - r^2 / radius^2) inside")
 
 
-Density = Annotated[Union[Homogeneous, Exponential, Sphere], Field(discriminator="type")]
+class Noise(Homogeneous):
+    """Fractal value noise (docs/media.md, Noise): factor * max(0, offset + amplitude * fbm(x)),
+    fbm in [-1, 1], inside a box or a sphere. No closed form: rays through it are marched."""
+    type: Literal["noise"]  # type: ignore[assignment]
+    seed: Annotated[int, Field(ge=0, lt=2**31, strict=True)] = Field(0, description="which noise (the same seed, the same smoke)")
+    octaves: Annotated[int, Field(ge=1, le=8, strict=True)] = Field(4, description="layers of detail, each half the size")
+    scale: Annotated[Num, Field(gt=0)] = Field(1.0, description="m, size of the largest features")
+    amplitude: Annotated[Num, Field(ge=0)] = Field(
+        2.0, description="density factor * max(0, offset + amplitude * fbm); fbm lies in [-1, 1], its spread about 0.23")
+    offset: Num = Field(0.25, description="added to amplitude * fbm: below about -amplitude / 4 most of the box is empty")
+    shape: Literal["box", "sphere"] = Field("sphere", description="bounds: box (center, size) | sphere (center, radius)")
+    center: Vec3 = Field((0.0, 0.0, 0.0), description="m, world centre of the bounds")
+    size: Vec3 = Field((1.0, 1.0, 1.0), description="m, box: edge lengths along the world axes")
+    radius: Annotated[Num, Field(gt=0)] = Field(1.0, description="m, sphere: radius")
+    edge: Annotated[Num, Field(ge=0)] | Literal["auto"] = Field(
+        "auto", description="m, the density fades to 0 over this width inside the bounds; auto: a quarter of the "
+        "smallest half-size (0: a hard edge)")
+    step: Annotated[Num, Field(gt=0)] | Literal["auto"] = Field(
+        "auto", description="m, march step along rays; auto: a quarter of the finest features (at most 512 steps a ray)")
+
+    @model_validator(mode="after")
+    def _bounds(self):
+        if self.shape == "box" and min(self.size) <= 0:
+            raise ValueError(f"size: expected three positive edge lengths, got {list(self.size)}")
+        return self
+
+    def edge_m(self) -> float:
+        if self.edge != "auto":
+            return float(self.edge)
+        return 0.25 * (self.radius if self.shape == "sphere" else 0.5 * min(self.size))
+
+    def march_step(self) -> float:
+        return self.scale / 2 ** (self.octaves - 1) / 4 if self.step == "auto" else float(self.step)
+
+
+Density = Annotated[Union[Homogeneous, Exponential, Sphere, Noise], Field(discriminator="type")]
 
 
 class Medium(_Model):
@@ -106,7 +141,7 @@ class Medium(_Model):
     ambient: RGB | Auto = Field(
         (0.0, 0.0, 0.0), description="L_a, ambient light the medium scatters; auto: the median colour of the sky or farthest 2 %")
     density: Annotated[list[Density], Field(min_length=1)] = Field(
-        [Homogeneous(type="homogeneous")], description="primitives whose densities add up (homogeneous, exponential, sphere)")
+        [Homogeneous(type="homogeneous")], description="primitives whose densities add up (homogeneous, exponential, sphere, noise)")
 
     @model_validator(mode="after")
     def _forms(self):
@@ -253,7 +288,8 @@ class LightsRender(_Model):
         "quadrature", description="quadrature: Gauss-Legendre, any medium and phase | pk: Pradhan & Kumar's "
         "closed form for point lights, isotropic phase, homogeneous media (its error: docs/lights.md)")
     nodes: Annotated[int, Field(ge=4, le=64, strict=True)] = Field(
-        16, description="Gauss-Legendre nodes per piece of each ray (accuracy per node count: docs/lights.md)")
+        16, description="Gauss-Legendre nodes per piece of each ray (accuracy per node count: docs/lights.md); "
+        "noise media: midpoint intervals per piece")
     shadows: Literal["none", "screen"] = Field(
         "none", description="screen: the visible surfaces of the depth map shadow the lights (docs/lights.md, Shadows)")
     method: Literal["epipolar", "march"] = Field(
@@ -266,6 +302,10 @@ class LightsRender(_Model):
     thickness: Annotated[Num, Field(gt=0)] = Field(1.0, description="m, how far behind a visible surface it blocks light")
     offscreen: Literal["lit", "shadowed"] = Field(
         "lit", description="what the part of a shadow ray outside the frame meets: nothing (lit) or an occluder (shadowed)")
+    tfm_size: Annotated[int, Field(ge=16, le=1024, strict=True)] = Field(
+        256, description="noise media: texels per side of each light's transmittance function map")
+    coefficients: Annotated[int, Field(ge=2, le=32, strict=True)] = Field(
+        16, description="noise media: DCT coefficients of the optical depth along each map texel's ray")
 
 
 # ----------------------------------------------------------------------------- render, output
@@ -365,7 +405,7 @@ def _fields_at(loc: tuple) -> list[str]:
         if isinstance(part, int) or model is None:
             continue
         if part == "density":
-            return sorted({f for m in (Homogeneous, Exponential, Sphere) for f in m.model_fields})
+            return sorted({f for m in (Homogeneous, Exponential, Sphere, Noise) for f in m.model_fields})
         if part == "lights" and model is Config:
             return sorted({f for m in (PointLight, SpotLight, DirectionalLight, AutoLights) for f in m.model_fields})
         fld = model.model_fields.get(part)
@@ -377,7 +417,7 @@ def _fields_at(loc: tuple) -> list[str]:
 def _message(err: dict) -> tuple[str, str]:
     # union members and validators appear in the loc as names of their own: not keys
     loc = tuple(p for p in err["loc"] if isinstance(p, int) or not (
-        p in ("homogeneous", "exponential", "sphere", "point", "spot", "directional", "auto")
+        p in ("homogeneous", "exponential", "sphere", "noise", "point", "spot", "directional", "auto")
         or any(ch in p for ch in "[-(")))
     kind, msg, got = err["type"], err["msg"], err.get("input")
     if kind == "extra_forbidden":

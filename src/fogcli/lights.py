@@ -309,7 +309,7 @@ def _density(x: np.ndarray, cfg: Config) -> np.ndarray:
         elif d.type == "exponential":
             n = np.array(d.direction, float) / np.linalg.norm(d.direction)
             rho += d.factor * np.exp(-d.falloff * ((x - np.array(d.offset)) @ n))
-        else:
+        elif d.type == "sphere":
             r2 = ((x - np.array(d.center)) ** 2).sum(-1)
             rho += d.factor * np.maximum(0.0, 1.0 - r2 / d.radius ** 2)
     return rho
@@ -330,7 +330,7 @@ def _tau(p: np.ndarray, u: np.ndarray, L: np.ndarray, cfg: Config, skip_homogene
             with np.errstate(over="ignore", invalid="ignore"):
                 f = np.where(np.abs(x) < 1e-8, 1.0 + x / 2, np.expm1(x) / np.where(x == 0, 1.0, x))
             P = P + pre * L * f
-        else:
+        elif d.type == "sphere":
             co = p - np.array(d.center)
             B = (co * u).sum(-1)
             perp = co - B[..., None] * u

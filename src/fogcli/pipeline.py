@@ -223,7 +223,14 @@ class Plan:
         else:
             self.k_lights = None
         self._al_tables = None     # (key, device buffer) of airlight_table.tables
+        self.noise = None          # (device noise_t array, count) of the noise primitives
+        from .noise import primitives, structs
+
+        if primitives(cfg):
+            ns = structs(cfg)
+            self.noise = (cl.Buffer(rt.ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=ns), np.int32(len(primitives(cfg))))
         self._light_tmp = None     # (t_dir, t_sc): the airlight of the second and later lights
+        self._tfm = None           # (floats, coefficients, spans): a light's transmittance function map
 
     # -- stages --------------------------------------------------------------------
     def upload(self, rgba: np.ndarray, depth: np.ndarray, t: Timings) -> None:
@@ -235,7 +242,10 @@ class Plan:
         """P of the non-homogeneous primitives, summed into the spread buffer (level 0),
         which preprocess reads before it writes the spread there."""
         cam = camera_struct(self.cfg, self.w, self.h)
-        for k, (name, args) in enumerate(primitive_launches(self.cfg)):
+        launches = primitive_launches(self.cfg)
+        if self.noise is not None:
+            launches.append(("p_noise", self.noise))
+        for k, (name, args) in enumerate(launches):
             t.add("preprocess", getattr(self.k_density, name)(
                 self.rt.queue, *self.rt.nd(self.w, self.h), self.depth if depth is None else depth,
                 self.spread if out is None else out, np.int32(self.w), np.int32(self.h), cam, *args,
@@ -330,6 +340,8 @@ class Plan:
             ls = light_struct(self.cfg, light)
             if pk and light.type == "point":        # Pradhan & Kumar's closed form
                 ev = self.k_lights.airlight_pk(q, *size, self.depth, *dst, np.int32(self.w), np.int32(self.h), cam, lm, ls)
+            elif self.noise is not None:        # the light leg from a map, the camera leg marched
+                ev = self._airlight_noise(t, dst, cam, lm, device_quad()[0], ls, light)
             elif homogeneous and light.type == "point":    # tables instead of quadrature
                 tab, grey, per_channel, common = self._table_args(ls)
                 if grey:        # ln(ss I) per channel as its largest and exp(each - largest)
@@ -363,6 +375,28 @@ class Plan:
                                                         np.int32(n)))
         t.add("lights", self.k_lights.airlight_to_chain(
             q, *self.rt.nd(n), self.a_sc, self.chain, self.prep, self.lut, np.int32(n)))
+
+    def _airlight_noise(self, t: Timings, dst, cam, lm, prims, ls, light):
+        """kernels/tfm.cl: the light's transmittance function map, then the airlight; returns
+        the airlight's event."""
+        from .lights import placed
+        from .noise import tfm_layout
+
+        cl, q = self.rt.cl, self.rt.queue
+        r = self.cfg.render.lights
+        pos, axis = placed(self.cfg, light)
+        tm = tfm_layout(self.cfg, pos, axis, light.type)
+        texels = r.tfm_size ** 2
+        floats = texels * (r.coefficients + 2)      # the coefficients and q(x)'s two (tfm.cl)
+        if self._tfm is None or self._tfm[0] != floats:
+            mf = cl.mem_flags
+            self._tfm = (floats, cl.Buffer(self.rt.ctx, mf.READ_WRITE, 4 * floats),
+                         cl.Buffer(self.rt.ctx, mf.READ_WRITE, 16 * texels))
+        _, coef, span = self._tfm
+        k = self.rt.program("tfm", **defines(self.cfg))
+        t.add("tfm", k.tfm_build(q, *self.rt.nd(r.tfm_size, r.tfm_size), coef, span, tm, *self.noise))
+        return k.airlight_noise(q, *self.rt.nd(self.w, self.h), self.depth, *dst, np.int32(self.w), np.int32(self.h),
+                                cam, lm, prims, ls, *self.noise, tm, coef, span, np.int32(r.nodes))
 
     def _epipolar(self, t: Timings, k, dst, sh_args, light) -> None:
         """render.lights.method: epipolar (kernels/shadows.cl): shares marched at samples on
