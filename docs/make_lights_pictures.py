@@ -1,6 +1,7 @@
 """Pictures of docs/lights.md: the bundled sample in fog without and with lights
 (samples/harbour-lights.yaml), and the same lights in smoke; a colonnade with a lamp and the
-sun behind it, without and with shadows (render.lights.shadows: screen).
+sun behind it, without and with shadows (render.lights.shadows: screen); a spot through a
+column of smoke (a noise primitive) that shadows itself.
 
     python docs/make_lights_pictures.py
 """
@@ -43,6 +44,19 @@ def colonnade(h: int = 180, w: int = 320) -> tuple[np.ndarray, np.ndarray]:
     return z.astype(np.float32), rgb.astype(np.float32)
 
 
+def room(h: int = 180, w: int = 320) -> tuple[np.ndarray, np.ndarray]:
+    """z-depth and colour of a dark room: a floor 1.6 m below the camera, a wall at 16 m."""
+    f = (w / 2) / np.tan(np.radians(30.0))
+    dy = -((np.arange(h)[:, None] + 0.5 - h / 2) / f) * np.ones((1, w))
+    z = np.minimum(np.where(dy < 0, 1.6 / np.where(dy < 0, -dy, 1.0), np.inf), 16.0)
+    return z.astype(np.float32), np.full((h, w, 3), 0.02, np.float32)
+
+
+SMOKE_COLUMN = ("{type: noise, factor: 25, scale: 1.2, octaves: 5, offset: 0.0, amplitude: 3, shape: box, "
+                "center: [0.0, 0.6, -9], size: [2, 4.4, 2], seed: 4, edge: 0.6}")
+SPOT = "{type: spot, position: [-5, 2.8, -8.5], direction: [1, -0.35, -0.1], angle: 22, intensity: 4000}"
+
+
 def main() -> int:
     fr = fogcli.read_image(ROOT / "samples" / "harbour.exr")
     lights = load_yaml(ROOT / "samples" / "harbour-lights.yaml", {})["lights"]
@@ -69,6 +83,14 @@ def main() -> int:
         rows.append(np.concatenate(row, axis=1))
     row = rows
     write_png(np.concatenate(row, axis=0), "lights-shadows.png")
+
+    z, rgb = room()
+    row = []
+    for density in ("[{type: homogeneous}]", f"[{{type: homogeneous}}, {SMOKE_COLUMN}]"):
+        out = fogcli.apply(rgb, z, fogcli.make_config("fog", sets=[f"lights=[{SPOT}]", "medium.visibility=60",
+                                                                   f"medium.density={density}"]))
+        row.append(linear_to_srgb(np.clip(out, 0, None)))
+    write_png(np.concatenate(row, axis=1), "lights-smoke.png")
     return 0
 
 

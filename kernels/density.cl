@@ -34,16 +34,60 @@ __kernel void p_sphere(__global const float *depth, __global float *P,
     P[idx] = accumulate ? P[idx] + p : p;
 }
 
-/* the noise primitives: marched (noise.h), all of them in one launch */
+/* The noise primitives' optical depth, marched (noise.h), all of them in one launch: at
+ * every `stride`-th pixel of every `stride`-th row (and the last ones) into S ... */
+__kernel void p_noise_samples(__global const float *depth, __global float *S,
+                              const int width, const int height, const camera_t cam,
+                              __global const noise_t *nz, const int count, const int stride, const int cw,
+                              const int ch)
+{
+    int ci = get_global_id(0), cj = get_global_id(1);
+    if (ci >= cw || cj >= ch) return;
+    int i = min(ci * stride, width - 1), j = min(cj * stride, height - 1);
+    float wx, wy, wz;
+    float D = pixel_ray(&cam, i, j, depth[j * width + i], &wx, &wy, &wz);
+    S[cj * cw + ci] = noise_march(nz, count, cam.pos.xyz, (float3)(wx, wy, wz), D);
+}
+
+/* ... then every pixel from the four samples around it (bilinear) where they lie on its
+ * surface (the bilinear 1 / z of theirs its own within 1 %: exact for planes) and agree with
+ * it on meeting the noise (a sample's optical depth > 0), else marched itself (stride 1: every
+ * pixel). tfm.cl's airlight_fill makes the same choice. */
 __kernel void p_noise(__global const float *depth, __global float *P,
                       const int width, const int height, const camera_t cam,
-                      __global const noise_t *nz, const int count, const int accumulate)
+                      __global const noise_t *nz, const int count, __global const float *S, const int stride,
+                      const int cw, const int ch, const int accumulate)
 {
     int i = get_global_id(0), j = get_global_id(1);
     if (i >= width || j >= height) return;
     int idx = j * width + i;
     float wx, wy, wz;
     float D = pixel_ray(&cam, i, j, depth[idx], &wx, &wy, &wz);
-    float p = noise_march(nz, count, cam.pos.xyz, (float3)(wx, wy, wz), D);
+    float3 w = (float3)(wx, wy, wz);
+    float p = 0.0f;
+    int ok = stride > 1;
+    if (ok) {
+        int ci = min(i / stride, cw - 1), cj = min(j / stride, ch - 1);
+        int ci1 = min(ci + 1, cw - 1), cj1 = min(cj + 1, ch - 1);
+        int si0 = min(ci * stride, width - 1), si1 = min(ci1 * stride, width - 1);
+        int sj0 = min(cj * stride, height - 1), sj1 = min(cj1 * stride, height - 1);
+        float fx = si1 > si0 ? (float)(i - si0) / (si1 - si0) : 0.0f;
+        float fy = sj1 > sj0 ? (float)(j - sj0) / (sj1 - sj0) : 0.0f;
+        float t0, t1, h;
+        int hit = noise_span(nz, count, cam.pos.xyz, w, 0.0f, D, &t0, &t1, &h);
+        float iz = depth[idx] < cam.max_depth ? 1.0f / depth[idx] : 0.0f;
+        int sidx[4] = {sj0 * width + si0, sj0 * width + si1, sj1 * width + si0, sj1 * width + si1};
+        int cidx[4] = {cj * cw + ci, cj * cw + ci1, cj1 * cw + ci, cj1 * cw + ci1};
+        float wt[4] = {(1.0f - fx) * (1.0f - fy), fx * (1.0f - fy), (1.0f - fx) * fy, fx * fy};
+        float izs = 0.0f;
+        for (int k = 0; k < 4; ++k) {
+            float zs = depth[sidx[k]], ps = S[cidx[k]];
+            izs += wt[k] * (zs < cam.max_depth ? 1.0f / zs : 0.0f);
+            ok = ok && ((ps > 0.0f) == hit || wt[k] == 0.0f);
+            p += wt[k] * ps;
+        }
+        ok = ok && fabs(izs - iz) <= 0.01f * iz;
+    }
+    if (!ok) p = noise_march(nz, count, cam.pos.xyz, w, D);
     P[idx] = accumulate ? P[idx] + p : p;
 }

@@ -214,22 +214,29 @@ inline void tfm_ray(const tfm_t *m, float i, float j, float3 *o, float3 *u)
     }
 }
 
+#define TFM_MAX_COEF 32      /* config: render.lights.coefficients <= 32 */
+
+/* cos(j pi x), j < n: the DCT basis at x, by cos((j + 1) a) = 2 cos a cos(j a) - cos((j - 1) a) */
+inline void dct_basis(float x, int n, float *b)
+{
+    float c1 = cos(M_PI_F * x);
+    b[0] = 1.0f;
+    b[1] = c1;
+    for (int j = 2; j < n; ++j) b[j] = 2.0f * c1 * b[j - 1] - b[j - 2];
+}
+
 /* what one texel stores at x in [0, 1] along its span, per metre of span: the DCT series
- * plus a x + b x^2 (tfm.cl: tfm_build) over the span's length, clamped to [0, total]
- * (pitfall 5 of docs/lights.md); -1 for a texel whose ray misses the noise */
-inline float tfm_texel(__global const float *coef, __global const float4 *span, int ncoef, int tex, float x)
+ * (basis b at x) plus a x + b x^2 (tfm.cl: tfm_build) over the span's length, clamped to
+ * [0, total] (pitfall 5 of docs/lights.md); -1 for a texel whose ray misses the noise */
+inline float tfm_texel(__global const float *coef, __global const float4 *span, int ncoef, int tex, float x,
+                       const float *b)
 {
     float4 sp = span[tex];          /* t0, t1, total */
     float len = sp.y - sp.x;
     if (!(len > 0.0f)) return -1.0f;
-    float c1 = cos(M_PI_F * x), ca = 1.0f, cb = c1;
     __global const float *c = coef + (size_t)tex * (ncoef + 2);
-    float f = c[0] + c[1] * c1 + x * (c[ncoef] + c[ncoef + 1] * x);
-    for (int j = 2; j < ncoef; ++j) {       /* cos((j + 1) a) = 2 cos a cos(j a) - cos((j - 1) a) */
-        float cn = 2.0f * c1 * cb - ca;
-        f += c[j] * cn;
-        ca = cb; cb = cn;
-    }
+    float f = x * (c[ncoef] + c[ncoef + 1] * x);
+    for (int j = 0; j < ncoef; ++j) f += c[j] * b[j];
     return clamp(f, 0.0f, sp.z) / len;
 }
 
@@ -284,11 +291,13 @@ inline float tfm_tau(const tfm_t *m, __global const float *coef, __global const 
     float fx = uv.x * m->size - 0.5f, fy = uv.y * m->size - 0.5f;
     int i0 = floor_i(fx), j0 = floor_i(fy);
     float wx = fx - i0, wy = fy - j0;
+    float basis[TFM_MAX_COEF];
+    dct_basis(xq, m->ncoef, basis);
     float g[4], wt[4] = {(1.0f - wx) * (1.0f - wy), wx * (1.0f - wy), (1.0f - wx) * wy, wx * wy};
-    g[0] = tfm_texel(coef, span, m->ncoef, tfm_index(m, i0, j0), xq);
-    g[1] = tfm_texel(coef, span, m->ncoef, tfm_index(m, i0 + 1, j0), xq);
-    g[2] = tfm_texel(coef, span, m->ncoef, tfm_index(m, i0, j0 + 1), xq);
-    g[3] = tfm_texel(coef, span, m->ncoef, tfm_index(m, i0 + 1, j0 + 1), xq);
+    g[0] = tfm_texel(coef, span, m->ncoef, tfm_index(m, i0, j0), xq, basis);
+    g[1] = tfm_texel(coef, span, m->ncoef, tfm_index(m, i0 + 1, j0), xq, basis);
+    g[2] = tfm_texel(coef, span, m->ncoef, tfm_index(m, i0, j0 + 1), xq, basis);
+    g[3] = tfm_texel(coef, span, m->ncoef, tfm_index(m, i0 + 1, j0 + 1), xq, basis);
     float sum = 0.0f, ws = 0.0f;
     for (int k = 0; k < 4; ++k)
         if (g[k] >= 0.0f) { sum += wt[k] * g[k]; ws += wt[k]; }

@@ -41,14 +41,9 @@ __kernel void tfm_build(__global float *coef, __global float4 *span, const tfm_t
         float x = (k + 0.5f) / ns;
         float r = tau + 0.5f * rho - x * (a + b * x);      /* at the sample's centre */
         tau += rho;
-        float c1 = cos(M_PI_F * x), ca = 1.0f, cb = c1;
-        c[0] += r;
-        if (tm.ncoef > 1) c[1] += r * c1;
-        for (int q = 2; q < tm.ncoef; ++q) {
-            float cn = 2.0f * c1 * cb - ca;
-            c[q] += r * cn;
-            ca = cb; cb = cn;
-        }
+        float basis[TFM_MAX_COEF];
+        dct_basis(x, tm.ncoef, basis);
+        for (int q = 0; q < tm.ncoef; ++q) c[q] += r * basis[q];
     }
     c[0] *= 1.0f / ns;
     for (int q = 1; q < tm.ncoef; ++q) c[q] *= 2.0f / ns;
@@ -63,28 +58,22 @@ inline float grid_var(int directional, float s, float d1, float R)
     return directional ? s : atan2(s - d1, R);
 }
 
-__kernel void airlight_noise(__global const float *depth, __global float4 *a_dir, __global float4 *a_sc,
-                             const int width, const int height, const camera_t cam, const lmedium_t m,
-                             __global const float4 *prims, const light_t L, __global const noise_t *nz,
-                             const int count, const tfm_t tm, __global const float *coef,
-                             __global const float4 *span, const int sub)
+/* A ray's airlight through noise: (A_dir, 0) in *od, (A_sc, its luminance-weighted optical
+ * depth) in *os, as lights.cl's airlight kernel writes them. */
+inline void noise_ray(float3 c, float3 w, float D, const light_t *L, const lmedium_t *m,
+                      __global const float4 *prims, __global const noise_t *nz, const int count, const tfm_t *tm,
+                      __global const float *coef, __global const float4 *span, const int sub, float4 *od, float4 *os)
 {
-    int i = get_global_id(0), j = get_global_id(1);
-    if (i >= width || j >= height) return;
-    int idx = j * width + i;
-    float wx, wy, wz;
-    float D = pixel_ray(&cam, i, j, depth[idx], &wx, &wy, &wz);
-    float3 w = (float3)(wx, wy, wz), c = cam.pos.xyz;
-    float3 sa = m.sa.xyz, st = sa + m.ss.xyz;
+    float3 sa = m->sa.xyz, st = sa + m->ss.xyz;
     float3 dir = (float3)(0.0f), sc = (float3)(0.0f);
     float wp = 0.0f;
-    int directional = L.type == 2;
-    lmedium_t het = m;
+    int directional = L->type == 2;
+    lmedium_t het = *m;
     het.homogeneous = 0.0f;
 
     float cuts[MAX_CUTS];
     float d1, R;
-    int n = ray_cuts(&L, &m, prims, c, w, D, &d1, &R, cuts);
+    int n = ray_cuts(L, m, prims, c, w, D, &d1, &R, cuts);
 
     /* the noise's march nodes on this ray: n0 + k dn, k = 0 .. nn */
     float n0, n1, h;
@@ -95,7 +84,7 @@ __kernel void airlight_noise(__global const float *depth, __global float4 *a_dir
         dn = (n1 - n0) / nn;
     }
     int kb = 0;
-    noise_ctx_t nc = {nz, count, &tm, coef, span, 0.0f, 0.0f, 0.0f};
+    noise_ctx_t nc = {nz, count, tm, coef, span, 0.0f, 0.0f, 0.0f};
     float acc_d1 = 0.0f;        /* the camera leg's noise optical depth where the ray passes the light */
     float s_prev = 0.0f;
     for (int p = 0; p + 1 < n; ++p) {
@@ -112,7 +101,7 @@ __kernel void airlight_noise(__global const float *depth, __global float4 *a_dir
                 float ga = grid_var(directional, s_prev, d1, R), gb = grid_var(directional, s_next, d1, R);
                 float P;
                 nc.s_prev = s_prev;
-                float3 src = (gb - ga) * al_integrand(&L, &m, &het, prims, &nc, c, w, d1, R, 0.5f * (ga + gb), &P);
+                float3 src = (gb - ga) * al_integrand(L, m, &het, prims, &nc, c, w, d1, R, 0.5f * (ga + gb), &P);
                 float3 tdir = native_exp(-st * P);
                 float3 tsc = native_exp(-sa * P) - tdir;
                 dir += src * tdir;
@@ -126,12 +115,87 @@ __kernel void airlight_noise(__global const float *depth, __global float4 *a_dir
         }
     }
     if (!directional) {
-        sc += (L.gain.xyz - 1.0f) * (dir + sc);
-        float Pd = optical_depth(prims, &m, c, w, clamp(d1, 0.0f, D)) + (d1 >= D ? nc.acc : (d1 > 0.0f ? acc_d1 : 0.0f));
+        sc += (L->gain.xyz - 1.0f) * (dir + sc);
+        float Pd = optical_depth(prims, m, c, w, clamp(d1, 0.0f, D)) + (d1 >= D ? nc.acc : (d1 > 0.0f ? acc_d1 : 0.0f));
         wp = (0.2126f * sc.x + 0.7152f * sc.y + 0.0722f * sc.z) * Pd;
     }
-    a_dir[idx] = (float4)(dir, 0.0f);
-    a_sc[idx] = (float4)(sc, wp);
+    *od = (float4)(dir, 0.0f);
+    *os = (float4)(sc, wp);
+}
+
+#define NOISE_ARGS const camera_t cam, const lmedium_t m, __global const float4 *prims, const light_t L, \
+    __global const noise_t *nz, const int count, const tfm_t tm, __global const float *coef, \
+    __global const float4 *span, const int sub
+
+/* the airlight at every `stride`-th pixel of every `stride`-th row (and the last ones): the
+ * samples airlight_fill interpolates; .w of a sample's A_dir: 1 where its ray meets the
+ * noise. stride 1: every pixel, written straight to a_dir, a_sc. */
+__kernel void airlight_noise(__global const float *depth, __global float4 *a_dir, __global float4 *a_sc,
+                             const int width, const int height, NOISE_ARGS, const int stride, const int cw,
+                             const int ch)
+{
+    int ci = get_global_id(0), cj = get_global_id(1);
+    if (ci >= cw || cj >= ch) return;
+    int i = min(ci * stride, width - 1), j = min(cj * stride, height - 1);
+    float wx, wy, wz;
+    float D = pixel_ray(&cam, i, j, depth[j * width + i], &wx, &wy, &wz);
+    float3 w = (float3)(wx, wy, wz);
+    float4 od, os;
+    noise_ray(cam.pos.xyz, w, D, &L, &m, prims, nz, count, &tm, coef, span, sub, &od, &os);
+    float t0, t1, h;
+    od.w = stride > 1 && noise_span(nz, count, cam.pos.xyz, w, 0.0f, D, &t0, &t1, &h) ? 1.0f : 0.0f;
+    a_dir[cj * cw + ci] = od;
+    a_sc[cj * cw + ci] = os;
+}
+
+/* Every pixel from the four samples around it (bilinear), where all four lie on its surface,
+ * agree with it on meeting the noise, and it is more than 12 strides from the light's image
+ * (lx, ly; the 1/R peak); elsewhere its own ray, integrated. */
+__kernel void airlight_fill(__global const float *depth, __global float4 *a_dir, __global float4 *a_sc,
+                            __global const float4 *s_dir, __global const float4 *s_sc,
+                            const int width, const int height, NOISE_ARGS, const int stride, const int cw,
+                            const int ch, const float lx, const float ly)
+{
+    int i = get_global_id(0), j = get_global_id(1);
+    if (i >= width || j >= height) return;
+    int idx = j * width + i;
+    int ci = min(i / stride, cw - 1), cj = min(j / stride, ch - 1);
+    int ci1 = min(ci + 1, cw - 1), cj1 = min(cj + 1, ch - 1);
+    int si0 = min(ci * stride, width - 1), si1 = min(ci1 * stride, width - 1);
+    int sj0 = min(cj * stride, height - 1), sj1 = min(cj1 * stride, height - 1);
+    float fx = si1 > si0 ? (float)(i - si0) / (si1 - si0) : 0.0f;
+    float fy = sj1 > sj0 ? (float)(j - sj0) / (sj1 - sj0) : 0.0f;
+    float wx, wy, wz;
+    float D = pixel_ray(&cam, i, j, depth[idx], &wx, &wy, &wz);
+    float3 w = (float3)(wx, wy, wz);
+    float t0, t1, h;
+    float hit = noise_span(nz, count, cam.pos.xyz, w, 0.0f, D, &t0, &t1, &h) ? 1.0f : 0.0f;
+    /* a plane's 1 / z is linear across the image: the four samples lie on the pixel's
+     * surface when their bilinear 1 / z is its own within 1 % (the sky: 1 / z = 0) */
+    float iz = depth[idx] < cam.max_depth ? 1.0f / depth[idx] : 0.0f;
+    int ok = (i - lx) * (i - lx) + (j - ly) * (j - ly) > 144.0f * stride * stride;
+    int sidx[4] = {sj0 * width + si0, sj0 * width + si1, sj1 * width + si0, sj1 * width + si1};
+    int cidx[4] = {cj * cw + ci, cj * cw + ci1, cj1 * cw + ci, cj1 * cw + ci1};
+    float wt[4] = {(1.0f - fx) * (1.0f - fy), fx * (1.0f - fy), (1.0f - fx) * fy, fx * fy};
+    float4 od = (float4)(0.0f), os = (float4)(0.0f);
+    float izs = 0.0f, ylo = INFINITY, yhi = 0.0f;
+    for (int k = 0; k < 4; ++k) {
+        float zs = depth[sidx[k]];
+        float4 sd = s_dir[cidx[k]], ss = s_sc[cidx[k]];
+        izs += wt[k] * (zs < cam.max_depth ? 1.0f / zs : 0.0f);
+        ok = ok && (sd.w == hit || wt[k] == 0.0f);
+        float y = 0.2126f * (sd.x + ss.x) + 0.7152f * (sd.y + ss.y) + 0.0722f * (sd.z + ss.z);
+        ylo = fmin(ylo, y);
+        yhi = fmax(yhi, y);
+        od += wt[k] * (float4)(sd.xyz, 0.0f);
+        os += wt[k] * ss;
+    }
+    /* ... and vary by at most 50 % (a cone's edge, the light's peak: curvature the
+     * bilinear weights miss) */
+    ok = ok && fabs(izs - iz) <= 0.01f * iz && yhi <= 1.5f * ylo;
+    if (!ok) noise_ray(cam.pos.xyz, w, D, &L, &m, prims, nz, count, &tm, coef, span, sub, &od, &os);
+    a_dir[idx] = (float4)(od.xyz, 0.0f);
+    a_sc[idx] = os;
 }
 
 /* the map's optical depth at given points (tests/test_noise.py, benchmarks/shadows.py) */

@@ -343,6 +343,9 @@ class Render(_Model):
     levels: Annotated[int, Field(ge=1, le=24, strict=True)] | Auto = Field(
         "auto", description="pyramid levels; auto: down to one pixel")
     separation: Separation = Separation()
+    noise_stride: Annotated[int, Field(ge=1, le=16, strict=True)] | Literal["auto"] = Field(
+        "auto", description="noise media: rays are marched every this many pixels and interpolated where the "
+        "surface agrees (1: every pixel); auto: a third of the finest noise features' size in pixels, 1 to 8")
     lights: LightsRender = LightsRender()
 
     @model_validator(mode="before")

@@ -85,6 +85,28 @@ def tfm_layout(cfg: Config, pos: np.ndarray, axis: np.ndarray, light_type: str) 
     return s
 
 
+def feature_size(cfg: Config) -> float:
+    """m, the finest structure noise puts into the light: the finest octave's lattice spacing,
+    the soft edge, or the mean free path at the densest (offset + amplitude) of a primitive."""
+    st = max(a + s for a, s in zip(cfg.medium.absorption, cfg.medium.scattering))
+    out = math.inf
+    for d in primitives(cfg):
+        peak = d.factor * max(d.offset + d.amplitude, 1e-12) * st
+        out = min(out, d.scale / 2 ** (d.octaves - 1), d.edge_m() or math.inf, 1.0 / peak if peak > 0 else math.inf)
+    return out
+
+
+def stride(cfg: Config, width: int, height: int) -> int:
+    """render.noise_stride; auto: a third of feature_size in pixels where the noise lies
+    farthest from the camera, 1 to 8 (benchmarks/smoke.py measures the error per stride)."""
+    s = cfg.render.noise_stride
+    if s != "auto":
+        return int(s)
+    centre, rb = bounding_sphere(cfg)
+    far = min(float(np.linalg.norm(centre - np.array(cfg.camera.position))) + rb, cfg.camera.max_depth)
+    return int(min(max(cfg.camera.focal(width) * feature_size(cfg) / far / 3.0, 1.0), 8.0))
+
+
 # ----------------------------------------------------------------------------- float64 oracle
 
 def lattice_value(ix, iy, iz, seed) -> np.ndarray:

@@ -117,6 +117,23 @@ def medium_struct(cfg: Config, width: int, height: int) -> np.ndarray:
     return s
 
 
+def light_image(cfg: Config, light, width: int, height: int) -> tuple[float, float]:
+    """Where a point or spot light appears in the image, pixels from the top-left corner
+    (far outside for a directional light or one behind the camera)."""
+    from .lights import placed
+
+    if light.type == "directional":
+        return -1e9, -1e9
+    cam = cfg.camera.for_size(width, height)
+    pos, _ = placed(cfg, light)
+    c = cfg.camera
+    x, y, z = rotation(c.yaw, c.pitch, c.roll).T @ (np.asarray(pos, float) - np.asarray(cfg.camera.position, float))
+    if z >= 0:
+        return -1e9, -1e9
+    cx, cy = cam.centre(width, height)
+    return cx + cam.focal(width) * x / -z, cy - cam.focal_y(width) * y / -z
+
+
 def primitive_launches(cfg: Config) -> list[tuple[str, tuple]]:
     """(kernel, its primitive arguments) per non-homogeneous density primitive. For an
     exponential, factor * exp(-b <c - o, n>) (c the camera position) is the same for every
@@ -223,14 +240,11 @@ class Plan:
         else:
             self.k_lights = None
         self._al_tables = None     # (key, device buffer) of airlight_table.tables
-        self.noise = None          # (device noise_t array, count) of the noise primitives
-        from .noise import primitives, structs
-
-        if primitives(cfg):
-            ns = structs(cfg)
-            self.noise = (cl.Buffer(rt.ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=ns), np.int32(len(primitives(cfg))))
+        self._noise = None         # (the noise_t array's bytes, its device copy, count): noise_args
         self._light_tmp = None     # (t_dir, t_sc): the airlight of the second and later lights
         self._tfm = None           # (floats, coefficients, spans): a light's transmittance function map
+        self._noise_samples = None  # (count, A_dir, A_sc) at the samples of render.noise_stride
+        self._p_samples = None     # (count, buffer): the noise's optical depth at the same samples
 
     # -- stages --------------------------------------------------------------------
     def upload(self, rgba: np.ndarray, depth: np.ndarray, t: Timings) -> None:
@@ -243,13 +257,45 @@ class Plan:
         which preprocess reads before it writes the spread there."""
         cam = camera_struct(self.cfg, self.w, self.h)
         launches = primitive_launches(self.cfg)
-        if self.noise is not None:
-            launches.append(("p_noise", self.noise))
+        noise = self.noise_args()
+        if noise is not None:          # the samples of render.noise_stride first, then every pixel
+            st, cw, ch = self.noise_grid()
+            samples = self._noise_p_samples(cw * ch)
+            t.add("preprocess", self.k_density.p_noise_samples(
+                self.rt.queue, *self.rt.nd(cw, ch), self.depth if depth is None else depth, samples, np.int32(self.w),
+                np.int32(self.h), cam, *noise, np.int32(st), np.int32(cw), np.int32(ch)))
+            launches.append(("p_noise", (*noise, samples, np.int32(st), np.int32(cw), np.int32(ch))))
         for k, (name, args) in enumerate(launches):
             t.add("preprocess", getattr(self.k_density, name)(
                 self.rt.queue, *self.rt.nd(self.w, self.h), self.depth if depth is None else depth,
                 self.spread if out is None else out, np.int32(self.w), np.int32(self.h), cam, *args,
                 np.int32(k > 0)))
+
+    def noise_args(self):
+        """(device noise_t array, count) of the noise primitives of the current cfg (a plan
+        outlives its cfg: get_plan), or None without noise."""
+        from .noise import primitives, structs
+
+        if not primitives(self.cfg):
+            return None
+        ns = structs(self.cfg)
+        if self._noise is None or self._noise[0] != ns.tobytes():
+            mf = self.rt.cl.mem_flags
+            self._noise = (ns.tobytes(), self.rt.cl.Buffer(self.rt.ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=ns),
+                           np.int32(len(primitives(self.cfg))))
+        return self._noise[1:]
+
+    def noise_grid(self) -> tuple[int, int, int]:
+        """(stride, samples per row, rows of samples) of the noise's marched rays."""
+        from .noise import stride
+
+        st = stride(self.cfg, self.w, self.h)
+        return st, (self.w - 1 + st - 1) // st + 1, (self.h - 1 + st - 1) // st + 1
+
+    def _noise_p_samples(self, n: int):
+        if self._p_samples is None or self._p_samples[0] < n:
+            self._p_samples = (n, self.rt.cl.Buffer(self.rt.ctx, self.rt.cl.mem_flags.READ_WRITE, 4 * max(n, 1)))
+        return self._p_samples[1]
 
     def coverage(self, t: Timings, empty_depth: float) -> None:
         """Output alpha of an input with alpha: the medium in front of each pixel's uncovered
@@ -340,7 +386,7 @@ class Plan:
             ls = light_struct(self.cfg, light)
             if pk and light.type == "point":        # Pradhan & Kumar's closed form
                 ev = self.k_lights.airlight_pk(q, *size, self.depth, *dst, np.int32(self.w), np.int32(self.h), cam, lm, ls)
-            elif self.noise is not None:        # the light leg from a map, the camera leg marched
+            elif self.noise_args() is not None:     # the light leg from a map, the camera leg marched
                 ev = self._airlight_noise(t, dst, cam, lm, device_quad()[0], ls, light)
             elif homogeneous and light.type == "point":    # tables instead of quadrature
                 tab, grey, per_channel, common = self._table_args(ls)
@@ -394,9 +440,23 @@ class Plan:
                          cl.Buffer(self.rt.ctx, mf.READ_WRITE, 16 * texels))
         _, coef, span = self._tfm
         k = self.rt.program("tfm", **defines(self.cfg))
-        t.add("tfm", k.tfm_build(q, *self.rt.nd(r.tfm_size, r.tfm_size), coef, span, tm, *self.noise))
-        return k.airlight_noise(q, *self.rt.nd(self.w, self.h), self.depth, *dst, np.int32(self.w), np.int32(self.h),
-                                cam, lm, prims, ls, *self.noise, tm, coef, span, np.int32(r.nodes))
+        noise = self.noise_args()
+        t.add("tfm", k.tfm_build(q, *self.rt.nd(r.tfm_size, r.tfm_size), coef, span, tm, *noise))
+        args = (cam, lm, prims, ls, *noise, tm, coef, span, np.int32(r.nodes))
+        st, cw, ch = self.noise_grid()
+        if st == 1:
+            return k.airlight_noise(q, *self.rt.nd(cw, ch), self.depth, *dst, np.int32(self.w), np.int32(self.h), *args,
+                                    np.int32(st), np.int32(cw), np.int32(ch))
+        if self._noise_samples is None or self._noise_samples[0] != cw * ch:
+            mf = cl.mem_flags
+            self._noise_samples = (cw * ch, *(cl.Buffer(self.rt.ctx, mf.READ_WRITE, 16 * cw * ch) for _ in range(2)))
+        s_dir, s_sc = self._noise_samples[1:]
+        t.add("lights", k.airlight_noise(q, *self.rt.nd(cw, ch), self.depth, s_dir, s_sc, np.int32(self.w),
+                                         np.int32(self.h), *args, np.int32(st), np.int32(cw), np.int32(ch)))
+        lx, ly = light_image(self.cfg, light, self.w, self.h)
+        return k.airlight_fill(q, *self.rt.nd(self.w, self.h), self.depth, *dst, s_dir, s_sc, np.int32(self.w),
+                               np.int32(self.h), *args, np.int32(st), np.int32(cw), np.int32(ch), np.float32(lx),
+                               np.float32(ly))
 
     def _epipolar(self, t: Timings, k, dst, sh_args, light) -> None:
         """render.lights.method: epipolar (kernels/shadows.cl): shares marched at samples on
