@@ -1,6 +1,7 @@
 """Pictures of docs/lights.md: the bundled sample in fog without and with lights
 (samples/harbour-lights.yaml), and the same lights in smoke; a colonnade with a lamp and the
-sun behind it, without and with shadows (render.lights.shadows: screen); a spot through a
+sun behind it, without and with shadows (render.lights.shadows: screen), and lights in the
+places that are awkward for screen shadows; a spot through a
 column of smoke (a noise primitive) that shadows itself.
 
     python docs/make_lights_pictures.py
@@ -83,6 +84,21 @@ def main() -> int:
         rows.append(np.concatenate(row, axis=1))
     row = rows
     write_png(np.concatenate(row, axis=0), "lights-shadows.png")
+
+    # the awkward places of a light for screen shadows, each with shadows: behind the camera,
+    # the sun in the image plane (parallel epipolar lines), on the frame's left edge, on a pillar
+    f = (320 / 2) / np.tan(np.radians(30.0))
+    awkward = ["{type: point, position: [1.5, 2.5, 4], intensity: 3000, radius: 0.1}",
+               "{type: directional, direction: [-1, 0.15, 0], irradiance: 1}",
+               f"{{type: point, position: [{-160 / f * 14:.4f}, 1.0, -14], intensity: 60, radius: 0.1}}",
+               "{type: point, position: [2.5, 1.0, -11.95], intensity: 60, radius: 0.1}"]
+    tiles = []
+    for light in awkward:
+        out = fogcli.apply(rgb, z, fogcli.make_config("fog", sets=[f"lights=[{light}]", "medium.visibility=80",
+                                                                   "render.lights.shadows=screen"]))
+        tiles.append(linear_to_srgb(np.clip(out, 0, None)))
+    write_png(np.concatenate([np.concatenate(tiles[:2], axis=1), np.concatenate(tiles[2:], axis=1)], axis=0),
+              "lights-awkward.png")
 
     z, rgb = room()
     row = []
