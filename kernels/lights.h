@@ -118,7 +118,7 @@ inline float3 al_integrand(const light_t *L, const lmedium_t *m, const lmedium_t
         float3 to = L->pos.xyz - x;
         float tl = length(to);
         /* the homogeneous part over the widened distance (R / cos(phi)), like 1 / t^2 */
-        Pl = (tl > 0.0f ? optical_depth(prims, m, x, to / tl, tl) : 0.0f) + m->homogeneous * (hypot(s - d1, R) - tl);
+        Pl = (tl > 0.0f ? optical_depth(prims, m, x, to / tl, tl) : 0.0f) + m->homogeneous * (SQRT_((s - d1) * (s - d1) + R * R) - tl);
         if (L->type == 1) {
             float ct = tl > 0.0f ? dot(-to / tl, L->axis.xyz) : 1.0f;
             I *= smoothstep(L->cos_outer, L->cos_inner, ct);

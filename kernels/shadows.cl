@@ -27,10 +27,16 @@
 #include "lights.h"
 
 #ifndef SH_N
-#define SH_N 128            /* cells per ray: integrand evaluations */
+#define SH_N 64             /* cells per ray: integrand evaluations */
 #endif
-#define SH_SUB 8            /* visibility bits per cell: a shadow's edge lands within 1/8 cell */
+#ifndef SH_SUB
+#define SH_SUB 16           /* visibility bits per cell: a shadow edge lands within 1/16 cell (32 cells of 32 bits
+                             * missed the facade test's 1 %: 1.8 %; 64 of 16: 0.35 %, tests/test_shadows.py) */
+#endif
 #define SH_WORDS (SH_N * SH_SUB / 32)
+#ifndef SH_BINS
+#define SH_BINS 2048        /* shadow map bins per epipolar slice */
+#endif
 
 /* world vector -> camera frame (R's transpose; rot0..2 are R's rows) */
 inline float3 to_camera(const camera_t *cam, float3 v)
@@ -63,15 +69,25 @@ inline float pixel_z(const camera_t *cam, __global const float *depth, int width
 }
 
 /* set the visibility bits of [lo, hi] (in the integration variable): whole words at once */
-inline void mark(uint *bits, float lo, float hi, float a0, float da)
+#define SH_MASK (SH_SUB == 32 ? 0xffffffffu : (1u << SH_SUB) - 1u)
+/* cell k's visibility bits */
+#define CELL_BITS(bits, k) (((bits)[((k) * SH_SUB) >> 5] >> (((k) * SH_SUB) & 31)) & SH_MASK)
+
+/* set the visibility bits k0 .. k1 (inclusive) */
+inline void set_bits(uint *bits, int k0, int k1)
 {
-    float sub = da / SH_SUB;
-    int k0 = max((int)ceil((lo - a0) / sub - 0.5f), 0), k1 = min((int)floor((hi - a0) / sub - 0.5f), SH_N * SH_SUB - 1);
     for (int wd = k0 >> 5; wd <= (k1 >> 5) && k0 <= k1; ++wd) {
         int b0 = max(k0 - 32 * wd, 0), b1 = min(k1 - 32 * wd, 31);
         uint hi_mask = b1 == 31 ? ~0u : (1u << (b1 + 1)) - 1u;
         bits[wd] |= hi_mask & ~((1u << b0) - 1u);
     }
+}
+
+/* set the bits of [lo, hi] (in the integration variable) */
+inline void mark(uint *bits, float lo, float hi, float a0, float da)
+{
+    float sub = da / SH_SUB;
+    set_bits(bits, max((int)ceil((lo - a0) / sub - 0.5f), 0), min((int)floor((hi - a0) / sub - 0.5f), SH_N * SH_SUB - 1));
 }
 
 inline int all_set(const uint *bits)
@@ -81,13 +97,74 @@ inline int all_set(const uint *bits)
     return all == ~0u;
 }
 
+/* A point x (relative to the camera) in the half-plane of a slice, bounded by the line
+ * through the camera and the light (unit direction u, the light at distance dl): (key, depth)
+ * = (its direction seen from the light as a pseudo-angle 1 - cos / (|cos| + sin), monotonic
+ * in the angle from 0 to pi, without atan2's cost; its distance from the light); for a
+ * directional light (its distance from that line, minus its distance along u). An occluder
+ * shadows the points behind it: the same key, a larger depth. */
+inline float2 plane_coords(float3 x, float3 u, float dl, int directional)
+{
+    float a = dot(x, u);
+    float3 p = x - a * u;
+    float b = SQRT_(dot(p, p));
+    if (directional) return (float2)(b, -a);
+    float q = a - dl, n = fabs(q) + b;
+    return (float2)(n > 0.0f ? 1.0f - q / n : 0.0f, SQRT_(q * q + b * b));
+}
+
+/* whether the point at integration variable t (phi, or s for the sun) of ray w is behind an
+ * occluder of the slice's map (mrange: first key, key per bin) */
+inline int map_blocked(__global const float *map, float4 mrange, float3 c, float3 w, float3 u, float dl,
+                       int directional, float d1, float R, float t)
+{
+    float s = directional ? t : d1 + R * tan(t);
+    float2 kd = plane_coords(s * w, u, dl, directional);
+    float f = (kd.x - mrange.x) / mrange.y;
+    if (!(f >= 0.0f && f < SH_BINS)) return 0;
+    return kd.y > map[SH_BINS + (int)f] * (1.0f + 1e-5f) + 1e-5f;
+}
+
+/* the smallest (tree: the min tree, fmin) or largest (the max tree) occluder distance of bins
+ * [lo, hi) of a slice's map: a bottom-up segment-tree query */
+inline float map_query(__global const float *tree, int lo, int hi, int largest)
+{
+    float r = largest ? -INFINITY : INFINITY;
+    for (int l = lo + SH_BINS, h = hi + SH_BINS; l < h; l >>= 1, h >>= 1) {
+        if (l & 1) { float v = tree[l++]; r = largest ? fmax(r, v) : fmin(r, v); }
+        if (h & 1) { float v = tree[--h]; r = largest ? fmax(r, v) : fmin(r, v); }
+    }
+    return r;
+}
+
+/* Intel's min/max test for the cells of a ray between integration variables t0 < t1: 0 if
+ * every point there is lit by the slice's map, 1 if every one is behind an occluder, 2 if
+ * neither is certain. The keys grow monotonically along the ray; the distance from a point
+ * light is convex (smallest at the ray's foot s = d1, distance Rt), from the sun linear. */
+inline int map_range(__global const float *map, float4 mrange, float3 w, float3 u, float dl, int directional,
+                     float d1, float R, float Rt, float t0, float t1)
+{
+    float sa = directional ? t0 : d1 + R * tan(t0), sb = directional ? t1 : d1 + R * tan(t1);
+    float2 ka = plane_coords(sa * w, u, dl, directional), kb = plane_coords(sb * w, u, dl, directional);
+    float f0 = (fmin(ka.x, kb.x) - mrange.x) / mrange.y, f1 = (fmax(ka.x, kb.x) - mrange.x) / mrange.y;
+    if (!(f1 >= 0.0f) || !(f0 < SH_BINS)) return 0;                 /* off the map: lit */
+    int inside = f0 >= 0.0f && f1 < SH_BINS;
+    int b0 = (int)fmax(f0, 0.0f), b1 = (int)fmin(f1, SH_BINS - 1.0f) + 1;
+    float dmax = fmax(ka.y, kb.y);
+    float dmin = !directional && sa < d1 && d1 < sb ? Rt : fmin(ka.y, kb.y);
+    if (dmax <= map_query(map, b0, b1, 0) * (1.0f + 1e-5f) + 1e-5f) return 0;
+    if (inside && dmin > map_query(map + 2 * SH_BINS, b0, b1, 1) * (1.0f + 1e-5f) + 1e-5f) return 1;
+    return 2;
+}
+
 /* The lit shares of the airlight's integrand (fA: camera leg in extinction, fT: in
  * absorption) along the ray through the continuous image point (px, py), whose surface is
  * that of the nearest pixel taken as facing the camera. Returns 0 when nothing is in shadow
  * (the shares are then 1). */
 inline int march_shares(__global const float *depth, const int width, const int height, const camera_t cam,
                         const lmedium_t m, __global const float4 *prims, const light_t L, const float thickness,
-                        const int offscreen_shadowed, float px, float py, float3 *fA, float3 *fT)
+                        const int offscreen_shadowed, float px, float py, float3 *fA, float3 *fT,
+                        __global const float *map, float4 mrange)
 {
     *fA = (float3)(1.0f);
     *fT = (float3)(1.0f);
@@ -123,7 +200,33 @@ inline int march_shares(__global const float *depth, const int width, const int 
     float gy = (cam.cy - py) * (-vc.z) - cam.focal_y * vc.y;
     float glen = hypot(gx, gy);
     int off = 0;
-    if (glen <= 1e-6f * (fabs(vc.z) * (width + height) + cam.focal_px * hypot(vc.x, vc.y)) || Rt <= 1e-6f * dl) {
+    if (map) {
+        /* a sample on a slice: its slice's shadow map (epi_maps) tells the visibility. Intel's
+         * min/max trees: ranges of sub-cells decided by the map's bounds over their keys,
+         * halved while undecided, a single undecided sub-cell tested at its middle */
+        float3 u = directional ? v : v / dl;
+        float sub = da / SH_SUB;
+        int lo_[32], hi_[32], sp = 1;
+        lo_[0] = 0;
+        hi_[0] = SH_N * SH_SUB;
+        while (sp > 0) {
+            --sp;
+            int k0 = lo_[sp], k1 = hi_[sp];
+            int st = map_range(map, mrange, w, u, dl, directional, d1, R, Rt, a0 + k0 * sub, a0 + k1 * sub);
+            if (st == 2 && k1 - k0 == 1)
+                st = map_blocked(map, mrange, c, w, u, dl, directional, d1, R, a0 + (k0 + 0.5f) * sub);
+            if (st == 1) {
+                set_bits(bits, k0, k1 - 1);
+            } else if (st == 2) {
+                int km = (k0 + k1) / 2;
+                lo_[sp] = km; hi_[sp++] = k1;
+                lo_[sp] = k0; hi_[sp++] = km;
+            }
+        }
+        off = mrange.w > 0.0f;
+        if (off && offscreen_shadowed)
+            for (int k = 0; k < SH_WORDS; ++k) bits[k] = ~0u;
+    } else if (glen <= 1e-6f * (fabs(vc.z) * (width + height) + cam.focal_px * hypot(vc.x, vc.y)) || Rt <= 1e-6f * dl) {
         /* the light on this pixel's ray: its segments run along the ray itself, past the
          * pixel's own surface when the light is behind it */
         float b = fmin(fmax(0.05f, 0.01f * D), 0.25f * thickness);
@@ -215,7 +318,7 @@ inline int march_shares(__global const float *depth, const int width, const int 
         float P;
         float3 src = al_integrand(&L, &m, &het, prims, 0, c, w, d1, R, a0 + (k + 0.5f) * da, &P);
         float3 fa = src * exp(-st * P), ft = src * exp(-m.sa.xyz * P);
-        float open = 1.0f - popcount((bits[k >> 2] >> (8 * (k & 3))) & 0xffu) * (1.0f / SH_SUB);
+        float open = 1.0f - popcount(CELL_BITS(bits, k)) * (1.0f / SH_SUB);
         totA += fa;
         totT += ft;
         litA += open * fa;
@@ -250,24 +353,127 @@ __kernel void shadow_march(__global const float *depth, __global float4 *a_dir, 
     if (od.x + od.y + od.z + os.x + os.y + os.z <= 0.0f) return;      /* no light here to shadow */
     float3 fA, fT;
     if (march_shares(depth, width, height, cam, m, prims, L, thickness, offscreen_shadowed, i + 0.5f, j + 0.5f,
-                     &fA, &fT))
+                     &fA, &fT, 0, (float4)(0.0f)))
         apply_shares(a_dir, a_sc, idx, fA, fT);
 }
 
-/* render.lights.method: epipolar (Intel's epipolar sampling, without its min/max trees):
- * the shares are marched at samples on S slices, half-lines from the light's image e (its
+/* render.lights.method: epipolar (Intel's epipolar sampling): the shares are found at
+ * samples on S slices, half-lines from the light's image e (its
  * antipode for a light behind the camera; far away along the lines' direction when they are
  * nearly parallel), every `step` pixels along each, four times as dense within 15 % of the
  * image's size of e (radius r0 + m h1 up to rb, then rb + (m - m1) h2); a pixel takes them from the four samples
  * around it in (angle, radius) about e, weighted bilinearly and by their depth's agreement,
  * unless it is within 8 pixels of e or no sample near it sees its surface: then it is marched
  * itself. Slice k is at angle a0 + k da. */
+/* Slice k's shadow map, Intel's 1D shadow map of an epipolar slice: its in-frame part walked
+ * pixel by pixel, each pixel's stretch of the line giving its surface window (the occluder of
+ * shadow_march) as a quad in the slice's half-plane; per bin of keys (the direction seen from
+ * the light) the distance where a light ray first meets a quad. Twice: first the keys' range,
+ * then the bins. maps[k]: a min and a max segment tree over the bins (leaves SH_BINS ..
+ * 2 SH_BINS - 1 of each), what the samples' range tests read. ranges[k] = (first key, key
+ * per bin, 0, off): off when the lines leave the frame before the light's image (a light
+ * outside the frame, behind the camera or at infinity), for offscreen: shadowed. */
+__kernel void epi_maps(__global const float *depth, __global float *maps, __global float4 *ranges,
+                       const int width, const int height, const camera_t cam, const light_t L, const float thickness,
+                       const float ex, const float ey, const float a0, const float da, const int ns, const int off)
+{
+    int k = get_global_id(0);
+    if (k >= ns) return;
+    int directional = L.type == 2;
+    float3 c = cam.pos.xyz, v = directional ? L.axis.xyz : L.pos.xyz - c;
+    float dl = length(v);
+    float3 u = directional ? v : v / dl;
+    float bl = fmax(fmax(0.05f, 0.02f * dl), 2.0f * L.radius);
+    float a = a0 + k * da, ux = cos(a), uy = sin(a);
+    /* the half-line's part inside the frame */
+    float rin = 0.0f, rout = INFINITY;
+    if (ux != 0.0f) {
+        float t0 = (0.0f - ex) / ux, t1 = (width - ex) / ux;
+        rin = fmax(rin, fmin(t0, t1));
+        rout = fmin(rout, fmax(t0, t1));
+    } else if (ex < 0.0f || ex > width) rout = -1.0f;
+    if (uy != 0.0f) {
+        float t0 = (0.0f - ey) / uy, t1 = (height - ey) / uy;
+        rin = fmax(rin, fmin(t0, t1));
+        rout = fmin(rout, fmax(t0, t1));
+    } else if (ey < 0.0f || ey > height) rout = -1.0f;
+    __global float *map = maps + (size_t)k * 4 * SH_BINS;      /* min tree (leaves: the map), max tree */
+    float kmin = INFINITY, kmax = -INFINITY;
+    for (int pass = 0; pass < 2; ++pass) {
+        float kscale = pass ? SH_BINS / fmax(kmax - kmin, 1e-20f) : 0.0f;
+        /* pixel by pixel along the line (Amanatides-Woo, as march_shares walks it): each
+         * stretch takes its own pixel's surface, exactly as a sample's walk would */
+        int qi = (int)floor(ex + (rin + 1e-3f) * ux), qj = (int)floor(ey + (rin + 1e-3f) * uy);
+        int sx_ = ux > 0.0f ? 1 : -1, sy_ = uy > 0.0f ? 1 : -1;
+        float rnx = ux != 0.0f ? ((ux > 0.0f ? qi + 1 : qi) - ex) / ux : INFINITY;
+        float rny = uy != 0.0f ? ((uy > 0.0f ? qj + 1 : qj) - ey) / uy : INFINITY;
+        for (float r = rin; r < rout;) {
+            float r1 = fmin(fmin(rnx, rny), rout);
+            int ci = qi, cj = qj;
+            if (rnx < rny) { qi += sx_; rnx += fabs(1.0f / ux); } else { qj += sy_; rny += fabs(1.0f / uy); }
+            float r0 = r;
+            r = r1;
+            if (ci < 0 || cj < 0 || ci >= width || cj >= height || !(r1 > r0)) continue;
+            float e0, e1, e2_, dlq, dla, dlb;
+            float Dq = pixel_ray(&cam, ci, cj, depth[cj * width + ci], &e0, &e1, &e2_);
+            if (Dq >= cam.max_depth) continue;                  /* sky: nothing there */
+            ray_at(&cam, ci + 0.5f, cj + 0.5f, &dlq);
+            float zq = Dq / dlq;
+            float b = fmin(fmax(0.05f, 0.01f * zq), 0.25f * thickness);
+            float3 wa = ray_at(&cam, ex + r0 * ux, ey + r0 * uy, &dla), wb = ray_at(&cam, ex + r1 * ux, ey + r1 * uy, &dlb);
+            if (!directional && length(Dq * (wa + wb) * 0.5f - v) < bl) continue;    /* the light's own surface */
+            float2 p0 = plane_coords((zq + b) * dla * wa, u, dl, directional);
+            float2 p1 = plane_coords((zq + thickness) * dla * wa, u, dl, directional);
+            float2 p2 = plane_coords((zq + b) * dlb * wb, u, dl, directional);
+            float2 p3 = plane_coords((zq + thickness) * dlb * wb, u, dl, directional);
+            float lo = fmin(fmin(p0.x, p1.x), fmin(p2.x, p3.x)), hi = fmax(fmax(p0.x, p1.x), fmax(p2.x, p3.x));
+            if (!pass) {
+                kmin = fmin(kmin, lo);
+                kmax = fmax(kmax, hi);
+                continue;
+            }
+            /* the window's distance per bin: where a light ray of the bin's keys first meets
+             * the quad, the least over its four edges of the edge's distance, interpolated in
+             * the key, over the bin's keys. (The nearest of the four corners for every bin put
+             * a wide pixel's far side as near as its near side: false shadows at the surfaces
+             * behind a light.) */
+            float2 eg[8] = {p0, p2, p1, p3, p0, p1, p2, p3};
+            int b0 = max((int)((lo - kmin) * kscale), 0), b1 = min((int)((hi - kmin) * kscale), SH_BINS - 1);
+            for (int bin = b0; bin <= b1; ++bin) {
+                float kb0 = kmin + bin / kscale, kb1 = kmin + (bin + 1) / kscale;
+                float d = INFINITY;
+                for (int e = 0; e < 8; e += 2) {
+                    float2 ea = eg[e].x <= eg[e + 1].x ? eg[e] : eg[e + 1], eb = eg[e].x <= eg[e + 1].x ? eg[e + 1] : eg[e];
+                    float ka = fmax(kb0, ea.x), kz = fmin(kb1, eb.x);
+                    if (ka > kz) continue;                               /* the edge is not in this bin */
+                    float slope = eb.x > ea.x ? (eb.y - ea.y) / (eb.x - ea.x) : 0.0f;
+                    d = fmin(d, fmin(ea.y + slope * (ka - ea.x), ea.y + slope * (kz - ea.x)));
+                }
+                map[SH_BINS + bin] = fmin(map[SH_BINS + bin], d);
+            }
+        }
+        if (!pass) {
+            for (int bin = 0; bin < SH_BINS; ++bin) map[SH_BINS + bin] = INFINITY;
+            if (!(kmax >= kmin)) break;                         /* no occluder on this slice */
+        }
+    }
+    __global float *mx = map + 2 * SH_BINS;
+    for (int bin = SH_BINS; bin < 2 * SH_BINS; ++bin) mx[bin] = map[bin];
+    for (int node = SH_BINS - 1; node >= 1; --node) {
+        map[node] = fmin(map[2 * node], map[2 * node + 1]);
+        mx[node] = fmax(mx[2 * node], mx[2 * node + 1]);
+    }
+    ranges[k] = (float4)(kmax >= kmin ? kmin : 0.0f, kmax >= kmin ? fmax(kmax - kmin, 1e-20f) / SH_BINS : 1.0f,
+                         0.0f, (float)off);
+}
+
 __kernel void epi_samples(__global const float *depth, __global float4 *sh_a, __global float4 *sh_t,
                           const int width, const int height, const camera_t cam, const lmedium_t m,
                           __global const float4 *prims, const light_t L, const float thickness,
                           const int offscreen_shadowed, const float ex, const float ey, const float a0,
                           const float da, const float r0, const float rb, const float h1, const float h2,
-                          const int m1, const int nm, const int ns)
+                          const int m1, const int nm, const int ns, __global const float *maps,
+                          __global const float4 *ranges)
 {
     int mi = get_global_id(0), k = get_global_id(1);
     if (mi >= nm || k >= ns) return;
@@ -280,7 +486,8 @@ __kernel void epi_samples(__global const float *depth, __global float4 *sh_a, __
         return;
     }
     float3 fA, fT;
-    march_shares(depth, width, height, cam, m, prims, L, thickness, offscreen_shadowed, px, py, &fA, &fT);
+    march_shares(depth, width, height, cam, m, prims, L, thickness, offscreen_shadowed, px, py, &fA, &fT,
+                 maps + (size_t)k * 4 * SH_BINS, ranges[k]);
     float Dn;
     sh_a[s] = (float4)(fA, pixel_z(&cam, depth, width, (int)px, (int)py, &Dn));
     sh_t[s] = (float4)(fT, 1.0f);
@@ -336,7 +543,8 @@ __kernel void epi_unwarp(__global const float *depth, __global float4 *a_dir, __
     }
     if (!ok) {
         atomic_inc(marched);
-        if (!march_shares(depth, width, height, cam, m, prims, L, thickness, offscreen_shadowed, px, py, &fA, &fT))
+        if (!march_shares(depth, width, height, cam, m, prims, L, thickness, offscreen_shadowed, px, py, &fA, &fT,
+                          0, (float4)(0.0f)))
             return;
     }
     apply_shares(a_dir, a_sc, idx, fA, fT);

@@ -104,8 +104,8 @@ def epipolar_layout(cfg: Config, light, width: int, height: int, slices: int, st
     """The samples of render.lights.method: epipolar (kernels/shadows.cl): (ex, ey) the light's
     image (its antipode for a light behind the camera; 1e4 pixels out along the epipolar lines
     when they are nearly parallel), the slices' angles a0 + k da, k < ns, the samples' radii
-    (r0 + m h1 below rb, rb + (m - m1) h2 beyond; m < nm), and whether the slices go all round
-    (the image holds e)."""
+    (r0 + m h1 below rb, rb + (m - m1) h2 beyond; m < nm), whether the slices go all round
+    (the image holds e) and whether e is the light's own image (in front of the camera)."""
     cam = cfg.camera.for_size(width, height)
     f, fy = cam.focal(width), cam.focal_y(width)
     cx, cy = cam.centre(width, height)
@@ -140,7 +140,8 @@ def epipolar_layout(cfg: Config, light, width: int, height: int, slices: int, st
     m1 = int(math.ceil(max(0.15 * max(width, height) - r0, 0.0) / h1))
     rb = r0 + m1 * h1
     nm = m1 + int(math.ceil(max(r_max - rb, 0.0) / step)) + 2
-    return float(e[0]), float(e[1]), a0, da, r0, rb, h1, float(step), m1, nm, ns, full
+    front = bool(z < 0 and abs(z) * far > np.hypot(*g))      # e is the light's own image
+    return float(e[0]), float(e[1]), a0, da, r0, rb, h1, float(step), m1, nm, ns, full, front
 
 
 def medium_struct(cfg: Config) -> tuple[np.ndarray, np.ndarray]:

@@ -408,7 +408,7 @@ class Plan:
                                             *device_quad(), ls)
             t.add("lights", ev)
             if self.cfg.render.lights.shadows == "screen":      # built once per process (runtime.program)
-                k_shadows = self.rt.program("shadows", **defines(self.cfg))
+                k_shadows = self.rt.program("shadows", **defines(self.cfg), SH_BINS=SH_BINS)
                 sh = self.cfg.render.lights
                 sh_args = (cam, lm, device_quad()[0], ls, np.float32(sh.thickness), np.int32(sh.offscreen == "shadowed"))
                 if sh.method == "march":
@@ -466,15 +466,21 @@ class Plan:
 
         cl, q = self.rt.cl, self.rt.queue
         sh = self.cfg.render.lights
-        ex, ey, a0, da, r0, rb, h1, h2, m1, nm, ns, full = epipolar_layout(self.cfg, light, self.w, self.h,
-                                                                           sh.slices, sh.step)
+        ex, ey, a0, da, r0, rb, h1, h2, m1, nm, ns, full, front = epipolar_layout(self.cfg, light, self.w, self.h,
+                                                                                  sh.slices, sh.step)
         mf = cl.mem_flags
         sh_a, sh_t = (cl.Buffer(self.rt.ctx, mf.READ_WRITE, 16 * nm * ns) for _ in range(2))
         self.epi_marched = np.zeros(1, np.int32)
         counter = cl.Buffer(self.rt.ctx, mf.READ_WRITE | mf.COPY_HOST_PTR, hostbuf=self.epi_marched)
         lay = (*(np.float32(x) for x in (ex, ey, a0, da, r0, rb, h1, h2)), np.int32(m1), np.int32(nm), np.int32(ns))
+        maps = cl.Buffer(self.rt.ctx, mf.READ_WRITE, 16 * SH_BINS * ns)      # min and max trees per slice
+        ranges = cl.Buffer(self.rt.ctx, mf.READ_WRITE, 16 * ns)
+        cam_, _, _, ls, thick, _ = sh_args
+        inside = front and full         # the lines reach the light's image inside the frame
+        t.add("shadows", k.epi_maps(q, *self.rt.nd(ns), self.depth, maps, ranges, np.int32(self.w), np.int32(self.h),
+                                    cam_, ls, thick, *lay[:4], np.int32(ns), np.int32(not inside)))
         t.add("shadows", k.epi_samples(q, *self.rt.nd(nm, ns), self.depth, sh_a, sh_t, np.int32(self.w),
-                                       np.int32(self.h), *sh_args, *lay))
+                                       np.int32(self.h), *sh_args, *lay, maps, ranges))
         t.add("shadows", k.epi_unwarp(q, *self.rt.nd(self.w, self.h), self.depth, *dst, sh_a, sh_t, np.int32(self.w),
                                       np.int32(self.h), *sh_args, *lay, np.int32(full), counter))
         cl.enqueue_copy(q, self.epi_marched, counter, is_blocking=False)     # read with the download
@@ -652,6 +658,9 @@ class Plan:
                 for i, ch in enumerate("RGB"):
                     out[f"{name}.{ch}"] = src[:, :, i]
         return out
+
+
+SH_BINS = 2048     # shadow map bins per epipolar slice (kernels/shadows.cl)
 
 
 _PLANS: dict = {}
