@@ -50,8 +50,7 @@ __kernel void p_noise_samples(__global const float *depth, __global float *S,
 }
 
 /* ... then every pixel from the four samples around it (bilinear) where they lie on its
- * surface (the bilinear 1 / z of theirs its own within 1 %: exact for planes) and agree with
- * it on meeting the noise (a sample's optical depth > 0), else marched itself (stride 1: every
+ * surface (noise.h: grid_neighbours) and agree with it on meeting the noise (a sample's optical depth > 0), else marched itself (stride 1: every
  * pixel). tfm.cl's airlight_fill makes the same choice. */
 __kernel void p_noise(__global const float *depth, __global float *P,
                       const int width, const int height, const camera_t cam,
@@ -67,26 +66,15 @@ __kernel void p_noise(__global const float *depth, __global float *P,
     float p = 0.0f;
     int ok = stride > 1;
     if (ok) {
-        int ci = min(i / stride, cw - 1), cj = min(j / stride, ch - 1);
-        int ci1 = min(ci + 1, cw - 1), cj1 = min(cj + 1, ch - 1);
-        int si0 = min(ci * stride, width - 1), si1 = min(ci1 * stride, width - 1);
-        int sj0 = min(cj * stride, height - 1), sj1 = min(cj1 * stride, height - 1);
-        float fx = si1 > si0 ? (float)(i - si0) / (si1 - si0) : 0.0f;
-        float fy = sj1 > sj0 ? (float)(j - sj0) / (sj1 - sj0) : 0.0f;
+        grid4_t g = grid_neighbours(depth, width, height, cam.max_depth, i, j, stride, cw, ch);
         float t0, t1, h;
         int hit = noise_span(nz, count, cam.pos.xyz, w, 0.0f, D, &t0, &t1, &h);
-        float iz = depth[idx] < cam.max_depth ? 1.0f / depth[idx] : 0.0f;
-        int sidx[4] = {sj0 * width + si0, sj0 * width + si1, sj1 * width + si0, sj1 * width + si1};
-        int cidx[4] = {cj * cw + ci, cj * cw + ci1, cj1 * cw + ci, cj1 * cw + ci1};
-        float wt[4] = {(1.0f - fx) * (1.0f - fy), fx * (1.0f - fy), (1.0f - fx) * fy, fx * fy};
-        float izs = 0.0f;
         for (int k = 0; k < 4; ++k) {
-            float zs = depth[sidx[k]], ps = S[cidx[k]];
-            izs += wt[k] * (zs < cam.max_depth ? 1.0f / zs : 0.0f);
-            ok = ok && ((ps > 0.0f) == hit || wt[k] == 0.0f);
-            p += wt[k] * ps;
+            float ps = S[g.smp[k]];
+            ok = ok && ((ps > 0.0f) == hit || g.wt[k] == 0.0f);
+            p += g.wt[k] * ps;
         }
-        ok = ok && fabs(izs - iz) <= 0.01f * iz;
+        ok = ok && g.same_surface;
     }
     if (!ok) p = noise_march(nz, count, cam.pos.xyz, w, D);
     P[idx] = accumulate ? P[idx] + p : p;

@@ -123,12 +123,7 @@ __kernel void airlight(__global const float *depth, __global float4 *a_dir, __gl
             float2 nw = gl[k];
             float P;
             float3 src = hw * nw.y * al_integrand(&L, &m, &het, prims, 0, c, w, d1, R, mid + hw * nw.x, &P);
-            float3 tdir = native_exp(-st * P);
-            float3 tsc = native_exp(-sa * P) - tdir;
-            dir += src * tdir;
-            float3 add = src * tsc;
-            sc += add;
-            wp += (0.2126f * add.x + 0.7152f * add.y + 0.0722f * add.z) * P;
+            al_accumulate(src, P, sa, st, &dir, &sc, &wp);
         }
     }
     /* points and spots: spread at the optical depth where the ray passes the light (as the

@@ -205,6 +205,18 @@ inline void sort_cuts(float *c, int n)
 }
 
 
+/* One node's share of the airlight: src, the light scattered towards the camera there (times
+ * the node's weight), split by the camera leg's optical depth P into what arrives unscattered
+ * (dir) and what scatters again on the way (sc), with sc's luminance-weighted P in wp. */
+inline void al_accumulate(float3 src, float P, float3 sa, float3 st, float3 *dir, float3 *sc, float *wp)
+{
+    float3 tdir = native_exp(-st * P);
+    float3 add = src * (native_exp(-sa * P) - tdir);
+    *dir += src * tdir;
+    *sc += add;
+    *wp += (0.2126f * add.x + 0.7152f * add.y + 0.0722f * add.z) * P;
+}
+
 /* The pieces of a pixel's ray [0, D] that its quadrature treats apart: where the light's
  * foot is (phi = 0), the phase function's forward peak, e-folds of the camera leg, sphere
  * primitives and their grazing light rays, a spot's cone. *d1, *R: the light's place in

@@ -304,4 +304,37 @@ inline float tfm_tau(const tfm_t *m, __global const float *coef, __global const 
     return ws > 0.0f ? (q1 - q0) * sum / ws : 0.0f;
 }
 
+/* ---- rays marched on a grid (render.noise_stride): every `stride`-th pixel of every
+ * `stride`-th row and the last ones; cw x ch samples ---- */
+
+typedef struct {
+    int pix[4];             /* the four samples around a pixel: their pixel indices */
+    int smp[4];             /* their sample indices */
+    float wt[4];            /* bilinear weights */
+    int same_surface;       /* their bilinear 1 / z is the pixel's own within 1 %: a plane's
+                             * 1 / z is linear across the image (the sky: 1 / z = 0) */
+} grid4_t;
+
+inline grid4_t grid_neighbours(__global const float *depth, int width, int height, float max_depth, int i, int j,
+                               int stride, int cw, int ch)
+{
+    grid4_t g;
+    int ci = min(i / stride, cw - 1), cj = min(j / stride, ch - 1);
+    int ci1 = min(ci + 1, cw - 1), cj1 = min(cj + 1, ch - 1);
+    int si0 = min(ci * stride, width - 1), si1 = min(ci1 * stride, width - 1);
+    int sj0 = min(cj * stride, height - 1), sj1 = min(cj1 * stride, height - 1);
+    float fx = si1 > si0 ? (float)(i - si0) / (si1 - si0) : 0.0f;
+    float fy = sj1 > sj0 ? (float)(j - sj0) / (sj1 - sj0) : 0.0f;
+    g.pix[0] = sj0 * width + si0; g.pix[1] = sj0 * width + si1; g.pix[2] = sj1 * width + si0; g.pix[3] = sj1 * width + si1;
+    g.smp[0] = cj * cw + ci; g.smp[1] = cj * cw + ci1; g.smp[2] = cj1 * cw + ci; g.smp[3] = cj1 * cw + ci1;
+    g.wt[0] = (1.0f - fx) * (1.0f - fy); g.wt[1] = fx * (1.0f - fy); g.wt[2] = (1.0f - fx) * fy; g.wt[3] = fx * fy;
+    float z = depth[j * width + i], iz = z < max_depth ? 1.0f / z : 0.0f, izs = 0.0f;
+    for (int k = 0; k < 4; ++k) {
+        float zs = depth[g.pix[k]];
+        izs += g.wt[k] * (zs < max_depth ? 1.0f / zs : 0.0f);
+    }
+    g.same_surface = fabs(izs - iz) <= 0.01f * iz;
+    return g;
+}
+
 #endif

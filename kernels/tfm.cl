@@ -102,12 +102,7 @@ inline void noise_ray(float3 c, float3 w, float D, const light_t *L, const lmedi
                 float P;
                 nc.s_prev = s_prev;
                 float3 src = (gb - ga) * al_integrand(L, m, &het, prims, &nc, c, w, d1, R, 0.5f * (ga + gb), &P);
-                float3 tdir = native_exp(-st * P);
-                float3 tsc = native_exp(-sa * P) - tdir;
-                dir += src * tdir;
-                float3 add = src * tsc;
-                sc += add;
-                wp += (0.2126f * add.x + 0.7152f * add.y + 0.0722f * add.z) * P;
+                al_accumulate(src, P, sa, st, &dir, &sc, &wp);
                 if (s_prev <= d1 && d1 < s_next) acc_d1 = nc.acc + nc.rho_noise * (d1 - s_prev);
                 nc.acc += nc.rho_noise * (s_next - s_prev);
                 s_prev = s_next;
@@ -159,40 +154,27 @@ __kernel void airlight_fill(__global const float *depth, __global float4 *a_dir,
     int i = get_global_id(0), j = get_global_id(1);
     if (i >= width || j >= height) return;
     int idx = j * width + i;
-    int ci = min(i / stride, cw - 1), cj = min(j / stride, ch - 1);
-    int ci1 = min(ci + 1, cw - 1), cj1 = min(cj + 1, ch - 1);
-    int si0 = min(ci * stride, width - 1), si1 = min(ci1 * stride, width - 1);
-    int sj0 = min(cj * stride, height - 1), sj1 = min(cj1 * stride, height - 1);
-    float fx = si1 > si0 ? (float)(i - si0) / (si1 - si0) : 0.0f;
-    float fy = sj1 > sj0 ? (float)(j - sj0) / (sj1 - sj0) : 0.0f;
     float wx, wy, wz;
     float D = pixel_ray(&cam, i, j, depth[idx], &wx, &wy, &wz);
     float3 w = (float3)(wx, wy, wz);
     float t0, t1, h;
     float hit = noise_span(nz, count, cam.pos.xyz, w, 0.0f, D, &t0, &t1, &h) ? 1.0f : 0.0f;
-    /* a plane's 1 / z is linear across the image: the four samples lie on the pixel's
-     * surface when their bilinear 1 / z is its own within 1 % (the sky: 1 / z = 0) */
-    float iz = depth[idx] < cam.max_depth ? 1.0f / depth[idx] : 0.0f;
-    int ok = (i - lx) * (i - lx) + (j - ly) * (j - ly) > 144.0f * stride * stride;
-    int sidx[4] = {sj0 * width + si0, sj0 * width + si1, sj1 * width + si0, sj1 * width + si1};
-    int cidx[4] = {cj * cw + ci, cj * cw + ci1, cj1 * cw + ci, cj1 * cw + ci1};
-    float wt[4] = {(1.0f - fx) * (1.0f - fy), fx * (1.0f - fy), (1.0f - fx) * fy, fx * fy};
+    grid4_t g = grid_neighbours(depth, width, height, cam.max_depth, i, j, stride, cw, ch);
+    int ok = g.same_surface && (i - lx) * (i - lx) + (j - ly) * (j - ly) > 144.0f * stride * stride;
     float4 od = (float4)(0.0f), os = (float4)(0.0f);
-    float izs = 0.0f, ylo = INFINITY, yhi = 0.0f;
+    float ylo = INFINITY, yhi = 0.0f;
     for (int k = 0; k < 4; ++k) {
-        float zs = depth[sidx[k]];
-        float4 sd = s_dir[cidx[k]], ss = s_sc[cidx[k]];
-        izs += wt[k] * (zs < cam.max_depth ? 1.0f / zs : 0.0f);
-        ok = ok && (sd.w == hit || wt[k] == 0.0f);
+        float4 sd = s_dir[g.smp[k]], ss = s_sc[g.smp[k]];
+        ok = ok && (sd.w == hit || g.wt[k] == 0.0f);
         float y = 0.2126f * (sd.x + ss.x) + 0.7152f * (sd.y + ss.y) + 0.0722f * (sd.z + ss.z);
         ylo = fmin(ylo, y);
         yhi = fmax(yhi, y);
-        od += wt[k] * (float4)(sd.xyz, 0.0f);
-        os += wt[k] * ss;
+        od += g.wt[k] * (float4)(sd.xyz, 0.0f);
+        os += g.wt[k] * ss;
     }
     /* ... and vary by at most 50 % (a cone's edge, the light's peak: curvature the
      * bilinear weights miss) */
-    ok = ok && fabs(izs - iz) <= 0.01f * iz && yhi <= 1.5f * ylo;
+    ok = ok && yhi <= 1.5f * ylo;
     if (!ok) noise_ray(cam.pos.xyz, w, D, &L, &m, prims, nz, count, &tm, coef, span, sub, &od, &os);
     a_dir[idx] = (float4)(od.xyz, 0.0f);
     a_sc[idx] = os;
