@@ -124,7 +124,8 @@ inline float3 al_integrand(const light_t *L, const lmedium_t *m, const lmedium_t
             I *= smoothstep(L->cos_outer, L->cos_inner, ct);
         }
     }
-    return weight * rho * hg(m->g, cosa) * m->ss.xyz * I * native_exp(-(m->sa.xyz + m->ss.xyz) * (Pl + Pn));
+    float3 k = -(m->sa.xyz + m->ss.xyz) * (Pl + Pn);
+    return weight * rho * hg(m->g, cosa) * m->ss.xyz * I * (float3)(exp_poly(k.x), exp_poly(k.y), exp_poly(k.z));
 }
 
 #define MAX_CUTS 24

@@ -38,6 +38,11 @@
 #define SH_BINS 2048        /* shadow map bins per epipolar slice */
 #endif
 
+/* min and max by compare and select: fmin / fmax are out-of-line calls in PoCL, and the maps
+ * and the samples' trees make millions of them */
+inline float minf(float a, float b) { return a < b ? a : b; }
+inline float maxf(float a, float b) { return a > b ? a : b; }
+
 /* world vector -> camera frame (R's transpose; rot0..2 are R's rows) */
 inline float3 to_camera(const camera_t *cam, float3 v)
 {
@@ -118,21 +123,21 @@ inline float2 plane_coords(float3 x, float3 u, float dl, int directional)
 inline int map_blocked(__global const float *map, float4 mrange, float3 c, float3 w, float3 u, float dl,
                        int directional, float d1, float R, float t)
 {
-    float s = directional ? t : d1 + R * tan(t);
+    float s = directional ? t : d1 + R * native_tan(t);
     float2 kd = plane_coords(s * w, u, dl, directional);
     float f = (kd.x - mrange.x) / mrange.y;
     if (!(f >= 0.0f && f < SH_BINS)) return 0;
     return kd.y > map[SH_BINS + (int)f] * (1.0f + 1e-5f) + 1e-5f;
 }
 
-/* the smallest (tree: the min tree, fmin) or largest (the max tree) occluder distance of bins
+/* the smallest (tree: the min tree) or largest (the max tree) occluder distance of bins
  * [lo, hi) of a slice's map: a bottom-up segment-tree query */
 inline float map_query(__global const float *tree, int lo, int hi, int largest)
 {
     float r = largest ? -INFINITY : INFINITY;
     for (int l = lo + SH_BINS, h = hi + SH_BINS; l < h; l >>= 1, h >>= 1) {
-        if (l & 1) { float v = tree[l++]; r = largest ? fmax(r, v) : fmin(r, v); }
-        if (h & 1) { float v = tree[--h]; r = largest ? fmax(r, v) : fmin(r, v); }
+        if (l & 1) { float v = tree[l++]; r = largest ? maxf(r, v) : minf(r, v); }
+        if (h & 1) { float v = tree[--h]; r = largest ? maxf(r, v) : minf(r, v); }
     }
     return r;
 }
@@ -144,14 +149,14 @@ inline float map_query(__global const float *tree, int lo, int hi, int largest)
 inline int map_range(__global const float *map, float4 mrange, float3 w, float3 u, float dl, int directional,
                      float d1, float R, float Rt, float t0, float t1)
 {
-    float sa = directional ? t0 : d1 + R * tan(t0), sb = directional ? t1 : d1 + R * tan(t1);
+    float sa = directional ? t0 : d1 + R * native_tan(t0), sb = directional ? t1 : d1 + R * native_tan(t1);
     float2 ka = plane_coords(sa * w, u, dl, directional), kb = plane_coords(sb * w, u, dl, directional);
-    float f0 = (fmin(ka.x, kb.x) - mrange.x) / mrange.y, f1 = (fmax(ka.x, kb.x) - mrange.x) / mrange.y;
+    float f0 = (minf(ka.x, kb.x) - mrange.x) / mrange.y, f1 = (maxf(ka.x, kb.x) - mrange.x) / mrange.y;
     if (!(f1 >= 0.0f) || !(f0 < SH_BINS)) return 0;                 /* off the map: lit */
     int inside = f0 >= 0.0f && f1 < SH_BINS;
-    int b0 = (int)fmax(f0, 0.0f), b1 = (int)fmin(f1, SH_BINS - 1.0f) + 1;
-    float dmax = fmax(ka.y, kb.y);
-    float dmin = !directional && sa < d1 && d1 < sb ? Rt : fmin(ka.y, kb.y);
+    int b0 = (int)maxf(f0, 0.0f), b1 = (int)minf(f1, SH_BINS - 1.0f) + 1;
+    float dmax = maxf(ka.y, kb.y);
+    float dmin = !directional && sa < d1 && d1 < sb ? Rt : minf(ka.y, kb.y);
     if (dmax <= map_query(map, b0, b1, 0) * (1.0f + 1e-5f) + 1e-5f) return 0;
     if (inside && dmin > map_query(map + 2 * SH_BINS, b0, b1, 1) * (1.0f + 1e-5f) + 1e-5f) return 1;
     return 2;
@@ -317,7 +322,9 @@ inline int march_shares(__global const float *depth, const int width, const int 
     for (int k = 0; k < SH_N; ++k) {
         float P;
         float3 src = al_integrand(&L, &m, &het, prims, 0, c, w, d1, R, a0 + (k + 0.5f) * da, &P);
-        float3 fa = src * exp(-st * P), ft = src * exp(-m.sa.xyz * P);
+        /* exp_poly (common.h): inline, where exp is a call per channel */
+        float3 fa = src * (float3)(exp_poly(-st.x * P), exp_poly(-st.y * P), exp_poly(-st.z * P));
+        float3 ft = src * (float3)(exp_poly(-m.sa.x * P), exp_poly(-m.sa.y * P), exp_poly(-m.sa.z * P));
         float open = 1.0f - popcount(CELL_BITS(bits, k)) * (1.0f / SH_SUB);
         totA += fa;
         totT += ft;
@@ -408,7 +415,7 @@ __kernel void epi_maps(__global const float *depth, __global float *maps, __glob
         float rnx = ux != 0.0f ? ((ux > 0.0f ? qi + 1 : qi) - ex) / ux : INFINITY;
         float rny = uy != 0.0f ? ((uy > 0.0f ? qj + 1 : qj) - ey) / uy : INFINITY;
         for (float r = rin; r < rout;) {
-            float r1 = fmin(fmin(rnx, rny), rout);
+            float r1 = minf(minf(rnx, rny), rout);
             int ci = qi, cj = qj;
             if (rnx < rny) { qi += sx_; rnx += fabs(1.0f / ux); } else { qj += sy_; rny += fabs(1.0f / uy); }
             float r0 = r;
@@ -419,17 +426,17 @@ __kernel void epi_maps(__global const float *depth, __global float *maps, __glob
             if (Dq >= cam.max_depth) continue;                  /* sky: nothing there */
             ray_at(&cam, ci + 0.5f, cj + 0.5f, &dlq);
             float zq = Dq / dlq;
-            float b = fmin(fmax(0.05f, 0.01f * zq), 0.25f * thickness);
+            float b = minf(maxf(0.05f, 0.01f * zq), 0.25f * thickness);
             float3 wa = ray_at(&cam, ex + r0 * ux, ey + r0 * uy, &dla), wb = ray_at(&cam, ex + r1 * ux, ey + r1 * uy, &dlb);
             if (!directional && length(Dq * (wa + wb) * 0.5f - v) < bl) continue;    /* the light's own surface */
             float2 p0 = plane_coords((zq + b) * dla * wa, u, dl, directional);
             float2 p1 = plane_coords((zq + thickness) * dla * wa, u, dl, directional);
             float2 p2 = plane_coords((zq + b) * dlb * wb, u, dl, directional);
             float2 p3 = plane_coords((zq + thickness) * dlb * wb, u, dl, directional);
-            float lo = fmin(fmin(p0.x, p1.x), fmin(p2.x, p3.x)), hi = fmax(fmax(p0.x, p1.x), fmax(p2.x, p3.x));
+            float lo = minf(minf(p0.x, p1.x), minf(p2.x, p3.x)), hi = maxf(maxf(p0.x, p1.x), maxf(p2.x, p3.x));
             if (!pass) {
-                kmin = fmin(kmin, lo);
-                kmax = fmax(kmax, hi);
+                kmin = minf(kmin, lo);
+                kmax = maxf(kmax, hi);
                 continue;
             }
             /* the window's distance per bin: where a light ray of the bin's keys first meets
@@ -444,12 +451,12 @@ __kernel void epi_maps(__global const float *depth, __global float *maps, __glob
                 float d = INFINITY;
                 for (int e = 0; e < 8; e += 2) {
                     float2 ea = eg[e].x <= eg[e + 1].x ? eg[e] : eg[e + 1], eb = eg[e].x <= eg[e + 1].x ? eg[e + 1] : eg[e];
-                    float ka = fmax(kb0, ea.x), kz = fmin(kb1, eb.x);
+                    float ka = maxf(kb0, ea.x), kz = minf(kb1, eb.x);
                     if (ka > kz) continue;                               /* the edge is not in this bin */
                     float slope = eb.x > ea.x ? (eb.y - ea.y) / (eb.x - ea.x) : 0.0f;
-                    d = fmin(d, fmin(ea.y + slope * (ka - ea.x), ea.y + slope * (kz - ea.x)));
+                    d = minf(d, minf(ea.y + slope * (ka - ea.x), ea.y + slope * (kz - ea.x)));
                 }
-                map[SH_BINS + bin] = fmin(map[SH_BINS + bin], d);
+                map[SH_BINS + bin] = minf(map[SH_BINS + bin], d);
             }
         }
         if (!pass) {
@@ -460,10 +467,10 @@ __kernel void epi_maps(__global const float *depth, __global float *maps, __glob
     __global float *mx = map + 2 * SH_BINS;
     for (int bin = SH_BINS; bin < 2 * SH_BINS; ++bin) mx[bin] = map[bin];
     for (int node = SH_BINS - 1; node >= 1; --node) {
-        map[node] = fmin(map[2 * node], map[2 * node + 1]);
-        mx[node] = fmax(mx[2 * node], mx[2 * node + 1]);
+        map[node] = minf(map[2 * node], map[2 * node + 1]);
+        mx[node] = maxf(mx[2 * node], mx[2 * node + 1]);
     }
-    ranges[k] = (float4)(kmax >= kmin ? kmin : 0.0f, kmax >= kmin ? fmax(kmax - kmin, 1e-20f) / SH_BINS : 1.0f,
+    ranges[k] = (float4)(kmax >= kmin ? kmin : 0.0f, kmax >= kmin ? maxf(kmax - kmin, 1e-20f) / SH_BINS : 1.0f,
                          0.0f, (float)off);
 }
 
@@ -498,8 +505,8 @@ __kernel void epi_samples(__global const float *depth, __global float4 *sh_a, __
  * of the unwarp's time */
 inline float fast_atan2(float y, float x)
 {
-    float ax = fabs(x), ay = fabs(y), mx = fmax(ax, ay);
-    float a = mx > 0.0f ? fmin(ax, ay) / mx : 0.0f, q = a * a;
+    float ax = fabs(x), ay = fabs(y), mx = maxf(ax, ay);
+    float a = mx > 0.0f ? minf(ax, ay) / mx : 0.0f, q = a * a;
     float r = a * (((((-0.0117212f * q + 0.05265332f) * q - 0.11643287f) * q + 0.19354346f) * q - 0.33262347f) * q
                    + 0.99997726f);
     r = ay > ax ? 1.57079633f - r : r;
@@ -547,7 +554,7 @@ __kernel void epi_unwarp(__global const float *depth, __global float4 *a_dir, __
             int s = kk * nm + mm;
             float4 a = sh_a[s], t = sh_t[s];
             lit = lit && a.x == 1.0f && a.y == 1.0f && a.z == 1.0f && t.x == 1.0f && t.y == 1.0f && t.z == 1.0f;
-            float q = thr / fmax(fabs(a.w - zp), thr);
+            float q = thr / maxf(fabs(a.w - zp), thr);
             float wgt = t.w * ((c & 1) ? tk : 1.0f - tk) * ((c >> 1) ? tm : 1.0f - tm) * (q * q) * (q * q);
             sum += wgt;
             fA += wgt * a.xyz;
