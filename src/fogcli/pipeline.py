@@ -459,8 +459,10 @@ class Plan:
                                np.float32(ly))
 
     def _epipolar(self, t: Timings, k, dst, sh_args, light) -> None:
-        """render.lights.method: epipolar (kernels/shadows.cl): shares marched at samples on
-        slices through the light's image, then every pixel from its four samples (or marched).
+        """render.lights.method: epipolar (kernels/shadows.cl): each slice through the light's
+        image walked once into a 1D shadow map with min/max trees (epi_maps), the shares at
+        samples on the slices read from them (epi_samples), then every pixel from its four
+        samples, or marched (epi_unwarp).
         self.epi_marched[0]: how many pixels were marched themselves (benchmarks/shadows.py)."""
         from .lights import epipolar_layout
 
