@@ -256,8 +256,8 @@ inline int tfm_index(const tfm_t *m, int i, int j)
  * noise to x). The four nearest texels' series are read at x's place along its own ray's
  * span through the bounds, per metre, and scaled by that span's length: near the
  * silhouette of a hard-edged bound the span shrinks to 0 like a square root, which no
- * interpolation of the texels' optical depths follows (measured: |dT| up to 0.2 behind a
- * hard sphere's rim with it, 0.0xx without: docs/lights.md). Texels that miss the noise
+ * interpolation of the texels' optical depths follows (measured behind a hard sphere's rim,
+ * 3000 points: max |dT| 0.21 interpolating optical depths, 0.004 this way). Texels that miss the noise
  * drop out of the bilinear weights. */
 inline float tfm_tau(const tfm_t *m, __global const float *coef, __global const float4 *span,
                      __global const noise_t *nz, int count, float3 x)
