@@ -43,15 +43,16 @@ __kernel void p_noise_samples(__global const float *depth, __global float *S,
 {
     int ci = get_global_id(0), cj = get_global_id(1);
     if (ci >= cw || cj >= ch) return;
-    int i = min(ci * stride, width - 1), j = min(cj * stride, height - 1);
+    int i = grid_at(ci, stride, width), j = grid_at(cj, stride, height);
     float wx, wy, wz;
     float D = pixel_ray(&cam, i, j, depth[j * width + i], &wx, &wy, &wz);
     S[cj * cw + ci] = noise_march(nz, count, cam.pos.xyz, (float3)(wx, wy, wz), D);
 }
 
 /* ... then every pixel from the four samples around it (bilinear) where they lie on its
- * surface (noise.h: grid_neighbours) and agree with it on meeting the noise (a sample's optical depth > 0), else marched itself (stride 1: every
- * pixel). tfm.cl's airlight_fill makes the same choice. */
+ * surface (noise.h: grid_neighbours) and agree with it on meeting the noise (a sample's
+ * optical depth > 0), else marched itself (stride 1: every pixel). tfm.cl's airlight_fill
+ * makes the same choice. */
 __kernel void p_noise(__global const float *depth, __global float *P,
                       const int width, const int height, const camera_t cam,
                       __global const noise_t *nz, const int count, __global const float *S, const int stride,
@@ -67,8 +68,7 @@ __kernel void p_noise(__global const float *depth, __global float *P,
     int ok = stride > 1;
     if (ok) {
         grid4_t g = grid_neighbours(depth, width, height, cam.max_depth, i, j, stride, cw, ch);
-        float t0, t1, h;
-        int hit = noise_span(nz, count, cam.pos.xyz, w, 0.0f, D, &t0, &t1, &h);
+        int hit = noise_meets(nz, count, cam.pos.xyz, w, D);
         for (int k = 0; k < 4; ++k) {
             float ps = S[g.smp[k]];
             ok = ok && ((ps > 0.0f) == hit || g.wt[k] == 0.0f);

@@ -126,12 +126,7 @@ __kernel void airlight(__global const float *depth, __global float4 *a_dir, __gl
             al_accumulate(src, P, sa, st, &dir, &sc, &wp);
         }
     }
-    /* points and spots: spread at the optical depth where the ray passes the light (as the
-     * table kernel does); a directional light keeps its luminance-weighted centroid */
-    if (L.type != 2) {
-        sc += (L.gain.xyz - 1.0f) * (dir + sc);
-        wp = (0.2126f * sc.x + 0.7152f * sc.y + 0.0722f * sc.z) * optical_depth(prims, &m, c, w, clamp(d1, 0.0f, D));
-    }
+    if (L.type != 2) al_point_gain(&L, dir, &sc, &wp, optical_depth(prims, &m, c, w, clamp(d1, 0.0f, D)));
     float4 od = (float4)(dir, 0.0f), os = (float4)(sc, wp);
     a_dir[idx] = od;
     a_sc[idx] = os;

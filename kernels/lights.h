@@ -215,7 +215,17 @@ inline void al_accumulate(float3 src, float P, float3 sa, float3 st, float3 *dir
     float3 add = src * (native_exp(-sa * P) - tdir);
     *dir += src * tdir;
     *sc += add;
-    *wp += (0.2126f * add.x + 0.7152f * add.y + 0.0722f * add.z) * P;
+    *wp += luminance(add) * P;
+}
+
+/* Points and spots, after their quadrature: what all orders of scattering carry beyond single
+ * scattering (the gain) joins sc, and sc spreads at Pd, the optical depth where the ray passes
+ * the light (as the table kernel does); a directional light keeps the luminance-weighted
+ * optical depth of its scatter points. */
+inline void al_point_gain(const light_t *L, float3 dir, float3 *sc, float *wp, float Pd)
+{
+    *sc += (L->gain.xyz - 1.0f) * (dir + *sc);
+    *wp = luminance(*sc) * Pd;
 }
 
 /* The pieces of a pixel's ray [0, D] that its quadrature treats apart: where the light's

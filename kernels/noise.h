@@ -144,6 +144,13 @@ inline int noise_span(__global const noise_t *nz, int count, float3 p, float3 u,
     return b > a;
 }
 
+/* whether the line p + t u, t in [0, L], meets a noise primitive */
+inline int noise_meets(__global const noise_t *nz, int count, float3 p, float3 u, float L)
+{
+    float t0, t1, h;
+    return noise_span(nz, count, p, u, 0.0f, L, &t0, &t1, &h);
+}
+
 #define NOISE_MAX_STEPS 512
 
 /* optical depth (density units) of the noise primitives from p along unit u over [0, L]:
@@ -315,14 +322,17 @@ typedef struct {
                              * 1 / z is linear across the image (the sky: 1 / z = 0) */
 } grid4_t;
 
+/* the pixel column (or row) of sample c of the grid */
+inline int grid_at(int c, int stride, int n) { return min(c * stride, n - 1); }
+
 inline grid4_t grid_neighbours(__global const float *depth, int width, int height, float max_depth, int i, int j,
                                int stride, int cw, int ch)
 {
     grid4_t g;
     int ci = min(i / stride, cw - 1), cj = min(j / stride, ch - 1);
     int ci1 = min(ci + 1, cw - 1), cj1 = min(cj + 1, ch - 1);
-    int si0 = min(ci * stride, width - 1), si1 = min(ci1 * stride, width - 1);
-    int sj0 = min(cj * stride, height - 1), sj1 = min(cj1 * stride, height - 1);
+    int si0 = grid_at(ci, stride, width), si1 = grid_at(ci1, stride, width);
+    int sj0 = grid_at(cj, stride, height), sj1 = grid_at(cj1, stride, height);
     float fx = si1 > si0 ? (float)(i - si0) / (si1 - si0) : 0.0f;
     float fy = sj1 > sj0 ? (float)(j - sj0) / (sj1 - sj0) : 0.0f;
     g.pix[0] = sj0 * width + si0; g.pix[1] = sj0 * width + si1; g.pix[2] = sj1 * width + si0; g.pix[3] = sj1 * width + si1;

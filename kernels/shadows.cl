@@ -43,6 +43,12 @@
 inline float minf(float a, float b) { return a < b ? a : b; }
 inline float maxf(float a, float b) { return a > b ? a : b; }
 
+/* the self-shadowing bias of a surface at depth z: it blocks only from this far behind it */
+inline float surface_bias(float z, float thickness) { return minf(maxf(0.05f, 0.01f * z), 0.25f * thickness); }
+
+/* surfaces this close to a point or spot light at distance dl do not block it (its own) */
+inline float light_bias(float dl, float radius) { return maxf(maxf(0.05f, 0.02f * dl), 2.0f * radius); }
+
 /* world vector -> camera frame (R's transpose; rot0..2 are R's rows) */
 inline float3 to_camera(const camera_t *cam, float3 v)
 {
@@ -194,7 +200,7 @@ inline int march_shares(__global const float *depth, const int width, const int 
     if (!(da > 0.0f)) return 0;
     float3 e2 = Rt > 0.0f ? perp / Rt : (float3)(0.0f);
     float dl = length(v);
-    float bl = fmax(fmax(0.05f, 0.02f * dl), 2.0f * L.radius);
+    float bl = light_bias(dl, L.radius);
 
     uint bits[SH_WORDS];
     for (int k = 0; k < SH_WORDS; ++k) bits[k] = 0u;
@@ -234,7 +240,7 @@ inline int march_shares(__global const float *depth, const int width, const int 
     } else if (glen <= 1e-6f * (fabs(vc.z) * (width + height) + cam.focal_px * hypot(vc.x, vc.y)) || Rt <= 1e-6f * dl) {
         /* the light on this pixel's ray: its segments run along the ray itself, past the
          * pixel's own surface when the light is behind it */
-        float b = fmin(fmax(0.05f, 0.01f * D), 0.25f * thickness);
+        float b = surface_bias(D, thickness);
         if (!directional && d1 > D + b && d1 - bl > D + b && D < cam.max_depth)
             for (int k = 0; k < SH_WORDS; ++k) bits[k] = ~0u;
     } else {
@@ -269,7 +275,7 @@ inline int march_shares(__global const float *depth, const int width, const int 
             if (Dq >= cam.max_depth) continue;                  /* sky: nothing there */
             /* the window behind the surface in depth along the view axis (z), where a surface
              * facing the camera is exact across the pixel, as ray lengths at the stretch's ends */
-            float b = fmin(fmax(0.05f, 0.01f * zq), 0.25f * thickness);
+            float b = surface_bias(zq, thickness);
             float tlo0 = (zq + b) * dla, thi0 = (zq + thickness) * dla;
             float tlo1 = (zq + b) * dl1, thi1 = (zq + thickness) * dl1;
             float lo, hi;
@@ -390,7 +396,7 @@ __kernel void epi_maps(__global const float *depth, __global float *maps, __glob
     float3 c = cam.pos.xyz, v = directional ? L.axis.xyz : L.pos.xyz - c;
     float dl = length(v);
     float3 u = directional ? v : v / dl;
-    float bl = fmax(fmax(0.05f, 0.02f * dl), 2.0f * L.radius);
+    float bl = light_bias(dl, L.radius);
     float a = a0 + k * da, ux = cos(a), uy = sin(a);
     /* the half-line's part inside the frame */
     float rin = 0.0f, rout = INFINITY;
@@ -421,12 +427,10 @@ __kernel void epi_maps(__global const float *depth, __global float *maps, __glob
             float r0 = r;
             r = r1;
             if (ci < 0 || cj < 0 || ci >= width || cj >= height || !(r1 > r0)) continue;
-            float e0, e1, e2_, dlq, dla, dlb;
-            float Dq = pixel_ray(&cam, ci, cj, depth[cj * width + ci], &e0, &e1, &e2_);
+            float Dq, dla, dlb;
+            float zq = pixel_z(&cam, depth, width, ci, cj, &Dq);
             if (Dq >= cam.max_depth) continue;                  /* sky: nothing there */
-            ray_at(&cam, ci + 0.5f, cj + 0.5f, &dlq);
-            float zq = Dq / dlq;
-            float b = minf(maxf(0.05f, 0.01f * zq), 0.25f * thickness);
+            float b = surface_bias(zq, thickness);
             float3 wa = ray_at(&cam, ex + r0 * ux, ey + r0 * uy, &dla), wb = ray_at(&cam, ex + r1 * ux, ey + r1 * uy, &dlb);
             if (!directional && length(Dq * (wa + wb) * 0.5f - v) < bl) continue;    /* the light's own surface */
             float2 p0 = plane_coords((zq + b) * dla * wa, u, dl, directional);

@@ -109,11 +109,9 @@ inline void noise_ray(float3 c, float3 w, float D, const light_t *L, const lmedi
             }
         }
     }
-    if (!directional) {
-        sc += (L->gain.xyz - 1.0f) * (dir + sc);
-        float Pd = optical_depth(prims, m, c, w, clamp(d1, 0.0f, D)) + (d1 >= D ? nc.acc : (d1 > 0.0f ? acc_d1 : 0.0f));
-        wp = (0.2126f * sc.x + 0.7152f * sc.y + 0.0722f * sc.z) * Pd;
-    }
+    if (!directional)       /* the noise's share of Pd: the camera leg's up to the light's foot */
+        al_point_gain(L, dir, &sc, &wp, optical_depth(prims, m, c, w, clamp(d1, 0.0f, D))
+                                        + (d1 >= D ? nc.acc : (d1 > 0.0f ? acc_d1 : 0.0f)));
     *od = (float4)(dir, 0.0f);
     *os = (float4)(sc, wp);
 }
@@ -131,14 +129,13 @@ __kernel void airlight_noise(__global const float *depth, __global float4 *a_dir
 {
     int ci = get_global_id(0), cj = get_global_id(1);
     if (ci >= cw || cj >= ch) return;
-    int i = min(ci * stride, width - 1), j = min(cj * stride, height - 1);
+    int i = grid_at(ci, stride, width), j = grid_at(cj, stride, height);
     float wx, wy, wz;
     float D = pixel_ray(&cam, i, j, depth[j * width + i], &wx, &wy, &wz);
     float3 w = (float3)(wx, wy, wz);
     float4 od, os;
     noise_ray(cam.pos.xyz, w, D, &L, &m, prims, nz, count, &tm, coef, span, sub, &od, &os);
-    float t0, t1, h;
-    od.w = stride > 1 && noise_span(nz, count, cam.pos.xyz, w, 0.0f, D, &t0, &t1, &h) ? 1.0f : 0.0f;
+    od.w = stride > 1 && noise_meets(nz, count, cam.pos.xyz, w, D) ? 1.0f : 0.0f;
     a_dir[cj * cw + ci] = od;
     a_sc[cj * cw + ci] = os;
 }
@@ -157,8 +154,7 @@ __kernel void airlight_fill(__global const float *depth, __global float4 *a_dir,
     float wx, wy, wz;
     float D = pixel_ray(&cam, i, j, depth[idx], &wx, &wy, &wz);
     float3 w = (float3)(wx, wy, wz);
-    float t0, t1, h;
-    float hit = noise_span(nz, count, cam.pos.xyz, w, 0.0f, D, &t0, &t1, &h) ? 1.0f : 0.0f;
+    float hit = noise_meets(nz, count, cam.pos.xyz, w, D) ? 1.0f : 0.0f;
     grid4_t g = grid_neighbours(depth, width, height, cam.max_depth, i, j, stride, cw, ch);
     int ok = g.same_surface && (i - lx) * (i - lx) + (j - ly) * (j - ly) > 144.0f * stride * stride;
     float4 od = (float4)(0.0f), os = (float4)(0.0f);
@@ -166,7 +162,7 @@ __kernel void airlight_fill(__global const float *depth, __global float4 *a_dir,
     for (int k = 0; k < 4; ++k) {
         float4 sd = s_dir[g.smp[k]], ss = s_sc[g.smp[k]];
         ok = ok && (sd.w == hit || g.wt[k] == 0.0f);
-        float y = 0.2126f * (sd.x + ss.x) + 0.7152f * (sd.y + ss.y) + 0.0722f * (sd.z + ss.z);
+        float y = luminance(sd.xyz + ss.xyz);
         ylo = fmin(ylo, y);
         yhi = fmax(yhi, y);
         od += g.wt[k] * (float4)(sd.xyz, 0.0f);

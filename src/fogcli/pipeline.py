@@ -245,6 +245,7 @@ class Plan:
         self._tfm = None           # (floats, coefficients, spans): a light's transmittance function map
         self._noise_samples = None  # (count, A_dir, A_sc) at the samples of render.noise_stride
         self._p_samples = None     # (count, buffer): the noise's optical depth at the same samples
+        self._epi = None           # (samples, slices, buffers ...) of render.lights.method: epipolar
 
     # -- stages --------------------------------------------------------------------
     def upload(self, rgba: np.ndarray, depth: np.ndarray, t: Timings) -> None:
@@ -470,13 +471,16 @@ class Plan:
         sh = self.cfg.render.lights
         ex, ey, a0, da, r0, rb, h1, h2, m1, nm, ns, full, front = epipolar_layout(self.cfg, light, self.w, self.h,
                                                                                   sh.slices, sh.step)
-        mf = cl.mem_flags
-        sh_a, sh_t = (cl.Buffer(self.rt.ctx, mf.READ_WRITE, 16 * nm * ns) for _ in range(2))
+        # the samples' shares, the slices' maps (min and max trees) and ranges, the marched-pixel
+        # counter: kept while big enough (fresh buffers cost their pages' zeroing every frame)
+        if self._epi is None or self._epi[0] < nm * ns or self._epi[1] < ns:
+            mf = cl.mem_flags
+            B = lambda nbytes: cl.Buffer(self.rt.ctx, mf.READ_WRITE, nbytes)  # noqa: E731
+            self._epi = (nm * ns, ns, B(16 * nm * ns), B(16 * nm * ns), B(16 * SH_BINS * ns), B(16 * ns), B(4))
+        sh_a, sh_t, maps, ranges, counter = self._epi[2:]
         self.epi_marched = np.zeros(1, np.int32)
-        counter = cl.Buffer(self.rt.ctx, mf.READ_WRITE | mf.COPY_HOST_PTR, hostbuf=self.epi_marched)
+        cl.enqueue_fill_buffer(q, counter, np.int32(0), 0, 4)
         lay = (*(np.float32(x) for x in (ex, ey, a0, da, r0, rb, h1, h2)), np.int32(m1), np.int32(nm), np.int32(ns))
-        maps = cl.Buffer(self.rt.ctx, mf.READ_WRITE, 16 * SH_BINS * ns)      # min and max trees per slice
-        ranges = cl.Buffer(self.rt.ctx, mf.READ_WRITE, 16 * ns)
         cam_, _, _, ls, thick, _ = sh_args
         inside = front and full         # the lines reach the light's image inside the frame
         t.add("shadows", k.epi_maps(q, *self.rt.nd(ns), self.depth, maps, ranges, np.int32(self.w), np.int32(self.h),
