@@ -40,7 +40,7 @@ def fidelity(seeds):
 def fidelity_apsf(seeds):
     """psf: apsf: the pyramid against its own reference, per border policy. The spread
     model does not apply to apsf, so only the angular cases (spread scale x0.5, x1)."""
-    rows = {"open": [], "closed": []}
+    rows = {"open": [], "closed": [], "extend": []}
     for label, medium, rgb, z, sets in cases(seeds):
         if "/angular" not in label:
             continue

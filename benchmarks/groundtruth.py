@@ -35,7 +35,9 @@ VARIANTS = {
     "apsf closed": ["render.psf=apsf", "render.border=closed", "render.emission_profile=isotropic"],
     "apsf open lamb": ["render.psf=apsf", "render.border=open", "render.emission_profile=lambertian"],
     "apsf closed lamb": ["render.psf=apsf", "render.border=closed", "render.emission_profile=lambertian"],
+    "apsf extend lamb": ["render.psf=apsf", "render.border=extend", "render.emission_profile=lambertian"],
 }
+BORDERS = ("open", "closed", "extend")
 
 
 def case_sets(meta: dict) -> list[str]:
@@ -69,7 +71,7 @@ def run_case(case, variants=VARIANTS, reference=True, profile="lambertian") -> d
     for name, extra in variants.items():
         out[name] = apply(L, depth, make_config(None, sets=sets + extra))
     if reference:
-        for border in ("open", "closed"):
+        for border in BORDERS:
             out[f"reference {border}"] = apply(L, depth, make_config(None, sets=sets + [
                 "render.psf=apsf", f"render.border={border}", "render.method=reference",
                 f"render.emission_profile={profile}"]))
@@ -81,7 +83,7 @@ def run_case(case, variants=VARIANTS, reference=True, profile="lambertian") -> d
         res[name] = {"rel_l1": rel_l1(img, gt), "ssim": ssim(img, gt),
                      "rel_l1_b4": rel_l1(blocks(img), gt4), "ssim_b4": ssim(blocks(img), gt4),
                      "energy": sc / gt_sc if abs(gt_sc) > 1e-12 else float("nan")}
-    for border in ("open", "closed"):
+    for border in BORDERS:
         if f"reference {border}" in out:
             ref = out[f"reference {border}"]
             pyr = out[f"apsf {border}" + (" lamb" if profile == "lambertian" else "")]
@@ -128,7 +130,7 @@ def main():
             pics[case["name"]] = (case["medium"], imgs[default], imgs["blend"])
         print(f"{case['name']:<22} " + "  ".join(
             f"{k}: {v['rel_l1']:.3f}/{v['ssim']:.3f}" for k, v in res.items()), flush=True)
-    names = ["blend", *VARIANTS, "reference open", "reference closed"]
+    names = ["blend", *VARIANTS, *(f"reference {b}" for b in BORDERS)]
     groups = {
         "nothing outside the frame": lambda c: not c["meta"]["outside"],
         "continues past the frame": lambda c: c["meta"]["outside"],
@@ -175,16 +177,24 @@ def main():
         lines.append("")
     lines.append(f"### Pyramid against its own reference (`psf: apsf`, emission profile {r.emission_profile}, "
                  "same border), relative L1 / SSIM\n")
-    lines.append("| group | open | closed |\n|---|---|---|")
+    lines.append("| group | " + " | ".join(BORDERS) + " |\n|---|" + "---|" * len(BORDERS))
     for gname, pred in groups.items():
         sel = [res for case, res in rows if pred(case)]
         if not sel:
             continue
         cells = []
-        for b in ("open", "closed"):
+        for b in BORDERS:
             cells.append(f"{np.mean([r[f'reference {b}']['vs_ref'][0] for r in sel]):.3f} / "
                          f"{np.mean([r[f'reference {b}']['vs_ref'][1] for r in sel]):.3f}")
         lines.append(f"| {gname} | " + " | ".join(cells) + " |")
+    lam = " lamb" if r.emission_profile == "lambertian" else ""
+    lines.append("")
+    lines.append("### Scattered energy over the path tracer's, per border policy (scenes that continue past the frame)\n")
+    lines.append("| case | " + " | ".join(BORDERS) + " |\n|---|" + "---|" * len(BORDERS))
+    for case, res in rows:
+        if case["meta"]["outside"]:
+            lines.append(f"| {case['name']} | " + " | ".join(f"{res[f'apsf {b}{lam}']['energy']:.2f}" for b in BORDERS)
+                         + " |")
     worse = [case["name"] for case, res in rows if res[default]["rel_l1"] >= res["blend"]["rel_l1"]]
     lines.append("")
     lines.append(f"Default (`{default}`) cases not closer than blending in relative L1: "

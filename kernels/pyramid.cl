@@ -209,3 +209,59 @@ __kernel void prep_level0(__global const float4 *chain, __global float4 *prep, c
     float4 v = chain[i];
     prep[i] = prep_px(v.xyz, v.w, thresh1, eps);
 }
+
+#ifdef PSF_APSF
+/* render.border: extend. Level 0 of the padded frame's chain at 1/scale resolution (the
+ * extension plan, pipeline.Plan.extend): the sources past the frame's edge, each pixel past
+ * it a copy of the nearest edge pixel of the full-resolution level 0, out to `margin`
+ * pixels; inside the frame nothing (the main chain has it). A cell's colour is the mean
+ * over its scale x scale pixels, its log P weighted by their luminance, like a reduce.
+ * Along an axis a cell's pixels are a run before the frame (all copies of pixel 0), the
+ * pixels inside, and a run after it (copies of n - 1): one read per run, not per pixel. */
+inline void cell_runs(int a0, int s, int n, int m, int *before, int *lo, int *hi, int *after)
+{
+    int b0 = max(a0, -m), b1 = min(a0 + s, n + m);     /* the part within the margin */
+    *before = max(0, min(b1, 0) - b0);
+    *after = max(0, b1 - max(b0, n));
+    *lo = max(b0, 0);
+    *hi = max(*lo, min(b1, n));
+}
+
+__kernel void border_sources(__global const float4 *chain0, const int w, const int h,
+                             __global float4 *chain, __global float4 *prep, const int pw, const int ph,
+                             const int ox, const int oy, const int mx, const int my, const int scale,
+                             __global const float *lut)
+{
+    int X = get_global_id(0), Y = get_global_id(1);
+    if (X >= pw || Y >= ph) return;
+    int bx, x0, x1, ax, by, y0, y1, ay;
+    cell_runs(X * scale - ox, scale, w, mx, &bx, &x0, &x1, &ax);
+    cell_runs(Y * scale - oy, scale, h, my, &by, &y0, &y1, &ay);
+    float3 c = (float3)(0.0f);
+    float yw = 0.0f, ys = 0.0f, lw = 0.0f, n = 0.0f;
+    int nyi = y1 - y0, nxi = x1 - x0;
+    for (int ey = -1; ey <= nyi; ++ey) {
+        int cy = ey < 0 ? by : (ey == nyi ? ay : 1);
+        int yc = ey < 0 ? 0 : (ey == nyi ? h - 1 : y0 + ey);
+        if (cy == 0) continue;
+        for (int ex = -1; ex <= nxi; ++ex) {
+            int cx = ex < 0 ? bx : (ex == nxi ? ax : 1);
+            if (cx == 0 || (ey >= 0 && ey < nyi && ex >= 0 && ex < nxi)) continue;   /* inside */
+            int xc = ex < 0 ? 0 : (ex == nxi ? w - 1 : x0 + ex);
+            float k = (float)(cy * cx);
+            float4 v = chain0[yc * w + xc];
+            float yl = k * luminance(v.xyz);
+            c += k * v.xyz;
+            yw += yl * v.w;
+            ys += yl;
+            lw += k * v.w;
+            n += k;
+        }
+    }
+    c /= (float)(scale * scale);
+    float lp = ys > 1e-30f ? yw / ys : (n > 0.0f ? lw / n : 0.0f);
+    int d = Y * pw + X;
+    store_prep_apsf(prep, d, c.x, c.y, c.z, lp, lut, 0);
+    chain[d] = (float4)(c, lp);
+}
+#endif

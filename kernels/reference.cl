@@ -1,7 +1,9 @@
 /* The screen-space reference (Elek sec. 3.3): every pixel spreads its L_sc with its
  * point-spread kernel, truncated at R = ceil(4 sigma). Closed border: each kernel is
  * normalised over the in-image pixels it reaches, so no scattered energy leaves the frame;
- * open: normalised over the whole plane, so what falls outside is lost.
+ * open: normalised over the whole plane, so what falls outside is lost. extend: open, with
+ * the frame's edge pixels continued `margin` pixels past each side as sources (the blur
+ * passes read a clamped index there), the world a photograph goes on showing.
  *
  * psf gaussian, binned form: sigma is split between two neighbouring bins of a geometric
  * ladder (linear weights in log sigma); each bin is a separable Gaussian whose per-pixel
@@ -70,8 +72,11 @@ __kernel void ref_bin_source(__global const float4 *scat0, __global const float 
     src[idx] = (float4)(w * v.xyz / (norm_x[i] * norm_y[j]), 0.0f);
 }
 
+/* margin: sources continue this far past each end as copies of the end pixel (extend);
+ * the column pass reads the row pass's result the same way, so corners are copies of the
+ * corner pixel, as if the image had been padded with its edges */
 __kernel void ref_rows(__global const float4 *src, const int width, const int height,
-                       __global const float *taps, const int R, __global float4 *dst)
+                       __global const float *taps, const int R, const int margin, __global float4 *dst)
 {
     int i = get_global_id(0), j = get_global_id(1);
     if (i >= width || j >= height) return;
@@ -79,22 +84,23 @@ __kernel void ref_rows(__global const float4 *src, const int width, const int he
     float4 acc = taps[0] * row[i];
     for (int d = 1; d <= R; ++d) {
         float t = taps[d];
-        if (i - d >= 0) acc += t * row[i - d];
-        if (i + d < width) acc += t * row[i + d];
+        if (i - d >= -margin) acc += t * row[max(i - d, 0)];
+        if (i + d < width + margin) acc += t * row[min(i + d, width - 1)];
     }
     dst[j * width + i] = acc;
 }
 
 __kernel void ref_cols_acc(__global const float4 *src, const int width, const int height,
-                           __global const float *taps, const int R, __global float4 *acc_img)
+                           __global const float *taps, const int R, const int margin,
+                           __global float4 *acc_img)
 {
     int i = get_global_id(0), j = get_global_id(1);
     if (i >= width || j >= height) return;
     float4 acc = taps[0] * src[j * width + i];
     for (int d = 1; d <= R; ++d) {
         float t = taps[d];
-        if (j - d >= 0) acc += t * src[(j - d) * width + i];
-        if (j + d < height) acc += t * src[(j + d) * width + i];
+        if (j - d >= -margin) acc += t * src[max(j - d, 0) * width + i];
+        if (j + d < height + margin) acc += t * src[min(j + d, height - 1) * width + i];
     }
     acc_img[j * width + i] += acc;
 }

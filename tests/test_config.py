@@ -99,14 +99,16 @@ def test_psf_border_and_emission_profile_keys():
     """apsf is the default of the composites that can carry it; naive and the receiver
     fetch are Gaussian models: asking them for apsf is an error, leaving it out is not."""
     cfg = make_config("fog")
-    assert (cfg.render.psf, cfg.render.border, cfg.render.emission_profile) == ("apsf", "open", "lambertian")
+    assert (cfg.render.psf, cfg.render.border, cfg.render.emission_profile) == ("apsf", "extend", "lambertian")
     assert make_config("fog", sets=["render.method=naive"]).render.psf == "gaussian"
     assert make_config("fog", sets=["render.fetch=receiver"]).render.psf == "gaussian"
     with pytest.raises(UserError, match="render.psf: apsf needs render.method pyramid"):
         make_config("fog", sets=["render.method=naive", "render.psf=apsf"])
     with pytest.raises(UserError, match="render.emission_profile: lambertian .* needs render.psf: apsf"):
         make_config("fog", sets=["render.psf=gaussian", "render.emission_profile=lambertian"])
-    with pytest.raises(UserError, match="render.border: expected one of open, closed"):
+    with pytest.raises(UserError, match="render.border: extend .* needs render.psf: apsf"):
+        make_config("fog", sets=["render.psf=gaussian", "render.border=extend"])
+    with pytest.raises(UserError, match="render.border: expected one of open, closed, extend"):
         make_config("fog", sets=["render.border=mirror"])
 
 

@@ -325,8 +325,11 @@ class Render(_Model):
         "pyramid", description="pyramid (fast) | naive | reference (exact, slow)")
     psf: Literal["apsf", "gaussian"] = Field(
         "apsf", description="apsf: the point spread of multiple scattering by radiative transfer | gaussian: one Gaussian per source")
-    border: Literal["open", "closed"] = Field(
-        "open", description="open: light scattered across the frame edge leaves it | closed: it stays in the frame")
+    border: Literal["open", "closed", "extend"] = Field(
+        "extend", description="open: light scattered across the frame edge leaves it | closed: it stays in the frame | "
+                            "extend: the world goes on past the edge like the edge itself (border_margin)")
+    border_margin: Annotated[Num, Field(ge=0)] = Field(
+        0.5, description="extend: how far past each side the edge continues, in frame widths (heights)")
     emission_profile: Literal["lambertian", "isotropic"] = Field(
         "lambertian", description="apsf: weight each source by a matte surface's emission towards the camera (normals from depth)")
     spread_model: Literal["angular", "paper"] = Field("angular", description="psf gaussian: the blur width model")
@@ -359,6 +362,9 @@ class Render(_Model):
                 raise ValueError("psf: apsf needs render.method pyramid (fetch: source) or reference; "
                                  "naive and the receiver fetch are Gaussian models (render.psf: gaussian)")
             d = {**d, "psf": "gaussian"}
+        if d.get("psf") == "gaussian" and d.get("border") == "extend":
+            raise ValueError("border: extend continues the frame's edge for the tabulated point spread; it needs "
+                             "render.psf: apsf (with psf gaussian, open or closed; left out, closed)")
         if d.get("psf") == "gaussian" and d.get("emission_profile") == "lambertian":
             raise ValueError("emission_profile: lambertian weights the tabulated point spread; it needs render.psf: apsf")
         sep = d.get("separation")

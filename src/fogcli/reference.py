@@ -39,7 +39,10 @@ class _Blur:
         self.taps = cl.Buffer(rt.ctx, mf.READ_WRITE, 4 * (rmax + 1))
         self.nx = cl.Buffer(rt.ctx, mf.READ_WRITE, 4 * w)
         self.ny = cl.Buffer(rt.ctx, mf.READ_WRITE, 4 * h)
-        self.open = np.int32(plan.cfg.render.border == "open")
+        from .pipeline import border_margin, open_border
+
+        self.open = np.int32(open_border(plan.cfg))
+        self.margin = border_margin(plan.cfg, w, h)
 
     def norms(self, sigma: float) -> int:
         """Taps and the 1-D normalisations of a Gaussian of `sigma`; returns its reach."""
@@ -55,10 +58,13 @@ class _Blur:
     def blur_add(self, R: int) -> None:
         """acc += the Gaussian blur of src (taps beyond the image reach nothing: capped)."""
         p, rt, t = self.plan, self.plan.rt, self.t
-        R = np.int32(min(R, max(p.w, p.h)))
+        mx, my = self.margin
+        R = np.int32(min(R, max(p.w + mx, p.h + my)))
         w, h = np.int32(p.w), np.int32(p.h)
-        t.add("reference", self.prog.ref_rows(self.q, *rt.nd(p.w, p.h), self.src, w, h, self.taps, R, self.tmp))
-        t.add("reference", self.prog.ref_cols_acc(self.q, *rt.nd(p.w, p.h), self.tmp, w, h, self.taps, R, self.acc))
+        t.add("reference", self.prog.ref_rows(self.q, *rt.nd(p.w, p.h), self.src, w, h, self.taps, R,
+                                              np.int32(mx), self.tmp))
+        t.add("reference", self.prog.ref_cols_acc(self.q, *rt.nd(p.w, p.h), self.tmp, w, h, self.taps, R,
+                                                  np.int32(my), self.acc))
 
 
 def reference_into(plan, t) -> None:
@@ -94,13 +100,15 @@ def reference_into(plan, t) -> None:
 
 def brute_force(plan, t) -> np.ndarray:
     """O(N^2) definition of the Gaussian reference blur of L_sc (small images only): (h, w, 3)."""
+    from .pipeline import open_border
+
     rt, cl, q = plan.rt, plan.rt.cl, plan.rt.queue
     w, h, n = plan.w, plan.h, plan.w * plan.h
     prog = rt.program("reference", **_defines(plan))
     norm = cl.Buffer(rt.ctx, cl.mem_flags.READ_WRITE, 4 * n)
     out = cl.Buffer(rt.ctx, cl.mem_flags.READ_WRITE, 16 * n)
     t.add("reference", prog.ref_brute_norm(q, *rt.nd(w, h), plan.spread, np.int32(w), np.int32(h), norm,
-                                           np.int32(plan.cfg.render.border == "open")))
+                                           np.int32(open_border(plan.cfg))))
     t.add("reference", prog.ref_brute(q, *rt.nd(w, h), plan.chain, plan.spread, norm, np.int32(w), np.int32(h), out))
     return plan.download(out, 4, t)[:, :, :3]
 
