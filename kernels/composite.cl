@@ -131,26 +131,3 @@ __kernel void composite_separated(__global const float4 *chain2, __global const 
     out[idx].xyz += sc;
     if (want_aov) scattered_aov[idx].xyz += sc;
 }
-
-/* render.border: extend. The light of the sources past the frame's edge, spread on the
- * extension plan's low-resolution padded frame (its origin ox, oy full-resolution pixels
- * out), read back bilinearly and added. */
-__kernel void border_add(__global float4 *out, const int want_aov, __global float4 *scattered_aov,
-                         const int width, const int height, __global const float4 *ext,
-                         const int pw, const int ph, const int ox, const int oy, const int scale)
-{
-    int i = get_global_id(0), j = get_global_id(1);
-    if (i >= width || j >= height) return;
-    float u = ((float)(i + ox) + 0.5f) / (float)scale - 0.5f;
-    float v = ((float)(j + oy) + 0.5f) / (float)scale - 0.5f;
-    int x0 = (int)floor(u), y0 = (int)floor(v);
-    float fx = u - (float)x0, fy = v - (float)y0;
-    int x1 = clampi_(x0 + 1, 0, pw - 1), y1 = clampi_(y0 + 1, 0, ph - 1);
-    x0 = clampi_(x0, 0, pw - 1);
-    y0 = clampi_(y0, 0, ph - 1);
-    float3 sc = (1.0f - fy) * ((1.0f - fx) * ext[y0 * pw + x0].xyz + fx * ext[y0 * pw + x1].xyz)
-              + fy * ((1.0f - fx) * ext[y1 * pw + x0].xyz + fx * ext[y1 * pw + x1].xyz);
-    int idx = j * width + i;
-    out[idx].xyz += sc;
-    if (want_aov) scattered_aov[idx].xyz += sc;
-}

@@ -212,7 +212,7 @@ __kernel void prep_level0(__global const float4 *chain, __global float4 *prep, c
 
 #ifdef PSF_APSF
 /* render.border: extend. Level 0 of the padded frame's chain at 1/scale resolution (the
- * extension plan, pipeline.Plan.extend): the sources past the frame's edge, each pixel past
+ * extension plan, pipeline.Plan.extend; scale = 2^L, its pixels those of level L here): the sources past the frame's edge, each pixel past
  * it a copy of the nearest edge pixel of the full-resolution level 0, out to `margin`
  * pixels; inside the frame nothing (the main chain has it). A cell's colour is the mean
  * over its scale x scale pixels, its log P weighted by their luminance, like a reduce.
@@ -237,6 +237,12 @@ __kernel void border_sources(__global const float4 *chain0, const int w, const i
     int bx, x0, x1, ax, by, y0, y1, ay;
     cell_runs(X * scale - ox, scale, w, mx, &bx, &x0, &x1, &ax);
     cell_runs(Y * scale - oy, scale, h, my, &by, &y0, &y1, &ay);
+    int d = Y * pw + X;
+    if (bx + ax + by + ay == 0) {            /* inside the frame, or past the margin */
+        chain[d] = (float4)(0.0f);
+        prep[d] = (float4)(0.0f);
+        return;
+    }
     float3 c = (float3)(0.0f);
     float yw = 0.0f, ys = 0.0f, lw = 0.0f, n = 0.0f;
     int nyi = y1 - y0, nxi = x1 - x0;
@@ -260,8 +266,20 @@ __kernel void border_sources(__global const float4 *chain0, const int w, const i
     }
     c /= (float)(scale * scale);
     float lp = ys > 1e-30f ? yw / ys : (n > 0.0f ? lw / n : 0.0f);
-    int d = Y * pw + X;
     store_prep_apsf(prep, d, c.x, c.y, c.z, lp, lut, 0);
     chain[d] = (float4)(c, lp);
+}
+
+/* The extension plan's result (its pixels are level L's, origin ox, oy of them out) added
+ * to E_L of the source collapse once level L is collapsed: the levels below up-sample it
+ * with the chain's own energy-conserving filters. */
+__kernel void border_inject(__global float4 *chain, const int off, const int w, const int h,
+                            __global const float4 *ext, const int pw, const int ox, const int oy)
+{
+    int x = get_global_id(0), y = get_global_id(1);
+    if (x >= w || y >= h) return;
+    int d = off + y * w + x;
+    float4 e = ext[(y + oy) * pw + x + ox];
+    chain[d] = (float4)(chain[d].xyz + e.xyz, chain[d].w);
 }
 #endif

@@ -4,11 +4,12 @@ padded frame. Kernels against numpy oracles; the pyramid against the reference."
 import numpy as np
 import pytest
 
+import oracles
 from conftest import plan_for
 from fogcli import apply
 from fogcli.api import make_config
 from fogcli.metrics import rel_l1
-from fogcli.pipeline import EXT_SCALE, Timings, border_margin, read_chain
+from fogcli.pipeline import EXT_LEVEL, Timings, border_margin, read_chain
 from test_apsf import FOG, _apsf_reference, _download, _frame
 
 
@@ -43,8 +44,10 @@ def test_reference_extend_is_the_padded_frame(rt, rng):
 def test_border_kernels_match_oracle(rt, rng):
     """border_sources: each cell of the padded low-resolution frame is the mean of its
     scale x scale pixels past the edge (copies of the nearest edge pixel, none inside the
-    frame or past the margin), log P weighted by luminance; border_add: the extension's
-    result read back bilinearly. float32 vs float64: 1e-5 relative."""
+    frame or past the margin), log P weighted by luminance; border_inject: the extension's
+    result joins level EXT_LEVEL of the collapse, so the image gains it up-sampled by the
+    chain's energy-conserving filters (oracles._up2_conserving). float32 vs float64: 1e-5
+    relative (1e-4 through the up-sampling)."""
     w, h = 45, 29
     img, depth = _frame(rng, w, h)
     plan, cfg = plan_for(rt, w, h, *FOG, "render.psf=apsf", "render.border=extend", aovs=("scattered",))
@@ -52,14 +55,21 @@ def test_border_kernels_match_oracle(rt, rng):
     plan.upload(img, depth, t)
     plan.preprocess(t)
     level0 = read_chain(plan)[0][0].astype(np.float64)
-    plan.pyramid(t, masked=True)
-    plan.collapse(t)
-    plan.composite_source(t)
-    before = _download(plan, plan.out, 4)[:, :, :3].astype(np.float64)
-    plan.extend(t)
-    after = _download(plan, plan.out, 4)[:, :, :3].astype(np.float64)
+
+    def image(ext):
+        plan.pyramid(t, masked=True)
+        on = plan.extend(t) if ext else False
+        plan.collapse(t, ext=on)
+        plan.composite_source(t)
+        return _download(plan, plan.out, 4)[:, :, :3].astype(np.float64), on
+
+    before, _ = image(False)
+    after, on = image(True)
+    assert on
     ext = plan._ext
-    s = EXT_SCALE
+    L = plan._ext_level
+    s = 2 ** L
+    assert (L, s) == (EXT_LEVEL, 8)
     mx, my = border_margin(cfg, w, h)
     ox, oy = -(-mx // s) * s, -(-my // s) * s
     pw, ph = ext.w, ext.h
@@ -81,18 +91,14 @@ def test_border_kernels_match_oracle(rt, rng):
     np.testing.assert_allclose(got[..., :3], col, rtol=1e-5, atol=1e-6 * col.max())
     lit = lum.reshape(ph, s, pw, s).sum(axis=(1, 3)) > 1e-3
     np.testing.assert_allclose(got[..., 3][lit], lp[lit], rtol=1e-5, atol=1e-5)
-    # oracle of border_add
+    # oracle of the injection and the up-sampling below it
     e = _download(ext, ext.out, 4)[:, :, :3].astype(np.float64)
-    u = (np.arange(w) + ox + 0.5) / s - 0.5
-    v = (np.arange(h) + oy + 0.5) / s - 0.5
-    x0, y0 = np.floor(u).astype(int), np.floor(v).astype(int)
-    fx, fy = (u - x0)[None, :, None], (v - y0)[:, None, None]
-    cx = lambda i: np.clip(i, 0, pw - 1)  # noqa: E731
-    cy = lambda i: np.clip(i, 0, ph - 1)  # noqa: E731
-    bil = ((1 - fy) * ((1 - fx) * e[cy(y0)][:, cx(x0)] + fx * e[cy(y0)][:, cx(x0 + 1)])
-           + fy * ((1 - fx) * e[cy(y0 + 1)][:, cx(x0)] + fx * e[cy(y0 + 1)][:, cx(x0 + 1)]))
-    assert bil.max() > 1e-3
-    np.testing.assert_allclose(after - before, bil, rtol=1e-4, atol=1e-5 * bil.max())
+    lw, lh = plan.sizes[L]
+    E = e[oy // s:oy // s + lh, ox // s:ox // s + lw]
+    assert E.max() > 1e-3
+    for k in range(L - 1, -1, -1):
+        E = oracles._up2_conserving(E, plan.sizes[k][1], plan.sizes[k][0], True, True)
+    np.testing.assert_allclose(after - before, E, rtol=1e-4, atol=1e-5 * E.max())
 
 
 def _edge_scene(w, h, rng):
@@ -112,9 +118,11 @@ def _edge_scene(w, h, rng):
 
 @pytest.mark.parametrize("medium", ["fog", "sea"])
 def test_pyramid_extend_follows_its_reference(medium, rng):
-    """The pyramid's extension against the exact padded reference: what the continued edge
-    adds (extend minus open) within 10 % in energy and 12 % relative L1 (measured 4-5 % /
-    6-8 %); the image no further from its reference than the open border's (~3 %)."""
+    """The pyramid's extension against the exact padded reference on a harsh case (bright
+    textured facades run off both sides 8 m away): what the continued edge adds (extend
+    minus open) within 15 % in energy and 30 % relative L1 (measured 0-12 % / 17-25 %: the
+    extension joins at level 3, so light that crosses the edge by less than ~8 px is
+    missing), the image within 0.035 of the open border's distance to its reference."""
     w, h = 96, 64
     img, depth = _edge_scene(w, h, rng)
     base = ["camera.fov=60", "camera.max_depth=1000"]
@@ -123,9 +131,9 @@ def test_pyramid_extend_follows_its_reference(medium, rng):
     pyr_o, ref_o = run("render.border=open"), run("render.border=open", "render.method=reference")
     added_ref, added_pyr = (ref - ref_o).sum(), (pyr - pyr_o).sum()
     assert added_ref > 0.02 * ref_o.sum()     # the continued edge matters here
-    assert abs(added_pyr / added_ref - 1) < 0.10, (added_pyr, added_ref)
-    assert rel_l1(pyr - pyr_o, ref - ref_o) < 0.12
-    assert rel_l1(pyr, ref) < rel_l1(pyr_o, ref_o) + 0.005
+    assert abs(added_pyr / added_ref - 1) < 0.15, (added_pyr, added_ref)
+    assert rel_l1(pyr - pyr_o, ref - ref_o) < 0.30
+    assert rel_l1(pyr, ref) < rel_l1(pyr_o, ref_o) + 0.035
 
 
 def test_black_edges_add_nothing(rng):

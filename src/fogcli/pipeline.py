@@ -71,7 +71,7 @@ def defines(cfg: Config) -> dict:
     return d
 
 
-EXT_SCALE = 8   # render.border: extend spreads the continued edge at 1/8 resolution
+EXT_LEVEL = 3   # render.border: extend spreads the continued edge at level 3's resolution (1/8)
 
 
 def open_border(cfg: Config) -> bool:
@@ -251,8 +251,8 @@ class Plan:
         self.k_comp = rt.program("composite", **d).composite
         self.k_comp_src = rt.program("composite", **d).composite_source
         self.k_comp_sep = rt.program("composite", **d).composite_separated
-        self.k_border_add = rt.program("composite", **d).border_add
         self.k_border_src = pyr.border_sources if self.apsf else None
+        self.k_border_inject = pyr.border_inject if self.apsf else None
         if cfg.lights:
             from .airlight_table import DEFINES
 
@@ -615,19 +615,31 @@ class Plan:
             return self.chain2, self.half2, self.prep2
         return self.chain, self.image, self.prep
 
-    def collapse(self, t: Timings, second: bool = False) -> None:
+    def collapse(self, t: Timings, second: bool = False, ext: bool = False) -> None:
         """Source collapse of levels K-1 .. 1, in place over the colour chain (level 0 is
         fused into composite_source). The input buffer, free after preprocess, is the
-        scratch for the half-octave shares."""
+        scratch for the half-octave shares. ext: the extension plan's light (`extend`, run
+        first) joins at its level."""
         q, a = self.rt.queue, self.half_step()
         chain, half, prep = self.source_bufs(second)
-        for k in range(len(self.sizes) - 2, 0, -1):
+        top = len(self.sizes) - 1
+        if ext and self._ext_level == top:
+            self._inject(t)
+        for k in range(top - 1, 0, -1):
             (o, w, h, _), (uo, uw, uh, _) = self.lv[k], self.lv[k + 1]
             self.split(t, k, chain, half)
             t.add("composite", self.k_collapse(
                 q, *self.rt.nd(w, h), chain, np.int32(o), np.int32(w), np.int32(h), half,
                 np.int32(uo), np.int32(uw), np.int32(uh), np.float32(a), prep, self.edge,
                 np.int32(self.edge_off[k]), self.cons, np.int32(self.cons_off[k + 1])))
+            if ext and k == self._ext_level:
+                self._inject(t)
+
+    def _inject(self, t: Timings) -> None:
+        o, w, h, _ = (int(v) for v in self.lv[self._ext_level])
+        pw, ox, oy = self._ext_geom
+        t.add("composite", self.k_border_inject(self.rt.queue, *self.rt.nd(w, h), self.chain, np.int32(o),
+                                                np.int32(w), np.int32(h), self._ext.out, pw, ox, oy))
 
     def composite_source(self, t: Timings, second: bool = False) -> None:
         top = len(self.sizes) - 1
@@ -642,16 +654,18 @@ class Plan:
             self.level_aov, self.scat_aov, prep, self.spread, self.edge, self.cons,
             np.int32(self.cons_off[1])))
 
-    def extend(self, t: Timings) -> None:
+    def extend(self, t: Timings) -> bool:
         """render.border: extend. The frame's edge continued `border_margin` past each side:
-        those sources' light is spread by a second apsf chain on the padded frame at 1/EXT_SCALE
-        resolution (their light reaches the frame only through blurs of several pixels and
-        more; the open main chain has the frame's own) and added to the result. About
-        1/16 of the main chain's work at margin 0.5."""
+        those sources' light is spread by a second apsf chain on the padded frame at the
+        resolution of level EXT_LEVEL (their light reaches the frame only through blurs of
+        several pixels and more; the open main chain has the frame's own); collapse(ext=True)
+        adds it to that level. About 1/16 of the main chain's pixels at margin 0.5. Returns
+        whether there is one."""
         mx, my = border_margin(self.cfg, self.w, self.h)
-        if not (mx or my):
-            return
-        s = EXT_SCALE
+        self._ext_level = min(EXT_LEVEL, len(self.sizes) - 1)
+        if not (mx or my) or self._ext_level == 0:
+            return False
+        s = 2 ** self._ext_level
         ox, oy = -(-mx // s) * s, -(-my // s) * s
         pw, ph = -(-(self.w + 2 * ox) // s), -(-(self.h + 2 * oy) // s)
         cam = self.cfg.camera.model_copy(update=dict(focal_px=self.cfg.camera.focal(self.w) / s, focal_px_y=None,
@@ -675,9 +689,8 @@ class Plan:
         ext.pyramid(t, masked=True)
         ext.collapse(t)
         ext.composite_source(t)
-        t.add("composite", self.k_border_add(q, *self.rt.nd(self.w, self.h), self.out, i32(bool(self.aovs)),
-                                             self.scat_aov, i32(self.w), i32(self.h), ext.out, i32(pw), i32(ph),
-                                             i32(ox), i32(oy), i32(s)))
+        self._ext_geom = (np.int32(pw), np.int32(ox // s), np.int32(oy // s))
+        return True
 
     def composite_separated(self, t: Timings) -> None:
         """Iser eq. 4.26-4.28 on the receiver fetch: level k_ssc = separation.level * K."""
@@ -815,9 +828,8 @@ def run(rgb: np.ndarray, depth: np.ndarray, cfg: Config, alpha=None, aovs=(), de
     else:
         plan.pyramid(t, masked=(method == "pyramid"))
         if method == "pyramid" and cfg.render.fetch == "source":
-            plan.collapse(t)
+            plan.collapse(t, ext=plan.extend(t))
             plan.composite_source(t)
-            plan.extend(t)
             if plan.sep:
                 plan.pyramid(t, masked=True, second=True)
                 plan.collapse(t, second=True)
