@@ -1,0 +1,537 @@
+"""Interpolation error of the APSF table (src/fogcli/data/apsf.npz), separated from the
+Monte Carlo noise, per dimension (albedo, tau, g) and tau range.
+
+    PYTHONPATH=src python benchmarks/apsf_interpolation.py --jobs 2 --doc docs/apsf-table.md
+    (about 25 min wall on 2 cores; --analyse-only re-renders from the cached runs in --cache)
+
+What is measured (energy: relative error of the interpolated `ratio`; shape: ring_l1 between
+interpolated and direct normalised weights):
+
+* albedo: absorption is applied after the run, so one tally serves every albedo. Each run is
+  reduced (`reduce_tally`) at the grid albedos AND at 1/4, 1/2, 3/4 of every albedo interval;
+  interpolated-vs-direct then share every photon and differ only by the interpolation (plus
+  the NNLS projection of each entry). Checked on 3 seeds: the seed-to-seed spread of the
+  error is reported. Interpolation variables compared: linear in a (the runtime's), linear in
+  s = (1 - a) / a (absorption per scattering length, the exponent of exp(-s l)), on the ratio
+  or on log(ratio); the shape on the normalised weights, or on ratio * shape (energy weighted)
+  renormalised.
+* tau: runs with cameras at TAU and at the geometric midpoints (the random stream does not
+  depend on the camera list, so the seed-SEED run reproduces the table at the grid taus; this
+  is verified), 3 seeds. (a) statistical: per seed the midpoint error from the same run; the
+  bias is the mean over seeds, its uncertainty the seed spread / sqrt(n). (b) smoothness: a
+  smoothing spline in log tau (residuals at the seed-to-seed noise level) through the seed
+  mean of each (g, albedo) row; the midpoint error of linear interpolation of that spline.
+  Assumes the truth is no rougher than the smoothest curve the noise allows.
+* g: direct runs at interval midpoints of G with the table's seed (correlated photons with the
+  table's own runs at both ends) and, for some, another seed; the table at the two ends from
+  apsf.npz. The correlation is judged by comparing the same-seed and other-seed errors.
+"""
+from __future__ import annotations
+
+import argparse
+import math
+import multiprocessing as mp
+import os
+import pickle
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT / "src"))
+sys.path.insert(0, str(ROOT / "benchmarks"))
+import make_apsf_table as M  # noqa: E402
+from fogcli import apsf_mc as mc  # noqa: E402
+
+TAU_MID = np.sqrt(M.TAU[:-1] * M.TAU[1:])
+TAU2 = np.sort(np.concatenate([M.TAU, TAU_MID]))          # grid at even, midpoints at odd index
+FRACS = (0.25, 0.5, 0.75)
+A_IN = np.array([a0 + f * (a1 - a0) for a0, a1 in zip(M.ALBEDO[:-1], M.ALBEDO[1:]) for f in FRACS])
+ALB2 = np.concatenate([M.ALBEDO, A_IN])                     # grid first, then interior points
+G_TAU = (0.0, 0.7, 0.85, 0.92, 0.96)                        # albedo + tau runs
+G_MID = (0.15, 0.4, 0.65, 0.775, 0.865, 0.93)                # g interval midpoints
+G_MID_OTHER = (0.15, 0.65, 0.93)                             # also with another seed
+N_SEEDS = 3
+RANGES = ((0.0, 1.0), (1.0, 5.0), (5.0, 31.0))
+BEGIN, END = "<!-- interpolation -->", "<!-- /interpolation -->"
+
+
+def job(spec):
+    """One MC run, reduced to ratio and shape. spec = (kind, g, seed, scale)."""
+    kind, g, seed, scale = spec
+    n = M.photons_for(g, scale)
+    t0 = time.time()
+    if kind == "tau":
+        t = M.run_g(g, n, seed, tau=TAU2)
+        r = M.reduce_tally(t, ALB2)
+    else:
+        t = M.run_g(g, n, seed)
+        r = M.reduce_tally(t, M.ALBEDO)
+    return dict(kind=kind, g=g, seed=seed, photons=n, secs=time.time() - t0,
+                ratio=r["ratio"], shape=r["shape"], th_edges=t.th_edges)
+
+
+def run_all(cache: Path, scale: float, jobs: int) -> None:
+    cache.mkdir(parents=True, exist_ok=True)
+    specs = [("tau", g, M.SEED + s, scale) for s in range(N_SEEDS) for g in G_TAU]
+    specs += [("g", g, M.SEED, scale) for g in G_MID]
+    specs += [("g", g, M.SEED + 1, scale) for g in G_MID_OTHER]
+    todo = [s for s in specs if not (cache / fname(s)).exists()]
+    print(f"{len(todo)} runs to do of {len(specs)}", flush=True)
+    t0 = time.time()
+    with mp.get_context("spawn").Pool(jobs) as pool:
+        for res in pool.imap_unordered(job, todo):
+            spec = (res["kind"], res["g"], res["seed"], scale)
+            with open(cache / fname(spec), "wb") as fh:
+                pickle.dump(res, fh)
+            print(f"{fname(spec)}: {res['photons']} photons {res['secs']:.0f} s "
+                  f"(elapsed {time.time() - t0:.0f} s)", flush=True)
+
+
+def fname(spec) -> str:
+    kind, g, seed, scale = spec
+    return f"{kind}_g{g:g}_s{seed}_x{scale:g}.pkl"
+
+
+
+# ---------------------------------------------------------------- analysis helpers
+
+def pct(x, q):
+    x = np.asarray(x, np.float64).ravel()
+    x = x[np.isfinite(x)]
+    return float(np.percentile(x, q)) if len(x) else float("nan")
+
+
+def stats3(x):
+    return pct(x, 50), pct(x, 90), pct(x, 100)
+
+
+def ring_matrix(th_edges):
+    _, u = mc.kernel_bins(th_edges, np.zeros(len(th_edges) - 1))
+    return np.diff(mc.gaussian_cdf(u), axis=0)                 # (rings, J)
+
+
+def l1(ra, rb):
+    return np.abs(ra - rb).sum(-1) / np.maximum(rb.sum(-1), 1e-300)
+
+
+def s_of(a):
+    return (1 - np.asarray(a, np.float64)) / np.asarray(a, np.float64)
+
+
+def load(cache: Path, scale: float) -> dict:
+    runs = {}
+    for p in sorted(cache.glob(f"*_x{scale:g}.pkl")):
+        with open(p, "rb") as fh:
+            r = pickle.load(fh)
+        runs[(r["kind"], float(r["g"]), int(r["seed"]))] = r
+    return runs
+
+
+def in_range(tau, lo, hi):
+    return (tau >= lo) & (tau < hi)
+
+
+# ---------------------------------------------------------------- albedo
+
+def albedo_weights(var: str):
+    """(i0, t) per interior albedo point: the bracketing grid index and the weight in var."""
+    i0 = np.repeat(np.arange(len(M.ALBEDO) - 1), len(FRACS))
+    a0, a1 = M.ALBEDO[i0], M.ALBEDO[i0 + 1]
+    if var == "a":
+        t = (A_IN - a0) / (a1 - a0)
+    else:
+        t = (s_of(A_IN) - s_of(a0)) / (s_of(a1) - s_of(a0))
+    return i0, t
+
+
+def albedo_errors(run, A):
+    """Energy errors {scheme: (interior, T)} and shape L1 {scheme: (interior, T)} at the grid
+    taus, interpolated from the grid albedos of the same tally vs direct."""
+    na = len(M.ALBEDO)
+    r = run["ratio"][:, 0::2]
+    sh = run["shape"][:, 0::2]
+    rg, rd = r[:na], r[na:]
+    shg, shd = sh[:na], sh[na:]
+    ok = rd > 1e-250
+    rings_d = shd @ A.T
+    e, s = {}, {}
+    for var in ("a", "s"):
+        i0, t = albedo_weights(var)
+        t_ = t[:, None]
+        lin = (1 - t_) * rg[i0] + t_ * rg[i0 + 1]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            lg = np.exp((1 - t_) * np.log(rg[i0]) + t_ * np.log(rg[i0 + 1]))
+            e[var] = np.where(ok, lin / rd - 1, np.nan)
+            e[var + ",log"] = np.where(ok, lg / rd - 1, np.nan)
+        t3 = t[:, None, None]
+        shl = (1 - t3) * shg[i0] + t3 * shg[i0 + 1]
+        s[var] = np.where(ok, l1(shl @ A.T, rings_d), np.nan)
+        ew = (1 - t3) * (rg[i0][..., None] * shg[i0]) + t3 * (rg[i0 + 1][..., None] * shg[i0 + 1])
+        ew = ew / np.maximum(ew.sum(-1, keepdims=True), 1e-300)
+        s[var + ",ew"] = np.where(ok, l1(ew @ A.T, rings_d), np.nan)
+    return e, s
+
+
+# ---------------------------------------------------------------- tau
+
+def tau_errors(run, A):
+    """Midpoint errors of linear-in-log-tau interpolation within one run, grid albedos:
+    energy (ratio linear, log ratio linear) (18, 29), signed ring differences (18, 29, R)."""
+    na = len(M.ALBEDO)
+    r = run["ratio"][:na]
+    rg0, rg1, rm = r[:, 0:-1:2], r[:, 2::2], r[:, 1::2]
+    ok = (rm > 1e-250) & (rg0 > 1e-250) & (rg1 > 1e-250)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        e_lin = np.where(ok, 0.5 * (rg0 + rg1) / rm - 1, np.nan)
+        e_log = np.where(ok, np.sqrt(rg0 * rg1) / rm - 1, np.nan)
+    R = run["shape"][:na] @ A.T
+    D = 0.5 * (R[:, 0:-1:2] + R[:, 2::2]) - R[:, 1::2]
+    return e_lin, e_log, D, ok
+
+
+def spline_errors(runs_g, A):
+    """(b): smoothing spline through the seed mean of each grid-albedo row, in log tau, with
+    the seed-to-seed spread / sqrt(n) as the point sigma; midpoint errors of linear
+    interpolation of the spline (energy: ratio and log ratio; shape: ring L1)."""
+    from scipy.interpolate import UnivariateSpline
+    na = len(M.ALBEDO)
+    x = np.log(TAU2)
+    n = len(runs_g)
+    lr = np.log(np.maximum(np.stack([r["ratio"][:na] for r in runs_g]), 1e-300))   # (n, 18, 59)
+    rings = np.stack([r["shape"][:na] @ A.T for r in runs_g])                      # (n, 18, 59, R)
+    e_lin = np.full((na, len(TAU_MID)), np.nan)
+    e_log = np.full_like(e_lin, np.nan)
+    s_l1 = np.full_like(e_lin, np.nan)
+
+    def smooth(y, sig):
+        sig = np.maximum(sig, max(0.3 * float(np.median(sig)), 1e-6))
+        return UnivariateSpline(x, y, w=1 / sig, k=3, s=len(x))(x)
+
+    for ia in range(na):
+        if (lr[:, ia] < -600).any():
+            ok_t = ~(lr[:, ia] < -600).any(0)
+        else:
+            ok_t = np.ones(len(x), bool)
+        if ok_t.all():
+            ys = smooth(lr[:, ia].mean(0), lr[:, ia].std(0, ddof=1) / math.sqrt(n))
+            g0, g1, m = ys[0:-1:2], ys[2::2], ys[1::2]
+            e_lin[ia] = 0.5 * (np.exp(g0 - m) + np.exp(g1 - m)) - 1
+            e_log[ia] = np.exp(0.5 * (g0 + g1) - m) - 1
+        rm = rings[:, ia].mean(0)                      # (59, R)
+        rs = rings[:, ia].std(0, ddof=1) / math.sqrt(n)
+        fit = np.empty_like(rm)
+        for j in range(rm.shape[1]):
+            if rm[:, j].max() < 1e-12:
+                fit[:, j] = rm[:, j]
+            else:
+                fit[:, j] = smooth(rm[:, j], rs[:, j])
+        fit = np.maximum(fit, 0)
+        D = 0.5 * (fit[0:-1:2] + fit[2::2]) - fit[1::2]
+        s_l1[ia] = np.abs(D).sum(-1) / np.maximum(fit[1::2].sum(-1), 1e-300)
+        s_l1[ia, ~(ok_t[0:-1:2] & ok_t[1::2] & ok_t[2::2])] = np.nan
+    return e_lin, e_log, s_l1
+
+
+# ---------------------------------------------------------------- g
+
+def g_table():
+    z = np.load(ROOT / "src/fogcli/data/apsf.npz")
+    w = np.asarray(z["weights"], np.float64)
+    ws = w.sum(-1)
+    return dict(ratio=np.asarray(z["ratio"], np.float64),
+                shape=w / np.maximum(ws, 1e-300)[..., None], ok=ws > 1e-30)
+
+
+def g_errors(tab, run, A, var="g", log=False):
+    gm = run["g"]
+    i = int(np.searchsorted(M.G, gm) - 1)
+    g0, g1 = M.G[i], M.G[i + 1]
+    if var == "g":
+        t = (gm - g0) / (g1 - g0)
+    else:                                   # linear in log(1 - g)
+        t = (math.log(1 - gm) - math.log(1 - g0)) / (math.log(1 - g1) - math.log(1 - g0))
+    r0, r1 = tab["ratio"][i], tab["ratio"][i + 1]
+    rd = run["ratio"]
+    ok = tab["ok"][i] & tab["ok"][i + 1] & (rd > 1e-250) & (r0 > 1e-30) & (r1 > 1e-30)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ri = np.exp((1 - t) * np.log(r0) + t * np.log(r1)) if log else (1 - t) * r0 + t * r1
+        e = np.where(ok, ri / rd - 1, np.nan)
+    shi = (1 - t) * tab["shape"][i] + t * tab["shape"][i + 1]
+    s = np.where(ok, l1(shi @ A.T, run["shape"] @ A.T), np.nan)
+    return e, s, ok
+
+
+
+# ---------------------------------------------------------------- report
+
+def row3(x, fmt="{:.3f}"):
+    return " | ".join(fmt.format(v) for v in stats3(x))
+
+
+def analyse(runs: dict, scale: float, wall: float | None) -> str:
+    some = next(iter(runs.values()))
+    A = ring_matrix(some["th_edges"])
+    L = []
+    P = L.append
+    tau_g = sorted({g for k, g, s in runs if k == "tau"})
+    seeds = sorted({s for k, g, s in runs if k == "tau"})
+    secs = sum(r["secs"] for r in runs.values())
+    P("## Interpolation error, separated from the Monte Carlo noise")
+    P("")
+    P("Generated by `PYTHONPATH=src python benchmarks/apsf_interpolation.py --jobs 2 --doc docs/apsf-table.md` "
+      f"({len(runs)} runs, photons x {scale:g} of the table's, {secs / 60:.0f} CPU-min"
+      + (f", {wall / 60:.0f} min wall on 2 cores" if wall else "") + "). "
+      "Energy: |interpolated ratio / direct - 1|; shape: ring L1 between the interpolated and the "
+      "direct normalised weights (`ring_l1`). Tau ranges: [0.01, 1), [1, 5), [5, 30].")
+    P("")
+
+    # ---- albedo
+    P("### Albedo: one tally, interpolated vs direct")
+    P("")
+    P(f"Absorption is applied after the run, so every run is reduced at the 18 grid albedos and at "
+      f"1/4, 1/2, 3/4 of each interval (51 points) from the same photons: the difference is the "
+      f"interpolation (and the NNLS projection of each entry), not MC noise. g = "
+      f"{', '.join(f'{g:g}' for g in tau_g)}, seed {M.SEED} (the table's photons), grid taus, "
+      "pooled over g. Schemes: variable a (runtime) or s = (1 - a) / a, on the ratio or on "
+      "log(ratio); shape on the normalised weights or energy-weighted (ratio x shape, renormalised).")
+    P("")
+    ea, sa_, spread_e, spread_s = {}, {}, {}, {}
+    per_seed = {}
+    for g in tau_g:
+        for sd in seeds:
+            if ("tau", g, sd) in runs:
+                per_seed[(g, sd)] = albedo_errors(runs[("tau", g, sd)], A)
+    for sch in ("a", "s", "a,log", "s,log"):
+        ea[sch] = np.stack([np.abs(per_seed[(g, M.SEED)][0][sch]) for g in tau_g])
+    for sch in ("a", "s", "a,ew", "s,ew"):
+        sa_[sch] = np.stack([per_seed[(g, M.SEED)][1][sch] for g in tau_g])
+    # noise of the albedo error itself: spread over seeds
+    for sch in ("a", "s,log"):
+        stk = [np.stack([per_seed[(g, sd)][0][sch] for sd in seeds if (g, sd) in per_seed]) for g in tau_g]
+        spread_e[sch] = np.stack([x.std(0, ddof=1) if len(x) > 1 else np.full(x.shape[1:], np.nan) for x in stk])
+    for sch in ("a", "s,ew"):
+        stk = [np.stack([per_seed[(g, sd)][1][sch] for sd in seeds if (g, sd) in per_seed]) for g in tau_g]
+        spread_s[sch] = np.stack([x.std(0, ddof=1) if len(x) > 1 else np.full(x.shape[1:], np.nan) for x in stk])
+    hi_a = A_IN >= 0.8
+    P("| energy scheme | tau range | median | p90 | max | a >= 0.8: p90 | max |")
+    P("|---|---|---|---|---|---|---|")
+    names = {"a": "ratio linear in a (now)", "s": "ratio linear in s", "a,log": "log ratio linear in a",
+             "s,log": "log ratio linear in s"}
+    for sch in ("a", "s", "a,log", "s,log"):
+        for lo, hi in RANGES:
+            sel = in_range(M.TAU, lo, hi)
+            x = ea[sch][:, :, sel]
+            P(f"| {names[sch]} | [{lo:g}, {hi:g}) | {row3(x)} | {pct(x[:, hi_a], 90):.3f} | {pct(x[:, hi_a], 100):.3f} |")
+    P("")
+    P("| shape scheme | tau range | median | p90 | max | a >= 0.8: p90 | max |")
+    P("|---|---|---|---|---|---|---|")
+    names = {"a": "weights linear in a (now)", "s": "weights linear in s",
+             "a,ew": "ratio x weights linear in a", "s,ew": "ratio x weights linear in s"}
+    for sch in ("a", "s", "a,ew", "s,ew"):
+        for lo, hi in RANGES:
+            sel = in_range(M.TAU, lo, hi)
+            x = sa_[sch][:, :, sel]
+            P(f"| {names[sch]} | [{lo:g}, {hi:g}) | {row3(x)} | {pct(x[:, hi_a], 90):.3f} | {pct(x[:, hi_a], 100):.3f} |")
+    P("")
+    if len(seeds) > 1:
+        P(f"Noise of these errors: standard deviation over the {len(seeds)} seeds of the same point's "
+          "error, median / p90 per tau range (energy: now / log ratio in s; shape: now / ratio x weights in s):")
+        P("")
+        P("| tau range | energy now | energy log-s | shape now | shape ew-s |")
+        P("|---|---|---|---|---|")
+        for lo, hi in RANGES:
+            sel = in_range(M.TAU, lo, hi)
+            c = [f"{pct(d[:, :, sel], 50):.4f} / {pct(d[:, :, sel], 90):.4f}"
+                 for d in (spread_e["a"], spread_e["s,log"], spread_s["a"], spread_s["s,ew"])]
+            P(f"| [{lo:g}, {hi:g}) | " + " | ".join(c) + " |")
+        P("")
+    P("Per g, max over albedo points and taus (energy now -> log ratio in s; shape now -> "
+      "ratio x weights in s), all taus / tau < 5:")
+    P("")
+    P("| g | energy, all tau | energy, tau < 5 | shape, all tau | shape, tau < 5 |")
+    P("|---|---|---|---|---|")
+    lt5 = M.TAU < 5
+    for ig, g in enumerate(tau_g):
+        P(f"| {g:g} | {np.nanmax(ea['a'][ig]):.3f} -> {np.nanmax(ea['s,log'][ig]):.3f} | "
+          f"{np.nanmax(ea['a'][ig][:, lt5]):.3f} -> {np.nanmax(ea['s,log'][ig][:, lt5]):.3f} | "
+          f"{np.nanmax(sa_['a'][ig]):.3f} -> {np.nanmax(sa_['s,ew'][ig]):.3f} | "
+          f"{np.nanmax(sa_['a'][ig][:, lt5]):.3f} -> {np.nanmax(sa_['s,ew'][ig][:, lt5]):.3f} |")
+    P("")
+    # per albedo interval (which intervals fail), best scheme
+    P("Worst albedo intervals (max over g, tau < 5, the three interior points), energy now / log-s, shape now / ew-s:")
+    P("")
+    P("| interval | " + " | ".join(f"{M.ALBEDO[i]:g}-{M.ALBEDO[i + 1]:g}" for i in range(len(M.ALBEDO) - 1)) + " |")
+    P("|---|" + "---|" * (len(M.ALBEDO) - 1))
+    for lab, d in (("energy now", ea["a"]), ("energy log-s", ea["s,log"]), ("shape now", sa_["a"]),
+                   ("shape ew-s", sa_["s,ew"])):
+        cells = []
+        for i in range(len(M.ALBEDO) - 1):
+            cells.append(f"{np.nanmax(d[:, 3 * i:3 * i + 3][:, :, lt5]):.3f}")
+        P(f"| {lab} | " + " | ".join(cells) + " |")
+    P("")
+
+    # ---- tau
+    P("### Tau: midpoints in the same runs, several seeds")
+    P("")
+    rep = []
+    tab = np.load(ROOT / "src/fogcli/data/apsf.npz")
+    for g in tau_g:
+        if ("tau", g, M.SEED) in runs:
+            ig = int(np.argmin(np.abs(M.G - g)))
+            mine = runs[("tau", g, M.SEED)]["ratio"][:len(M.ALBEDO), 0::2]
+            ref = np.asarray(tab["ratio"][ig], np.float64)
+            ok = ref > 1e-30
+            rep.append(float(np.max(np.abs(mine[ok] / ref[ok] - 1))))
+    P(f"Runs with cameras at the 30 grid taus and the 29 geometric midpoints, seeds "
+      f"{', '.join(map(str, seeds))}, g = {', '.join(f'{g:g}' for g in tau_g)}, grid albedos. The random "
+      f"stream does not depend on the cameras: at the grid taus the seed-{M.SEED} runs reproduce "
+      f"apsf.npz to {max(rep):.1e} (max relative difference of the ratio, float32 storage). "
+      "(a) Statistical: per seed, interpolated (neighbours' mean, i.e. linear in log tau) vs the "
+      "midpoint camera of the same run; the bias is the mean over seeds, se = seed spread / "
+      "sqrt(n). Unbiased whatever the noise, but the noise of adjacent cameras is only partly "
+      "shared, so the bias estimate carries se. (b) Smoothness: a cubic smoothing spline in "
+      "log tau through the seed mean of each row (log ratio; each ring energy for the shape), "
+      "chi^2 = number of points with the seed spread / sqrt(n) as sigma; the interpolation error "
+      "of that spline at the midpoints. Assumes the truth is as smooth as the smoothest curve "
+      "the noise allows; a feature narrower than the grid spacing and hidden by the noise "
+      "would be missed.")
+    P("")
+    E_lin, E_log, Dd = [], [], []
+    for g in tau_g:
+        per = [tau_errors(runs[("tau", g, sd)], A) for sd in seeds if ("tau", g, sd) in runs]
+        E_lin.append(np.stack([p[0] for p in per]))
+        E_log.append(np.stack([p[1] for p in per]))
+        Dd.append(np.stack([p[2] for p in per]))
+    E_lin, E_log, Dd = np.stack(E_lin), np.stack(E_log), np.stack(Dd)     # (G, S, 18, 29[, R])
+    n = E_lin.shape[1]
+    b_lin, se_lin = E_lin.mean(1), E_lin.std(1, ddof=1) / math.sqrt(n)
+    b_log, se_log = E_log.mean(1), E_log.std(1, ddof=1) / math.sqrt(n)
+    Db = Dd.mean(1)
+    rm = np.maximum(np.abs(Dd).sum(-1).mean(1), 1e-300) * 0 + 1.0      # rings of a shape sum to 1
+    sb = np.abs(Db).sum(-1) / rm
+    sse = (Dd.std(1, ddof=1) / math.sqrt(n)).sum(-1) / rm
+    s_seed = np.abs(Dd).sum(-1)                                            # per-seed L1 (G, S, 18, 29)
+    P(f"(a) energy, |bias| and se over {n} seeds, all grid albedos and the {len(tau_g)} g; "
+      "share of points with |bias| > 2 se:")
+    P("")
+    P("| variable | tau range | |bias| median | p90 | max | se median | p90 | share > 2 se | single seed |e| p90 |")
+    P("|---|---|---|---|---|---|---|---|---|")
+    for lab, b, se, E in (("ratio (now)", b_lin, se_lin, E_lin), ("log ratio", b_log, se_log, E_log)):
+        for lo, hi in RANGES:
+            sel = in_range(TAU_MID, lo, hi)
+            bb, ss = np.abs(b[..., sel]), se[..., sel]
+            fin = np.isfinite(bb) & np.isfinite(ss)
+            share = float(np.mean(bb[fin] > 2 * ss[fin])) if fin.any() else float("nan")
+            P(f"| {lab} | [{lo:g}, {hi:g}) | {row3(bb)} | {pct(ss, 50):.3f} | {pct(ss, 90):.3f} | "
+              f"{share:.2f} | {pct(np.abs(E[..., sel]), 90):.3f} |")
+    P("")
+    P("(a) shape: L1 of the seed-mean signed ring difference (bias + noise / sqrt(n)), and the L1 "
+      "of the ring-wise se (its noise floor; pure noise would give about 0.8 x that):")
+    P("")
+    P("| tau range | bias L1 median | p90 | max | se L1 median | p90 | single seed L1 p90 |")
+    P("|---|---|---|---|---|---|---|")
+    for lo, hi in RANGES:
+        sel = in_range(TAU_MID, lo, hi)
+        P(f"| [{lo:g}, {hi:g}) | {row3(sb[..., sel])} | {pct(sse[..., sel], 50):.3f} | "
+          f"{pct(sse[..., sel], 90):.3f} | {pct(s_seed[..., sel], 90):.3f} |")
+    P("")
+    if n > 1:
+        SP = [spline_errors([runs[("tau", g, sd)] for sd in seeds if ("tau", g, sd) in runs], A) for g in tau_g]
+        se_lin_b = np.stack([x[0] for x in SP])
+        se_log_b = np.stack([x[1] for x in SP])
+        ss_b = np.stack([x[2] for x in SP])
+        P("(b) smoothing spline, midpoint error of linear interpolation in log tau of the spline:")
+        P("")
+        P("| tau range | energy: ratio median | p90 | max | log ratio median | p90 | max | shape median | p90 | max |")
+        P("|---|---|---|---|---|---|---|---|---|---|")
+        for lo, hi in RANGES:
+            sel = in_range(TAU_MID, lo, hi)
+            P(f"| [{lo:g}, {hi:g}) | {row3(np.abs(se_lin_b[..., sel]))} | {row3(np.abs(se_log_b[..., sel]))} | "
+              f"{row3(ss_b[..., sel])} |")
+        P("")
+        P("(b) for albedo >= 0.8 only:")
+        P("")
+        P("| tau range | energy: ratio median | p90 | max | log ratio median | p90 | max | shape median | p90 | max |")
+        P("|---|---|---|---|---|---|---|---|---|---|")
+        ha = M.ALBEDO >= 0.8
+        for lo, hi in RANGES:
+            sel = in_range(TAU_MID, lo, hi)
+            P(f"| [{lo:g}, {hi:g}) | {row3(np.abs(se_lin_b[:, ha][..., sel]))} | "
+              f"{row3(np.abs(se_log_b[:, ha][..., sel]))} | {row3(ss_b[:, ha][..., sel])} |")
+        P("")
+
+    # ---- g
+    gm = sorted({g for k, g, s in runs if k == "g"})
+    if gm:
+        P("### g: direct runs at interval midpoints")
+        P("")
+        tabg = g_table()
+        P(f"Direct runs at g = {', '.join(f'{g:g}' for g in gm)} (midpoints of G intervals) with the "
+          f"table's seed {M.SEED} and photon counts, compared with the table interpolated linearly in g "
+          "from apsf.npz (grid albedos, grid taus; entries whose float32 weights underflow are left "
+          "out). Same seed: the photons start identically (emission, first path, first scattering "
+          "draws), so the noise is partly shared with the table's runs at both ends; the rows "
+          f"'other seed' (seed {M.SEED + 1}) show the same comparison without that correlation.")
+        P("")
+        P("| g | seed | tau range | energy median | p90 | max | shape median | p90 | max |")
+        P("|---|---|---|---|---|---|---|---|---|")
+        pool_same_e, pool_same_s = {}, {}
+        for g in gm:
+            for sd in (M.SEED, M.SEED + 1):
+                if ("g", g, sd) not in runs:
+                    continue
+                e, s, ok = g_errors(tabg, runs[("g", g, sd)], A)
+                for lo, hi in RANGES:
+                    sel = in_range(M.TAU, lo, hi)
+                    P(f"| {g:g} | {'same' if sd == M.SEED else 'other'} | [{lo:g}, {hi:g}) | "
+                      f"{row3(np.abs(e[:, sel]))} | {row3(s[:, sel])} |")
+        P("")
+        P("Same seed, pooled over the midpoints, by interpolation variable (energy p90 / max; shape p90 / max):")
+        P("")
+        P("| variable | tau range | energy p90 | max | shape p90 | max |")
+        P("|---|---|---|---|---|---|")
+        for lab, var, lg in (("ratio, g (now)", "g", False), ("ratio, log(1 - g)", "lg", False),
+                             ("log ratio, g", "g", True), ("log ratio, log(1 - g)", "lg", True)):
+            es, ss = [], []
+            for g in gm:
+                if ("g", g, M.SEED) in runs:
+                    e, s, ok = g_errors(tabg, runs[("g", g, M.SEED)], A, var, lg)
+                    es.append(np.abs(e))
+                    ss.append(s)
+            es, ss = np.stack(es), np.stack(ss)
+            for lo, hi in RANGES:
+                sel = in_range(M.TAU, lo, hi)
+                P(f"| {lab} | [{lo:g}, {hi:g}) | {pct(es[..., sel], 90):.3f} | {pct(es[..., sel], 100):.3f} | "
+                  f"{pct(ss[..., sel], 90):.3f} | {pct(ss[..., sel], 100):.3f} |")
+        P("")
+    return "\n".join(L)
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--scale", type=float, default=1.0, help="photons x photons_for(g, 1)")
+    ap.add_argument("--jobs", type=int, default=2)
+    ap.add_argument("--cache", default="/tmp/apsf_interpolation")
+    ap.add_argument("--analyse-only", action="store_true")
+    ap.add_argument("--doc", default=None)
+    args = ap.parse_args(argv)
+    cache = Path(args.cache)
+    t0 = time.time()
+    if not args.analyse_only:
+        run_all(cache, args.scale, args.jobs)
+    wall = time.time() - t0 if not args.analyse_only else None
+    print(f"runs {time.time() - t0:.0f} s", flush=True)
+    runs = load(cache, args.scale)
+    block = analyse(runs, args.scale, wall)
+    print(block)
+    if args.doc:
+        from docblock import write_block
+        write_block(Path(args.doc), BEGIN, END, BEGIN + "\n" + block + "\n" + END)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

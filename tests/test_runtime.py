@@ -1,0 +1,79 @@
+"""The program binary cache (fogcli.runtime): programs are built from source once per
+machine and loaded from their device binary after that, keyed by everything that can
+change the binary."""
+import numpy as np
+import pytest
+
+from fogcli import apply, runtime
+from fogcli.api import make_config
+from fogcli.pipeline import defines
+
+D4 = defines(make_config("fog"))
+D2 = defines(make_config("fog", sets=["render.kernel=2"]))
+
+
+@pytest.fixture
+def cache(tmp_path, monkeypatch):
+    runtime._cl()           # PoCL's own cache stays where it is (warm): only ours moves
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))
+    monkeypatch.delenv("FOGCLI_KERNEL_CACHE", raising=False)
+    return tmp_path / "fogcli" / "kernels"
+
+
+def _builds(monkeypatch):
+    """Count the builds from source of every Runtime made from here on."""
+    seen = []
+    cl = runtime._cl()
+    real = cl.Program
+
+    def program(ctx, *args):
+        if len(args) == 1:          # (ctx, source); binaries come as (ctx, devices, binaries)
+            seen.append(args[0][:40])
+        return real(ctx, *args)
+    monkeypatch.setattr(cl, "Program", program)
+    return seen
+
+
+def test_second_runtime_loads_the_binary(cache, monkeypatch):
+    seen = _builds(monkeypatch)
+    a = runtime.Runtime()
+    a.program("pyramid", **D4)
+    files = sorted(cache.glob("pyramid-*.bin"))
+    assert len(files) == 1 and files[0].stat().st_size > 1000 and len(seen) == 1
+    b = runtime.Runtime()                  # a new context, as in a new process
+    b.program("pyramid", **D4)
+    assert len(seen) == 1                  # no second build from source
+    # other options: another binary
+    b.program("pyramid", **D2)
+    assert len(seen) == 2 and len(list(cache.glob("pyramid-*.bin"))) == 2
+
+
+def test_damaged_binary_is_rebuilt(cache, monkeypatch):
+    seen = _builds(monkeypatch)
+    runtime.Runtime().program("composite", **D4)
+    (path,) = cache.glob("composite-*.bin")
+    good = path.read_bytes()
+    path.write_bytes(b"not a binary" * 10)
+    runtime.Runtime().program("composite", **D4)
+    assert len(seen) == 2 and path.read_bytes()[:64] == good[:64] and len(path.read_bytes()) > 1000
+    assert not list(cache.glob("*.tmp"))
+
+
+def test_cache_off_and_same_results(cache, monkeypatch, rng):
+    """FOGCLI_KERNEL_CACHE=0 writes nothing; programs from binaries compute what programs
+    from source do (bit for bit: the same machine code)."""
+    img = rng.uniform(0, 2, (24, 32, 3)).astype(np.float32)
+    depth = rng.uniform(2, 80, (24, 32)).astype(np.float32)
+    cfg = make_config("fog")
+    monkeypatch.setenv("FOGCLI_KERNEL_CACHE", "0")
+    monkeypatch.setattr(runtime, "_RUNTIMES", {})
+    from fogcli import pipeline
+    monkeypatch.setattr(pipeline, "_PLANS", {})
+    plain = apply(img, depth, cfg)
+    assert not cache.exists() or not list(cache.iterdir())
+    monkeypatch.setenv("FOGCLI_KERNEL_CACHE", "1")
+    for _ in range(2):                     # the first writes the binaries, the second loads them
+        monkeypatch.setattr(runtime, "_RUNTIMES", {})
+        monkeypatch.setattr(pipeline, "_PLANS", {})
+        np.testing.assert_array_equal(apply(img, depth, cfg), plain)
+    assert len(list(cache.glob("*.bin"))) >= 4
