@@ -73,11 +73,18 @@ def job(spec):
                 ratio=r["ratio"], shape=r["shape"], th_edges=t.th_edges)
 
 
-def run_all(cache: Path, scale: float, jobs: int) -> None:
+def all_specs(scale: float, part: str = "all") -> list:
+    """Every run, in the order of their value for the report (what a cut-short run keeps)."""
+    tau = [("tau", g, M.SEED + s, scale) for s in range(N_SEEDS) for g in G_TAU]
+    g_order = [(0.65, 0), (0.93, 0), (0.65, 1), (0.15, 0), (0.865, 0), (0.93, 1), (0.4, 0),
+               (0.775, 0), (0.15, 1)]
+    gg = [("g", g, M.SEED + s, scale) for g, s in g_order]
+    return {"tau": tau, "g": gg, "all": tau[:len(G_TAU)] + gg + tau[len(G_TAU):]}[part]
+
+
+def run_all(cache: Path, scale: float, jobs: int, part: str = "all") -> None:
     cache.mkdir(parents=True, exist_ok=True)
-    specs = [("tau", g, M.SEED + s, scale) for s in range(N_SEEDS) for g in G_TAU]
-    specs += [("g", g, M.SEED, scale) for g in G_MID]
-    specs += [("g", g, M.SEED + 1, scale) for g in G_MID_OTHER]
+    specs = all_specs(scale, part)
     todo = [s for s in specs if not (cache / fname(s)).exists()]
     print(f"{len(todo)} runs to do of {len(specs)}", flush=True)
     t0 = time.time()
@@ -265,13 +272,66 @@ def g_errors(tab, run, A, var="g", log=False):
 
 
 
+
+# ---------------------------------------------------------------- single scattering (no noise)
+
+SS_ALB = (1.0, 0.8)
+
+
+def ss_grid(th_edges, n=1000):
+    """Single-scattering ratio and shape by quadrature (`single_scatter`, deterministic) on
+    (G and its interval midpoints) x SS_ALB x TAU2: a noise-free function with the structure
+    of the table's first order, which is most of the table at small tau."""
+    g_all = np.sort(np.concatenate([M.G, 0.5 * (M.G[:-1] + M.G[1:])]))
+    te = np.asarray(th_edges, np.float64)
+    nf = int(np.searchsorted(te, math.pi / 2 + 1e-12))
+    thc = np.sqrt(te[:-1] * te[1:])
+    thc[0] = te[1] / 2
+    f = np.zeros((len(g_all), len(SS_ALB), len(TAU2), len(te) - 1))
+    for ig, g in enumerate(g_all):
+        for ia, a in enumerate(SS_ALB):
+            for it, tv in enumerate(TAU2):
+                f[ig, ia, it, :nf] = mc.single_scatter(thc[:nf], tv, g, a, n=n)
+    W, E, _ = mc.fit_gaussians(te, f)
+    thin = np.exp(-np.outer(s_of(SS_ALB), TAU2)) * -np.expm1(-TAU2)[None, :]
+    return dict(g=g_all, ratio=E / thin[None], shape=W / np.maximum(W.sum(-1, keepdims=True), 1e-300))
+
+
+def ss_errors(ss, A):
+    """Noise-free interpolation errors of the single-scattering part: along g (at grid taus,
+    g midpoints from their neighbours, four schemes) and along tau (at grid g, tau midpoints).
+    Returns dict of arrays (..., T) for energy and shape."""
+    out = {}
+    R, S = ss["ratio"], ss["shape"]
+    ge, gi = slice(0, None, 2), slice(1, None, 2)                # grid g, midpoint g
+    g0, g1, gm = ss["g"][0:-1:2], ss["g"][2::2], ss["g"][1::2]
+    for var in ("g", "lg"):
+        if var == "g":
+            t = (gm - g0) / (g1 - g0)
+        else:
+            t = (np.log(1 - gm) - np.log(1 - g0)) / (np.log(1 - g1) - np.log(1 - g0))
+        t_ = t[:, None, None]
+        r0, r1, rd = R[0:-1:2][..., 0::2], R[2::2][..., 0::2], R[gi][..., 0::2]
+        out[("g", var, "lin")] = ((1 - t_) * r0 + t_ * r1) / rd - 1
+        out[("g", var, "log")] = np.exp((1 - t_) * np.log(r0) + t_ * np.log(r1)) / rd - 1
+        t4 = t_[..., None]
+        shi = (1 - t4) * S[0:-1:2][..., 0::2, :] + t4 * S[2::2][..., 0::2, :]
+        out[("g", var, "shape")] = l1(shi @ A.T, S[gi][..., 0::2, :] @ A.T)
+    Rg, Sg = R[ge], S[ge]
+    out[("tau", "lin")] = 0.5 * (Rg[..., 0:-1:2] + Rg[..., 2::2]) / Rg[..., 1::2] - 1
+    out[("tau", "log")] = np.sqrt(Rg[..., 0:-1:2] * Rg[..., 2::2]) / Rg[..., 1::2] - 1
+    shi = 0.5 * (Sg[..., 0:-1:2, :] + Sg[..., 2::2, :])
+    out[("tau", "shape")] = l1(shi @ A.T, Sg[..., 1::2, :] @ A.T)
+    return out
+
+
 # ---------------------------------------------------------------- report
 
 def row3(x, fmt="{:.3f}"):
     return " | ".join(fmt.format(v) for v in stats3(x))
 
 
-def analyse(runs: dict, scale: float, wall: float | None) -> str:
+def analyse(runs: dict, scale: float, wall: float | None, ssq: dict | None = None) -> str:
     some = next(iter(runs.values()))
     A = ring_matrix(some["th_edges"])
     L = []
@@ -417,8 +477,8 @@ def analyse(runs: dict, scale: float, wall: float | None) -> str:
     P(f"(a) energy, |bias| and se over {n} seeds, all grid albedos and the {len(tau_g)} g; "
       "share of points with |bias| > 2 se:")
     P("")
-    P("| variable | tau range | |bias| median | p90 | max | se median | p90 | share > 2 se | single seed |e| p90 |")
-    P("|---|---|---|---|---|---|---|---|---|")
+    P("| variable | tau range | \\|bias\\| median | p90 | max | se median | p90 | share > 2 se | single seed \\|e\\| p90 | a >= 0.8: \\|bias\\| p90 | max |")
+    P("|---|---|---|---|---|---|---|---|---|---|---|")
     for lab, b, se, E in (("ratio (now)", b_lin, se_lin, E_lin), ("log ratio", b_log, se_log, E_log)):
         for lo, hi in RANGES:
             sel = in_range(TAU_MID, lo, hi)
@@ -426,7 +486,8 @@ def analyse(runs: dict, scale: float, wall: float | None) -> str:
             fin = np.isfinite(bb) & np.isfinite(ss)
             share = float(np.mean(bb[fin] > 2 * ss[fin])) if fin.any() else float("nan")
             P(f"| {lab} | [{lo:g}, {hi:g}) | {row3(bb)} | {pct(ss, 50):.3f} | {pct(ss, 90):.3f} | "
-              f"{share:.2f} | {pct(np.abs(E[..., sel]), 90):.3f} |")
+              f"{share:.2f} | {pct(np.abs(E[..., sel]), 90):.3f} | {pct(bb[:, M.ALBEDO >= 0.8], 90):.3f} | "
+              f"{pct(bb[:, M.ALBEDO >= 0.8], 100):.3f} |")
     P("")
     P("(a) shape: L1 of the seed-mean signed ring difference (bias + noise / sqrt(n)), and the L1 "
       "of the ring-wise se (its noise floor; pure noise would give about 0.8 x that):")
@@ -463,6 +524,38 @@ def analyse(runs: dict, scale: float, wall: float | None) -> str:
               f"{row3(np.abs(se_log_b[:, ha][..., sel]))} | {row3(ss_b[:, ha][..., sel])} |")
         P("")
 
+    # ---- single scattering, exact
+    if ssq is not None:
+        so = ss_errors(ssq, A)
+        P("### Single scattering by quadrature: no noise at all")
+        P("")
+        P("The first scattering order from `single_scatter` (deterministic quadrature, 1000 nodes), "
+          "projected on the Gaussians with `fit_gaussians` like the table, on G and its 12 interval "
+          f"midpoints x albedo {', '.join(f'{a:g}' for a in SS_ALB)} x the 30 grid taus and their "
+          "midpoints. Its interpolation error is computed exactly. It stands for the table where "
+          "single scattering is most of the light (tau << 1; at tau 0.1 multiple scattering is already "
+          "~10 % of it); beyond tau ~ 1 it is not representative (the single-scattering ratio falls "
+          "like exp(-tau), the full ratio grows), so only tau < 1 is shown.")
+        P("")
+        P("| dimension | scheme | tau range | energy median | p90 | max | shape median | p90 | max |")
+        P("|---|---|---|---|---|---|---|---|---|")
+        for lo, hi in ((0.0, 0.1), (0.1, 1.0)):
+            for lab, sch, ke, ks, tg in (
+                    ("g", "ratio linear in g (now)", ("g", "g", "lin"), ("g", "g", "shape"), M.TAU),
+                    ("g", "log ratio linear in g", ("g", "g", "log"), None, M.TAU),
+                    ("g", "ratio / weights linear in log(1 - g)", ("g", "lg", "lin"), ("g", "lg", "shape"), M.TAU),
+                    ("tau", "ratio linear in log tau (now)", ("tau", "lin"), ("tau", "shape"), TAU_MID),
+                    ("tau", "log ratio linear in log tau", ("tau", "log"), None, TAU_MID)):
+                sel = in_range(tg, lo, hi)
+                sh = row3(so[ks][..., sel]) if ks else "- | - | -"
+                P(f"| {lab} | {sch} | [{lo:g}, {hi:g}) | {row3(np.abs(so[ke][..., sel]))} | {sh} |")
+        P("")
+        worst = np.abs(so[("g", "g", "lin")][..., M.TAU < 1]).max(axis=(1, 2))
+        worst_s = so[("g", "g", "shape")][..., M.TAU < 1].max(axis=(1, 2))
+        P("Per g interval (tau < 1, max), energy / shape, linear in g: " + "; ".join(
+            f"{a:g}-{b:g}: {e:.3f} / {w:.3f}" for a, b, e, w in zip(M.G[:-1], M.G[1:], worst, worst_s)) + ".")
+        P("")
+
     # ---- g
     gm = sorted({g for k, g, s in runs if k == "g"})
     if gm:
@@ -476,8 +569,8 @@ def analyse(runs: dict, scale: float, wall: float | None) -> str:
           "draws), so the noise is partly shared with the table's runs at both ends; the rows "
           f"'other seed' (seed {M.SEED + 1}) show the same comparison without that correlation.")
         P("")
-        P("| g | seed | tau range | energy median | p90 | max | shape median | p90 | max |")
-        P("|---|---|---|---|---|---|---|---|---|")
+        P("| g | seed | tau range | energy median | p90 | max | a >= 0.8: p90 | max | shape median | p90 | max |")
+        P("|---|---|---|---|---|---|---|---|---|---|---|")
         pool_same_e, pool_same_s = {}, {}
         for g in gm:
             for sd in (M.SEED, M.SEED + 1):
@@ -487,8 +580,33 @@ def analyse(runs: dict, scale: float, wall: float | None) -> str:
                 for lo, hi in RANGES:
                     sel = in_range(M.TAU, lo, hi)
                     P(f"| {g:g} | {'same' if sd == M.SEED else 'other'} | [{lo:g}, {hi:g}) | "
-                      f"{row3(np.abs(e[:, sel]))} | {row3(s[:, sel])} |")
+                      f"{row3(np.abs(e[:, sel]))} | {pct(np.abs(e[M.ALBEDO >= 0.8][:, sel]), 90):.3f} | "
+                      f"{pct(np.abs(e[M.ALBEDO >= 0.8][:, sel]), 100):.3f} | {row3(s[:, sel])} |")
         P("")
+        both = [g for g in gm if ("g", g, M.SEED) in runs and ("g", g, M.SEED + 1) in runs]
+        if both:
+            P("Correlation check: the noise of one direct run, |R(seed) / R(other seed) - 1| / sqrt(2) "
+              "(energy) and ring L1 / sqrt(2) (shape), against the same-seed interpolation error above; "
+              "a same-seed error well below this noise means the shared photons cancel most of it:")
+            P("")
+            P("| g | tau range | run noise energy median | p90 | same-seed error median | p90 | other-seed median | p90 | run noise shape median | same-seed shape median |")
+            P("|---|---|---|---|---|---|---|---|---|---|")
+            for g in both:
+                r1, r2 = runs[("g", g, M.SEED)], runs[("g", g, M.SEED + 1)]
+                with np.errstate(divide="ignore", invalid="ignore"):
+                    nz = np.abs(r1["ratio"] / r2["ratio"] - 1) / math.sqrt(2)
+                ns = l1(r1["shape"] @ A.T, r2["shape"] @ A.T) / math.sqrt(2)
+                e1, s1, ok = g_errors(tabg, r1, A)
+                e2, _, _ = g_errors(tabg, r2, A)
+                nz = np.where(ok, nz, np.nan)
+                ns = np.where(ok, ns, np.nan)
+                for lo, hi in RANGES:
+                    sel = in_range(M.TAU, lo, hi)
+                    P(f"| {g:g} | [{lo:g}, {hi:g}) | {pct(nz[:, sel], 50):.3f} | {pct(nz[:, sel], 90):.3f} | "
+                      f"{pct(np.abs(e1[:, sel]), 50):.3f} | {pct(np.abs(e1[:, sel]), 90):.3f} | "
+                      f"{pct(np.abs(e2[:, sel]), 50):.3f} | {pct(np.abs(e2[:, sel]), 90):.3f} | "
+                      f"{pct(ns[:, sel], 50):.3f} | {pct(s1[:, sel], 50):.3f} |")
+            P("")
         P("Same seed, pooled over the midpoints, by interpolation variable (energy p90 / max; shape p90 / max):")
         P("")
         P("| variable | tau range | energy p90 | max | shape p90 | max |")
@@ -517,15 +635,26 @@ def main(argv=None) -> int:
     ap.add_argument("--cache", default="/tmp/apsf_interpolation")
     ap.add_argument("--analyse-only", action="store_true")
     ap.add_argument("--doc", default=None)
+    ap.add_argument("--part", choices=("all", "tau", "g"), default="all", help="which runs")
     args = ap.parse_args(argv)
     cache = Path(args.cache)
     t0 = time.time()
     if not args.analyse_only:
-        run_all(cache, args.scale, args.jobs)
+        run_all(cache, args.scale, args.jobs, args.part)
     wall = time.time() - t0 if not args.analyse_only else None
     print(f"runs {time.time() - t0:.0f} s", flush=True)
     runs = load(cache, args.scale)
-    block = analyse(runs, args.scale, wall)
+    ssf = cache / "single_scatter.pkl"
+    if ssf.exists():
+        with open(ssf, "rb") as fh:
+            ss = pickle.load(fh)
+    else:
+        t1 = time.time()
+        ss = ss_grid(next(iter(runs.values()))["th_edges"])
+        print(f"single scattering {time.time() - t1:.0f} s", flush=True)
+        with open(ssf, "wb") as fh:
+            pickle.dump(ss, fh)
+    block = analyse(runs, args.scale, wall, ss)
     print(block)
     if args.doc:
         from docblock import write_block

@@ -46,6 +46,11 @@ def test_second_runtime_loads_the_binary(cache, monkeypatch):
     # other options: another binary
     b.program("pyramid", **D2)
     assert len(seen) == 2 and len(list(cache.glob("pyramid-*.bin"))) == 2
+    # another compile target (a PoCL setting): another key, whatever the device's name says
+    p = b.binary_path("pyramid", "src", ["-D", "A=1"])
+    monkeypatch.setenv("POCL_LLVM_CPU_NAME", "znver1")
+    assert b.binary_path("pyramid", "src", ["-D", "A=1"]) != p
+    assert b.binary_path("pyramid", "src", ["-D", "A=2"]) != b.binary_path("pyramid", "src", ["-D", "A=1"])
 
 
 def test_damaged_binary_is_rebuilt(cache, monkeypatch):

@@ -191,8 +191,6 @@ def _edge_aware(logd: np.ndarray, confident: np.ndarray, guide: np.ndarray, sigm
 def prepare(metric: np.ndarray, rgb: np.ndarray, source: str, split: bool = True) -> tuple[np.ndarray, DepthReport]:
     """Metric depth at the image's size with every hole filled (split: False averages two
     surfaces in one colour region as before; for benchmarks/holefill.py)."""
-    import cv2
-
     h, w = rgb.shape[:2]
     d = np.asarray(metric, np.float32)
     rep = DepthReport()
@@ -208,6 +206,8 @@ def prepare(metric: np.ndarray, rgb: np.ndarray, source: str, split: bool = True
         raise UserError(f"{source}: depth has no valid pixel (all NaN, zero or negative)")
     if rep.holes == 0 and rep.resampled_from is None:
         return d, rep
+    import cv2   # only for holes and resampling: 0.14 s of start-up a complete depth map does not pay
+
     if rep.resampled_from is None:
         confident = valid      # holes stay NaN: not confident, filled by the filter below
         logd, sky = _log_depth(d)

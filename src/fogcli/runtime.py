@@ -155,8 +155,9 @@ class Runtime:
     def binary_path(self, name: str, src: str, opts: list[str]) -> Path | None:
         """Where the device binary of this source, these options, this device and driver
         lives (None: the cache is off, FOGCLI_KERNEL_CACHE=0). The key hashes the program's
-        source, every header it can include, the options, the device, the driver and the
-        OpenCL platform, so an edit or an upgrade builds anew."""
+        source, every header it can include, the options, the device, the driver, the
+        OpenCL platform and PoCL's settings (POCL_LLVM_CPU_NAME compiles for another CPU),
+        so an edit, an upgrade or another target builds anew."""
         if os.environ.get("FOGCLI_KERNEL_CACHE", "1") == "0":
             return None
         import hashlib
@@ -166,6 +167,7 @@ class Runtime:
         d = self.device
         parts += [d.name, d.vendor, d.version, d.driver_version, d.platform.name, d.platform.version,
                   self.cl.VERSION_TEXT]
+        parts += [f"{k}={v}" for k, v in sorted(os.environ.items()) if k.startswith("POCL_") and k != "POCL_CACHE_DIR"]
         for part in parts:
             h.update(part.encode() + b"\0")
         return _user_cache_dir() / "kernels" / f"{name}-{h.hexdigest()[:40]}.bin"
