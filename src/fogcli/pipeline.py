@@ -171,6 +171,82 @@ def primitive_launches(cfg: Config) -> list[tuple[str, tuple]]:
     return out
 
 
+@dataclass(frozen=True)
+class Features:
+    """What a plan computes, as far as its device memory goes."""
+    source: bool          # the source collapse: a prep chain
+    sep: bool             # pixel separation: a second chain
+    split_medium: bool    # emission + ambient in a buffer of their own (AOVs)
+    lights: bool
+    lambert: bool         # emission_profile lambertian: view cosines
+    aovs: tuple
+    reference: bool       # method reference: three more full-size planes
+
+
+# The per-frame device buffers, declared once: name -> bytes for n pixels, a pyramid of t
+# pixels in all (every level) and the plan's features. Plan allocates them (0: a 16-byte
+# placeholder), check_memory sums them, and the reference's planes are declared the same way.
+BUFFERS = {
+    "image": lambda n, t, f: 16 * n,                       # RGBA in; scratch after preprocess
+    "depth": lambda n, t, f: 4 * n,
+    "direct": lambda n, t, f: 16 * n,                      # L exp(-st P) (+ L_em + L_amb)
+    "medium": lambda n, t, f: 16 * n * f.split_medium,
+    "chain": lambda n, t, f: 16 * t,                       # colour chain, every level
+    "spread": lambda n, t, f: 4 * t,
+    "prep": lambda n, t, f: 16 * t * f.source,
+    "chain2": lambda n, t, f: 16 * t * f.sep,
+    "prep2": lambda n, t, f: 16 * t * f.sep,
+    "half2": lambda n, t, f: 16 * n * f.sep,
+    "spread2": lambda n, t, f: 4 * t * f.sep,             # unused output of reduce_level
+    "out": lambda n, t, f: 16 * n,
+    "a_dir": lambda n, t, f: 16 * n * f.lights,            # airlight reaching the camera directly
+    "a_sc": lambda n, t, f: 16 * n * f.lights,             # ... and scattered again on the way
+    "trans": lambda n, t, f: 16 * n * ("transmittance" in f.aovs),
+    "level_aov": lambda n, t, f: 4 * n * bool(f.aovs),
+    "scat_aov": lambda n, t, f: 16 * n * bool(f.aovs),
+    "cosines": lambda n, t, f: 4 * n * f.lambert,
+}
+REFERENCE_BUFFERS = {"src": lambda n: 16 * n, "tmp": lambda n: 16 * n, "acc": lambda n: 16 * n}
+
+
+def plan_features(cfg: Config, aovs=()) -> Features:
+    r = cfg.render
+    source = r.method == "pyramid" and r.fetch == "source"
+    return Features(source, r.method == "pyramid" and r.separation.enabled,
+                    bool({"optical_depth", "emission", "direct"} & set(aovs)), bool(cfg.lights),
+                    uses_apsf(cfg) and r.emission_profile == "lambertian", tuple(aovs), r.method == "reference")
+
+
+def buffer_bytes(n: int, t: int, f: Features) -> dict:
+    return {name: int(size(n, t, f)) for name, size in BUFFERS.items()}
+
+
+def planned_bytes(n: int, t: int, f: Features, cfg: Config) -> int:
+    """Everything one frame may allocate: the declared buffers, the reference's planes, the
+    airlight of a second light (two planes), and the extension plan of `border: extend`
+    (the padded frame at 1/2^EXT_LEVEL: about (1 + 2 margin)^2 / 64 of a plan)."""
+    total = sum(buffer_bytes(n, t, f).values())
+    if f.reference:
+        total += sum(size(n) for size in REFERENCE_BUFFERS.values())
+    if f.lights and len(cfg.lights) > 1:
+        total += 32 * n
+    if cfg.render.border == "extend" and f.source:
+        total += int(total * (1 + 2 * cfg.render.border_margin) ** 2 / 4 ** EXT_LEVEL)
+    return total
+
+
+def check_memory(rt: Runtime, width: int, height: int, sizes: dict, need: int) -> None:
+    """Refuse before allocating: the device's memory and its largest single allocation."""
+    dev = rt.device
+    if need > dev.global_mem_size:
+        raise ProcessingError(f"image of {width}x{height} needs {need / 2**20:.0f} MiB, "
+                              f"device {rt.info.name} has {dev.global_mem_size / 2**20:.0f} MiB")
+    name, big = max(sizes.items(), key=lambda kv: kv[1])
+    if big > dev.max_mem_alloc_size:
+        raise ProcessingError(f"image of {width}x{height}: its {name} buffer needs {big / 2**20:.0f} MiB in one "
+                              f"piece, device {rt.info.name} allocates at most {dev.max_mem_alloc_size / 2**20:.0f} MiB")
+
+
 class Plan:
     """Device buffers for one image size and one set of compile-time options."""
 
@@ -178,52 +254,27 @@ class Plan:
         self.rt, self.w, self.h, self.cfg = rt, width, height, cfg
         cl = rt.cl
         self.aovs = tuple(aovs)
+        self.features = f = plan_features(cfg, aovs)
         # L_em + L_amb ride in `direct` unless an AOV needs them (or P) on their own
-        self.split_medium = bool({"optical_depth", "emission", "direct"} & set(self.aovs))
+        self.split_medium, self.source, self.sep, self.lambert = f.split_medium, f.source, f.sep, f.lambert
         self.sizes = level_sizes(width, height, cfg.render.levels)
         offs = np.cumsum([0] + [w * h for w, h in self.sizes])
         self.lv = np.array([[o, w, h, 0] for o, (w, h) in zip(offs[:-1], self.sizes)], np.int32)
         total = int(offs[-1])
         n = width * height
         mf = cl.mem_flags
-        self.source = cfg.render.method == "pyramid" and cfg.render.fetch == "source"
-        need = 4 * (4 * n * 4 + n + 4 * total + total) + (4 * 4 * n * 2 + 4 * n if aovs else 0)
-        # the second chain: Iser's separated pixels
-        self.sep = cfg.render.method == "pyramid" and cfg.render.separation.enabled
-        need += 16 * total if self.source else 0
-        need += (36 * total + 16 * n) if self.sep else 0
-        need += 32 * n if cfg.lights else 0
-        if need > rt.device.global_mem_size:
-            raise ProcessingError(f"image of {width}x{height} needs {need / 2**20:.0f} MiB, "
-                                  f"device {rt.info.name} has {rt.device.global_mem_size / 2**20:.0f} MiB")
+        self.apsf = uses_apsf(cfg)
+        sizes = buffer_bytes(n, total, f)
+        check_memory(rt, width, height, sizes, planned_bytes(n, total, f, cfg))
         try:
-            B = lambda nbytes: cl.Buffer(rt.ctx, mf.READ_WRITE, max(int(nbytes), 16))  # noqa: E731
-            self.image = B(16 * n)
-            self.depth = B(4 * n)
-            self.direct = B(16 * n)
-            self.medium = B(16 * n if self.split_medium else 16)
-            self.chain = B(16 * total)
-            self.spread = B(4 * total)
-            self.prep = B(16 * total if self.source else 16)
-            self.chain2 = B(16 * total if self.sep else 16)   # pixel separation (Iser 4.4.4)
-            self.prep2 = B(16 * total if self.sep else 16)
-            self.half2 = B(16 * n if self.sep else 16)
-            self.spread2 = B(4 * total if self.sep else 16)    # unused output of reduce_level
-            self.out = B(16 * n)
-            self.a_dir = B(16 * n if cfg.lights else 16)     # airlight reaching the camera directly
-            self.a_sc = B(16 * n if cfg.lights else 16)      # ... and scattered again on the way
-            want = bool(aovs)
-            self.trans = B(16 * n if "transmittance" in self.aovs else 16)
-            self.level_aov = B(4 * n if want else 16)
-            self.scat_aov = B(16 * n if want else 16)
+            for name, nbytes in sizes.items():      # a feature that is off keeps a 16-byte placeholder
+                setattr(self, name, cl.Buffer(rt.ctx, mf.READ_WRITE, max(int(nbytes), 16)))
             self.lv_buf = cl.Buffer(rt.ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=self.lv)
-            self.apsf = uses_apsf(cfg)
+            B = lambda nbytes: cl.Buffer(rt.ctx, mf.READ_WRITE, max(int(nbytes), 16))  # noqa: E731
             self.lut = B(4 * self.lut_floats()) if self.apsf else B(16)
             self._lut_key = None
             self.edge_off = [0] * len(self.sizes)
             self.edge = B(16)
-            self.lambert = self.apsf and cfg.render.emission_profile == "lambertian"
-            self.cosines = B(4 * n if self.lambert else 16)
             self.cons_off = [0] * (len(self.sizes) + 1)
             self.cons = B(16)
             if self.apsf and self.source:
@@ -745,9 +796,9 @@ _PLANS: dict = {}
 
 def get_plan(rt: Runtime, width: int, height: int, cfg: Config, aovs=()) -> Plan:
     """Reuse buffers across images of one size and one compile-time configuration."""
-    key = (id(rt), width, height, tuple(sorted(defines(cfg).items())), cfg.render.levels, tuple(aovs),
-           cfg.render.method == "pyramid" and cfg.render.fetch == "source", cfg.render.separation.enabled,
-           cfg.render.border, cfg.render.border_margin, bool(cfg.lights))   # a plan's edge tables depend on the border policy
+    key = (id(rt), width, height, tuple(sorted(defines(cfg).items())), cfg.render.levels,
+           plan_features(cfg, aovs),            # what its buffers are (BUFFERS)
+           cfg.render.border, cfg.render.border_margin)   # its edge tables and extension plan
     plan = _PLANS.get(key)
     if plan is None:
         if len(_PLANS) > 4:

@@ -31,9 +31,10 @@ class _Blur:
         self.prog = rt.program("reference", **_defines(plan))
         w, h, n = plan.w, plan.h, plan.w * plan.h
         mf = cl.mem_flags
-        self.src = cl.Buffer(rt.ctx, mf.READ_WRITE, 16 * n)
-        self.tmp = cl.Buffer(rt.ctx, mf.READ_WRITE, 16 * n)
-        self.acc = cl.Buffer(rt.ctx, mf.READ_WRITE, 16 * n)
+        from .pipeline import REFERENCE_BUFFERS
+
+        for name, size in REFERENCE_BUFFERS.items():      # declared with the plan's (check_memory)
+            setattr(self, name, cl.Buffer(rt.ctx, mf.READ_WRITE, size(n)))
         t.add("reference", cl.enqueue_fill_buffer(self.q, self.acc, np.float32(0), 0, 16 * n))
         rmax = int(math.ceil(4.0 * max(smax, S0) * RATIO)) + 1
         self.taps = cl.Buffer(rt.ctx, mf.READ_WRITE, 4 * (rmax + 1))

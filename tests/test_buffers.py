@@ -1,0 +1,54 @@
+"""One declaration of the device buffers (pipeline.BUFFERS): what a plan allocates, what the
+memory check counts and what keys the plan cache all come from it."""
+from types import SimpleNamespace
+
+import pytest
+
+from conftest import plan_for
+from fogcli.errors import ProcessingError
+from fogcli.pipeline import BUFFERS, buffer_bytes, check_memory, planned_bytes, plan_features
+
+
+@pytest.mark.parametrize("sets,aovs", [((), ()), (("render.psf=apsf", "render.border=extend"), ("scattered", "transmittance")),
+                                       (("render.separation.enabled=true", "render.fetch=receiver"), ("optical_depth",))])
+def test_plan_allocates_what_is_declared(rt, sets, aovs):
+    w, h = 37, 23
+    plan, cfg = plan_for(rt, w, h, *sets, aovs=aovs)
+    total = sum(a * b for a, b in plan.sizes)
+    want = buffer_bytes(w * h, total, plan_features(cfg, aovs))
+    got = {name: getattr(plan, name).size for name in BUFFERS}
+    assert got == {k: max(v, 16) for k, v in want.items()}
+    assert want["chain"] == 16 * total and (want["scat_aov"] > 0) == bool(aovs)
+
+
+def _rt(mem, alloc):
+    return SimpleNamespace(device=SimpleNamespace(global_mem_size=mem, max_mem_alloc_size=alloc),
+                           info=SimpleNamespace(name="test device"))
+
+
+def test_memory_check_names_the_limit():
+    from fogcli.api import make_config
+
+    f = plan_features(make_config("fog"))
+    n = 16000 * 12000
+    sizes = buffer_bytes(n, n * 4 // 3, f)
+    with pytest.raises(ProcessingError, match=r"16000x12000: its chain buffer needs 3906 MiB in one piece, device "
+                                              r"test device allocates at most 2048 MiB"):
+        check_memory(_rt(2**40, 2**31), 16000, 12000, sizes, sum(sizes.values()))
+    with pytest.raises(ProcessingError, match="needs .* MiB, device test device has 1024 MiB"):
+        check_memory(_rt(2**30, 2**31), 16000, 12000, sizes, sum(sizes.values()))
+    check_memory(_rt(2**40, 2**33), 16000, 12000, sizes, sum(sizes.values()))   # fits: no error
+
+
+def test_planned_bytes_counts_what_a_frame_may_add():
+    from fogcli.api import make_config
+
+    n, t = 1000, 1333
+    base = make_config("fog", sets=["render.border=open"])
+    ref = make_config("fog", sets=["render.border=open", "render.method=reference"])
+    ext = make_config("fog")
+    declared = sum(buffer_bytes(n, t, plan_features(base)).values())
+    assert planned_bytes(n, t, plan_features(base), base) == declared
+    assert planned_bytes(n, t, plan_features(ref), ref) == sum(buffer_bytes(n, t, plan_features(ref)).values()) + 48 * n
+    d_ext = sum(buffer_bytes(n, t, plan_features(ext)).values())
+    assert planned_bytes(n, t, plan_features(ext), ext) == d_ext + int(d_ext * 2.0 ** 2 / 64)   # margin 0.5, level 3
