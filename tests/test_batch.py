@@ -185,3 +185,29 @@ def test_a_worker_that_dies_costs_only_its_frame(tmp_path, monkeypatch):
     assert rep["counts"] == {"done": 7, "skipped": 0, "failed": 1}
     assert Path(rep["failed"][0]["input"]).name == "w3.exr" and "worker process died" in rep["failed"][0]["reason"]
     assert sorted(p.name for p in out.iterdir()) == [f"w{i}.exr" for i in range(8) if i != 3]
+
+
+def test_jobs_1_overlaps_io_and_keeps_every_frame_apart(tmp_path):
+    """--jobs 1 reads frame n + 1 and writes frame n - 1 while frame n runs on the device: the
+    pixels are those of `fogcli apply` frame by frame, a frame that fails to read or to write
+    is reported alone, and the order of the frames does not mix their results."""
+    src, out = tmp_path / "in", tmp_path / "out"
+    src.mkdir()
+    for i in range(7):
+        frame(src / f"f{i}.exr", 60 + i, w=40 + 4 * i, h=30)      # every frame its own size
+    data = (src / "f2.exr").read_bytes()
+    (src / "f2.exr").write_bytes(data[: len(data) // 2])        # fails to read
+    (out / "f4.exr").mkdir(parents=True)                          # fails to write: a folder in the way
+    report = tmp_path / "report.json"
+    r = fogcli("batch", src, out, "--jobs", "1", "--report", report)
+    assert r.returncode == 3, r.stderr
+    assert "Traceback" not in r.stderr
+    rep = json.loads(report.read_text())
+    assert rep["counts"] == {"done": 5, "skipped": 0, "failed": 2}
+    assert {Path(f["input"]).name for f in rep["failed"]} == {"f2.exr", "f4.exr"}
+    for i in (0, 1, 3, 5, 6):
+        single = tmp_path / f"single{i}.exr"
+        assert fogcli("apply", src / f"f{i}.exr", "-o", single).returncode == 0
+        got, want = read(out / f"f{i}.exr")[1], read(single)[1]
+        assert got.shape == want.shape == (30, 40 + 4 * i, want.shape[2])
+        np.testing.assert_array_equal(got, want)

@@ -190,7 +190,6 @@ def init_worker(cfg, aovs, device, threads: int | None, started=None) -> None:
 
 def process(job: Job, cfg=None, aovs=None, device=None) -> dict:
     """One job; never raises for a bad input: returns {'ok', 'input', 'output', 'reason'}."""
-    from .errors import ProcessingError
     from .job import run_job
 
     cfg = cfg if cfg is not None else _WORKER["cfg"]
@@ -202,18 +201,69 @@ def process(job: Job, cfg=None, aovs=None, device=None) -> dict:
         if os.environ.get("FOGCLI_TEST_KILL_WORKER") == Path(job.input).name:
             os.kill(os.getpid(), 9)
     t0 = time.perf_counter()
+    res, failed = _attempt(job, lambda: run_job(_make_folders(job), cfg, aovs=aovs, device=device))
+    return failed or _done(job, res, t0)
+
+
+def _make_folders(job: Job) -> Job:
+    Path(job.output).parent.mkdir(parents=True, exist_ok=True)
+    if job.save_depth:
+        Path(job.save_depth).parent.mkdir(parents=True, exist_ok=True)
+    return job
+
+
+def _done(job: Job, res, t0: float) -> dict:
+    return {"ok": True, "input": job.input, "output": job.output, "warnings": res.warnings,
+            "seconds": round(time.perf_counter() - t0, 3)}
+
+
+def _attempt(job: Job, fn):
+    """(fn(), None), or (None, the failure's report): a bad input never stops a batch."""
+    from .errors import ProcessingError
+
     try:
-        Path(job.output).parent.mkdir(parents=True, exist_ok=True)
-        if job.save_depth:
-            Path(job.save_depth).parent.mkdir(parents=True, exist_ok=True)
-        res = run_job(job, cfg, aovs=aovs, device=device)
-        return {"ok": True, "input": job.input, "output": job.output, "warnings": res.warnings,
-                "seconds": round(time.perf_counter() - t0, 3)}
+        return fn(), None
     except (UserError, ProcessingError) as exc:
-        return {"ok": False, "input": job.input, "output": job.output, "reason": str(exc)}
+        return None, {"ok": False, "input": job.input, "output": job.output, "reason": str(exc)}
     except Exception as exc:  # a worker reports, it does not die
-        return {"ok": False, "input": job.input, "output": job.output,
-                "reason": f"processing failed: {exc.__class__.__name__}: {exc}"}
+        return None, {"ok": False, "input": job.input, "output": job.output,
+                      "reason": f"processing failed: {exc.__class__.__name__}: {exc}"}
+
+
+def _overlapped(jobs, cfg, aovs, device, progress, collect) -> None:
+    """--jobs 1: while frame n runs on the device (this thread), frame n + 1 is read and its
+    depth cleaned and frame n - 1 written, on two threads (OpenImageIO and numpy release
+    the GIL; OpenCL stays on this thread). At most three frames in memory."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    from .job import compute, load, store
+
+    def read(job):
+        t0 = time.perf_counter()
+        st, failed = _attempt(job, lambda: load(_make_folders(job), cfg, aovs))
+        return job, t0, st, failed
+
+    def write(job, t0, st):
+        res, failed = _attempt(job, lambda: store(st, cfg))
+        return failed or _done(job, res, t0)
+
+    with ThreadPoolExecutor(max_workers=2, thread_name_prefix="fogcli-io") as io:
+        ahead = io.submit(read, jobs[0]) if jobs else None
+        writing = None
+        for i in range(len(jobs)):
+            job, t0, st, failed = ahead.result()
+            ahead = io.submit(read, jobs[i + 1]) if i + 1 < len(jobs) else None
+            if failed is None:
+                st, failed = _attempt(job, lambda: compute(st, cfg, aovs, device))
+            if writing is not None:
+                collect(writing.result(), progress)
+                writing = None
+            if failed is not None:
+                collect(failed, progress)
+            else:
+                writing = io.submit(write, job, t0, st)
+        if writing is not None:
+            collect(writing.result(), progress)
 
 
 @dataclass
@@ -312,8 +362,7 @@ def _local(jobs, cfg, aovs, device, n_jobs, progress, collect):
     pool; the ones in flight are rerun one at a time, so the frame that kills a worker
     again is known, and reported as failed."""
     if n_jobs <= 1:
-        for job in jobs:
-            collect(process(job, cfg, aovs, device), progress)
+        _overlapped(list(jobs), cfg, aovs, device, progress, collect)
         return
     threads = max(1, (os.cpu_count() or 1) // n_jobs)
     todo, suspects = list(jobs), []

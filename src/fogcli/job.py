@@ -46,8 +46,28 @@ def save_depth(path: Path, depth: np.ndarray) -> None:
     outputs.write_plane(path, depth, "Z")
 
 
+@dataclass
+class Staged:
+    """A frame between the stages of run_job: read (load), computed (compute), written (store)."""
+    job: Job
+    frame: object = None
+    depth: np.ndarray | None = None
+    rgb: np.ndarray | None = None
+    alpha: np.ndarray | None = None
+    planes: dict = field(default_factory=dict)
+    lamps: list = field(default_factory=list)
+    res: Result = field(default_factory=Result)
+
+
 def run_job(job: Job, cfg: Config, aovs=(), device=None, timings: Timings | None = None) -> Result:
-    res = Result()
+    return store(compute(load(job, cfg, aovs), cfg, aovs, device, timings), cfg)
+
+
+def load(job: Job, cfg: Config, aovs=()) -> Staged:
+    """Every check that needs no pixels, then the image, its depth, and the depth cleaned.
+    No OpenCL: a batch runs this for the next frame on a thread while the device works."""
+    st = Staged(job)
+    res = st.res
     src = Path(job.input)
     out_path = Path(job.output)
     given = (src, Path(job.depth) if job.depth else None, *map(Path, job.protected))
@@ -86,23 +106,35 @@ def run_job(job: Job, cfg: Config, aovs=(), device=None, timings: Timings | None
                             "or negative) filled edge-aware from neighbours")
     if job.save_depth:
         save_depth(Path(job.save_depth), clean)
+    st.frame, st.depth = frame, clean
+    return st
 
+
+def compute(st: Staged, cfg: Config, aovs=(), device=None, timings: Timings | None = None) -> Staged:
+    """The device run (the only stage that touches OpenCL)."""
     notes: list = []
-    found: list = []
-    rgb, alpha, planes = run(frame.rgb, clean, cfg, alpha=frame.alpha, aovs=aovs, device=device,
-                             timings=timings if timings is not None else Timings(), report=notes, lamps=found)
-    res.warnings += [f"{src}: {n}" for n in notes]
-    hidden = hidden_warning(frame.rgb, rgb, cfg, clean)
+    frame, src = st.frame, st.job.input
+    st.rgb, st.alpha, st.planes = run(frame.rgb, st.depth, cfg, alpha=frame.alpha, aovs=aovs, device=device,
+                                      timings=timings if timings is not None else Timings(), report=notes,
+                                      lamps=st.lamps)
+    st.res.warnings += [f"{src}: {n}" for n in notes]
+    hidden = hidden_warning(frame.rgb, st.rgb, cfg, st.depth)
     if hidden:
-        res.warnings.append(f"{src}: {hidden}")
+        st.res.warnings.append(f"{src}: {hidden}")
+    return st
+
+
+def store(st: Staged, cfg: Config) -> Result:
+    """The atomic write (and the lamps found). No OpenCL: a batch writes on a thread."""
     t0 = time.perf_counter()
-    outputs.write(out_path, rgb, alpha, planes, frame, cfg.output.type, cfg.output.exposure,
+    job = st.job
+    outputs.write(Path(job.output), st.rgb, st.alpha, st.planes, st.frame, cfg.output.type, cfg.output.exposure,
                   cfg.output.compression, job.drop_channels)
     if job.lamps:
-        write_lamps(Path(job.lamps), found)
-    res.io_ms += (time.perf_counter() - t0) * 1e3
-    res.pixels = w * h
-    return res
+        write_lamps(Path(job.lamps), st.lamps)
+    st.res.io_ms += (time.perf_counter() - t0) * 1e3
+    st.res.pixels = st.rgb.shape[0] * st.rgb.shape[1]
+    return st.res
 
 
 def write_lamps(path: Path, lamps: list) -> None:
