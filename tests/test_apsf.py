@@ -150,8 +150,10 @@ def _apsf_reference(sc, lp, lut, sigmas, open_border):
     return out
 
 
-@pytest.mark.parametrize("border", ["closed", "open"])
+@pytest.mark.parametrize("border", ["closed", "open", "extend"])
 def test_apsf_reference_matches_brute_force(rt, rng, border):
+    """extend: the open brute force of the frame padded with copies of its edge pixels
+    (border_margin of the frame on each side), cropped."""
     w, h = 19, 13
     img, depth = _frame(rng, w, h)
     plan, cfg = plan_for(rt, w, h, *FOG, "render.psf=apsf", "render.method=reference",
@@ -160,18 +162,24 @@ def test_apsf_reference_matches_brute_force(rt, rng, border):
     plan.upload(img, depth, t)
     plan.preprocess(t)
     level0 = read_chain(plan)[0][0].astype(np.float64)
+    from fogcli.pipeline import border_margin
     from fogcli.reference import reference_into
 
     reference_into(plan, t)
     got = _download(plan, plan.scat_aov, 4)[:, :, :3]
     sigmas = apsf.load_table()["sigma_u"] * cfg.camera.focal(w)
-    want = _apsf_reference(level0[:, :, :3], level0[:, :, 3], plan.lut_host.astype(np.float64), sigmas,
-                           border == "open")
+    lut = plan.lut_host.astype(np.float64)
+    mx, my = border_margin(cfg, w, h)
+    assert (mx, my) == ((round(0.5 * w), round(0.5 * h)) if border == "extend" else (0, 0))
+    pad = np.pad(level0, ((my, my), (mx, mx), (0, 0)), mode="edge")
+    want = _apsf_reference(pad[:, :, :3], pad[:, :, 3], lut, sigmas, border != "closed")[my:my + h, mx:mx + w]
     np.testing.assert_allclose(got, want, rtol=1e-3, atol=1e-5 * float(want.max()))
     if border == "closed":
         assert abs(got.sum() / level0[:, :, :3].sum() - 1) < 1e-4
-    else:
+    elif border == "open":
         assert got.sum() < level0[:, :, :3].sum()
+    else:   # the continued edge sends light in: more than the open frame keeps of its own
+        assert got.sum() > 1.05 * _apsf_reference(level0[:, :, :3], level0[:, :, 3], lut, sigmas, True).sum()
 
 
 def test_lambert_weight_limits():

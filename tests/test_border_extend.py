@@ -1,6 +1,7 @@
 """render.border: extend — the frame's edge continued past each side (docs/method.md, Borders):
 the reference pads exactly, the pyramid spreads the continued edge on a low-resolution
-padded frame. Kernels against numpy oracles; the pyramid against the reference."""
+padded frame. Kernels against numpy oracles; the pyramid against the reference (the
+reference against its brute force: tests/test_apsf.py)."""
 import numpy as np
 import pytest
 
@@ -10,35 +11,7 @@ from fogcli import apply
 from fogcli.api import make_config
 from fogcli.metrics import rel_l1
 from fogcli.pipeline import EXT_LEVEL, Timings, border_margin, read_chain
-from test_apsf import FOG, _apsf_reference, _download, _frame
-
-
-def test_reference_extend_is_the_padded_frame(rt, rng):
-    """The reference with `extend` equals the open reference of the frame padded with copies
-    of its edge pixels (float64 brute force), cropped."""
-    w, h = 19, 13
-    img, depth = _frame(rng, w, h)
-    plan, cfg = plan_for(rt, w, h, *FOG, "render.psf=apsf", "render.method=reference", "render.border=extend",
-                         "camera.fov=20", aovs=("scattered",))
-    t = Timings()
-    plan.upload(img, depth, t)
-    plan.preprocess(t)
-    level0 = read_chain(plan)[0][0].astype(np.float64)
-    from fogcli import apsf
-    from fogcli.reference import reference_into
-
-    reference_into(plan, t)
-    got = _download(plan, plan.scat_aov, 4)[:, :, :3]
-    mx, my = border_margin(cfg, w, h)
-    assert (mx, my) == (round(0.5 * w), round(0.5 * h))
-    pad = np.pad(level0, ((my, my), (mx, mx), (0, 0)), mode="edge")
-    sigmas = apsf.load_table()["sigma_u"] * cfg.camera.focal(w)
-    want = _apsf_reference(pad[:, :, :3], pad[:, :, 3], plan.lut_host.astype(np.float64), sigmas, True)
-    want = want[my:my + h, mx:mx + w]
-    np.testing.assert_allclose(got, want, rtol=1e-3, atol=1e-5 * float(want.max()))
-    # the continued edge sends light in: more than the open frame keeps of its own
-    opened = _apsf_reference(level0[:, :, :3], level0[:, :, 3], plan.lut_host.astype(np.float64), sigmas, True)
-    assert got.sum() > 1.05 * opened.sum()
+from test_apsf import FOG, _download, _frame
 
 
 def test_border_kernels_match_oracle(rt, rng):
