@@ -2,7 +2,16 @@
 Monte Carlo noise, per dimension (albedo, tau, g) and tau range.
 
     PYTHONPATH=src python benchmarks/apsf_interpolation.py --jobs 2 --doc docs/apsf-table.md
-    (about 25 min wall on 2 cores; --analyse-only re-renders from the cached runs in --cache)
+    PYTHONPATH=src python benchmarks/apsf_interpolation.py --analyse-only --doc docs/apsf-table.md
+
+Runs are cached one file each in --cache (default /tmp/apsf_interpolation) and skipped when
+present, so a cut-short run can be resumed; --analyse-only renders from whatever is cached
+(the report says which runs it used). Cost: 24 MC runs of photons_for(g, 1) photons (the
+tau runs score 59 cameras, ~1.6x the table's 75 s per g), an estimated ~45 CPU-min on an
+idle core, i.e. ~25 min wall with --jobs 2; plus ~1-2 min for the single-scattering quadrature and the
+NNLS reductions. Measured 2026-12-02 (Intel Xeon 2.3 GHz, 2 cores shared with other jobs'
+test runs, so each run took 1.5-4x longer than on an idle core): the 24 runs took 36 min wall
+(85-466 s each; the g runs in a second process with --part g), the analysis ~1 min more.
 
 What is measured (energy: relative error of the interpolated `ratio`; shape: ring_l1 between
 interpolated and direct normalised weights):
@@ -12,9 +21,10 @@ interpolated and direct normalised weights):
   interpolated-vs-direct then share every photon and differ only by the interpolation (plus
   the NNLS projection of each entry). Checked on 3 seeds: the seed-to-seed spread of the
   error is reported. Interpolation variables compared: linear in a (the runtime's), linear in
-  s = (1 - a) / a (absorption per scattering length, the exponent of exp(-s l)), on the ratio
-  or on log(ratio); the shape on the normalised weights, or on ratio * shape (energy weighted)
-  renormalised.
+  s = (1 - a) / a (absorption per scattering length, the exponent of exp(-s l)) or in sqrt(s)
+  (diffusion's attenuation exponent), on the ratio or on log(ratio); the shape on the
+  normalised weights, or on ratio * shape (energy weighted) renormalised. Also: the error if
+  every albedo interval were halved (its midpoint taken as a node).
 * tau: runs with cameras at TAU and at the geometric midpoints (the random stream does not
   depend on the camera list, so the seed-SEED run reproduces the table at the grid taus; this
   is verified), 3 seeds. (a) statistical: per seed the midpoint error from the same run; the
@@ -25,13 +35,15 @@ interpolated and direct normalised weights):
 * g: direct runs at interval midpoints of G with the table's seed (correlated photons with the
   table's own runs at both ends) and, for some, another seed; the table at the two ends from
   apsf.npz. The correlation is judged by comparing the same-seed and other-seed errors.
+* single scattering by quadrature (`single_scatter`, deterministic): the first order on G and
+  its midpoints x TAU and its midpoints, fitted like the table; its g and tau interpolation
+  errors are exact (representative of the table at tau < 1 only).
 """
 from __future__ import annotations
 
 import argparse
 import math
 import multiprocessing as mp
-import os
 import pickle
 import sys
 import time
@@ -51,8 +63,6 @@ FRACS = (0.25, 0.5, 0.75)
 A_IN = np.array([a0 + f * (a1 - a0) for a0, a1 in zip(M.ALBEDO[:-1], M.ALBEDO[1:]) for f in FRACS])
 ALB2 = np.concatenate([M.ALBEDO, A_IN])                     # grid first, then interior points
 G_TAU = (0.0, 0.7, 0.85, 0.92, 0.96)                        # albedo + tau runs
-G_MID = (0.15, 0.4, 0.65, 0.775, 0.865, 0.93)                # g interval midpoints
-G_MID_OTHER = (0.15, 0.65, 0.93)                             # also with another seed
 N_SEEDS = 3
 RANGES = ((0.0, 1.0), (1.0, 5.0), (5.0, 31.0))
 BEGIN, END = "<!-- interpolation -->", "<!-- /interpolation -->"
@@ -147,11 +157,8 @@ def albedo_weights(var: str):
     """(i0, t) per interior albedo point: the bracketing grid index and the weight in var."""
     i0 = np.repeat(np.arange(len(M.ALBEDO) - 1), len(FRACS))
     a0, a1 = M.ALBEDO[i0], M.ALBEDO[i0 + 1]
-    if var == "a":
-        t = (A_IN - a0) / (a1 - a0)
-    else:
-        t = (s_of(A_IN) - s_of(a0)) / (s_of(a1) - s_of(a0))
-    return i0, t
+    f = {"a": lambda a: a, "s": s_of, "r": lambda a: np.sqrt(s_of(a))}[var]
+    return i0, (f(A_IN) - f(a0)) / (f(a1) - f(a0))
 
 
 def albedo_errors(run, A):
@@ -165,7 +172,7 @@ def albedo_errors(run, A):
     ok = rd > 1e-250
     rings_d = shd @ A.T
     e, s = {}, {}
-    for var in ("a", "s"):
+    for var in ("a", "s", "r"):
         i0, t = albedo_weights(var)
         t_ = t[:, None]
         lin = (1 - t_) * rg[i0] + t_ * rg[i0 + 1]
@@ -180,6 +187,26 @@ def albedo_errors(run, A):
         ew = ew / np.maximum(ew.sum(-1, keepdims=True), 1e-300)
         s[var + ",ew"] = np.where(ok, l1(ew @ A.T, rings_d), np.nan)
     return e, s
+
+
+def albedo_halved(run):
+    """Energy error of log ratio linear in sqrt(s) if every albedo interval were halved (its
+    midpoint a grid node): at the 1/4 and 3/4 points, from the same tally. (interior, T), NaN
+    at the 1/2 points."""
+    na = len(M.ALBEDO)
+    r = run["ratio"][:, 0::2]
+    rd = r[na:]
+    out = np.full(rd.shape, np.nan)
+    q = np.sqrt(s_of(ALB2))
+    for i in range(na - 1):
+        lo, mid, hi = i, na + 3 * i + 1, i + 1
+        for k, (n0, n1) in ((0, (lo, mid)), (2, (mid, hi))):
+            j = na + 3 * i + k
+            t = (q[j] - q[n0]) / (q[n1] - q[n0])
+            with np.errstate(divide="ignore", invalid="ignore"):
+                ri = np.exp((1 - t) * np.log(r[n0]) + t * np.log(r[n1]))
+                out[3 * i + k] = np.where(rd[3 * i + k] > 1e-250, np.abs(ri / rd[3 * i + k] - 1), np.nan)
+    return out
 
 
 # ---------------------------------------------------------------- tau
@@ -213,9 +240,13 @@ def spline_errors(runs_g, A):
     e_log = np.full_like(e_lin, np.nan)
     s_l1 = np.full_like(e_lin, np.nan)
 
-    def smooth(y, sig):
+    xq = np.log(np.sqrt(TAU2[:-1] * TAU2[1:]))                # midpoints of the halved grid
+    e_half = np.full((na, len(xq)), np.nan)
+
+    def smooth(y, sig, at=None):
         sig = np.maximum(sig, max(0.3 * float(np.median(sig)), 1e-6))
-        return UnivariateSpline(x, y, w=1 / sig, k=3, s=len(x))(x)
+        sp = UnivariateSpline(x, y, w=1 / sig, k=3, s=len(x))
+        return sp(x) if at is None else (sp(x), sp(at))
 
     for ia in range(na):
         if (lr[:, ia] < -600).any():
@@ -223,7 +254,8 @@ def spline_errors(runs_g, A):
         else:
             ok_t = np.ones(len(x), bool)
         if ok_t.all():
-            ys = smooth(lr[:, ia].mean(0), lr[:, ia].std(0, ddof=1) / math.sqrt(n))
+            ys, yq = smooth(lr[:, ia].mean(0), lr[:, ia].std(0, ddof=1) / math.sqrt(n), xq)
+            e_half[ia] = 0.5 * (np.exp(ys[:-1] - yq) + np.exp(ys[1:] - yq)) - 1
             g0, g1, m = ys[0:-1:2], ys[2::2], ys[1::2]
             e_lin[ia] = 0.5 * (np.exp(g0 - m) + np.exp(g1 - m)) - 1
             e_log[ia] = np.exp(0.5 * (g0 + g1) - m) - 1
@@ -239,7 +271,7 @@ def spline_errors(runs_g, A):
         D = 0.5 * (fit[0:-1:2] + fit[2::2]) - fit[1::2]
         s_l1[ia] = np.abs(D).sum(-1) / np.maximum(fit[1::2].sum(-1), 1e-300)
         s_l1[ia, ~(ok_t[0:-1:2] & ok_t[1::2] & ok_t[2::2])] = np.nan
-    return e_lin, e_log, s_l1
+    return e_lin, e_log, s_l1, e_half
 
 
 # ---------------------------------------------------------------- g
@@ -342,20 +374,23 @@ def analyse(runs: dict, scale: float, wall: float | None, ssq: dict | None = Non
     P("## Interpolation error, separated from the Monte Carlo noise")
     P("")
     P("Generated by `PYTHONPATH=src python benchmarks/apsf_interpolation.py --jobs 2 --doc docs/apsf-table.md` "
-      f"({len(runs)} runs, photons x {scale:g} of the table's, {secs / 60:.0f} CPU-min"
+      f"({len(runs)} runs, photons x {scale:g} of the table's, run times summed {secs / 60:.0f} min"
       + (f", {wall / 60:.0f} min wall on 2 cores" if wall else "") + "). "
       "Energy: |interpolated ratio / direct - 1|; shape: ring L1 between the interpolated and the "
       "direct normalised weights (`ring_l1`). Tau ranges: [0.01, 1), [1, 5), [5, 30].")
     P("")
 
     # ---- albedo
+    K = {}                                   # key numbers for the summary at the top
+    n_intro = len(L)
     P("### Albedo: one tally, interpolated vs direct")
     P("")
     P(f"Absorption is applied after the run, so every run is reduced at the 18 grid albedos and at "
       f"1/4, 1/2, 3/4 of each interval (51 points) from the same photons: the difference is the "
       f"interpolation (and the NNLS projection of each entry), not MC noise. g = "
       f"{', '.join(f'{g:g}' for g in tau_g)}, seed {M.SEED} (the table's photons), grid taus, "
-      "pooled over g. Schemes: variable a (runtime) or s = (1 - a) / a, on the ratio or on "
+      "pooled over g. Schemes: variable a (runtime), s = (1 - a) / a or sqrt(s) (diffusion: the "
+      "attenuation exponent goes like sqrt(3 (1 - g) s) for small s), on the ratio or on "
       "log(ratio); shape on the normalised weights or energy-weighted (ratio x shape, renormalised).")
     P("")
     ea, sa_, spread_e, spread_s = {}, {}, {}, {}
@@ -364,23 +399,23 @@ def analyse(runs: dict, scale: float, wall: float | None, ssq: dict | None = Non
         for sd in seeds:
             if ("tau", g, sd) in runs:
                 per_seed[(g, sd)] = albedo_errors(runs[("tau", g, sd)], A)
-    for sch in ("a", "s", "a,log", "s,log"):
+    for sch in ("a", "s", "a,log", "s,log", "r,log"):
         ea[sch] = np.stack([np.abs(per_seed[(g, M.SEED)][0][sch]) for g in tau_g])
-    for sch in ("a", "s", "a,ew", "s,ew"):
+    for sch in ("a", "s", "r", "r,ew"):
         sa_[sch] = np.stack([per_seed[(g, M.SEED)][1][sch] for g in tau_g])
     # noise of the albedo error itself: spread over seeds
-    for sch in ("a", "s,log"):
+    for sch in ("a", "r,log"):
         stk = [np.stack([per_seed[(g, sd)][0][sch] for sd in seeds if (g, sd) in per_seed]) for g in tau_g]
         spread_e[sch] = np.stack([x.std(0, ddof=1) if len(x) > 1 else np.full(x.shape[1:], np.nan) for x in stk])
-    for sch in ("a", "s,ew"):
+    for sch in ("a", "r"):
         stk = [np.stack([per_seed[(g, sd)][1][sch] for sd in seeds if (g, sd) in per_seed]) for g in tau_g]
         spread_s[sch] = np.stack([x.std(0, ddof=1) if len(x) > 1 else np.full(x.shape[1:], np.nan) for x in stk])
     hi_a = A_IN >= 0.8
     P("| energy scheme | tau range | median | p90 | max | a >= 0.8: p90 | max |")
     P("|---|---|---|---|---|---|---|")
     names = {"a": "ratio linear in a (now)", "s": "ratio linear in s", "a,log": "log ratio linear in a",
-             "s,log": "log ratio linear in s"}
-    for sch in ("a", "s", "a,log", "s,log"):
+             "s,log": "log ratio linear in s", "r,log": "log ratio linear in sqrt(s)"}
+    for sch in ("a", "s", "a,log", "s,log", "r,log"):
         for lo, hi in RANGES:
             sel = in_range(M.TAU, lo, hi)
             x = ea[sch][:, :, sel]
@@ -389,8 +424,8 @@ def analyse(runs: dict, scale: float, wall: float | None, ssq: dict | None = Non
     P("| shape scheme | tau range | median | p90 | max | a >= 0.8: p90 | max |")
     P("|---|---|---|---|---|---|---|")
     names = {"a": "weights linear in a (now)", "s": "weights linear in s",
-             "a,ew": "ratio x weights linear in a", "s,ew": "ratio x weights linear in s"}
-    for sch in ("a", "s", "a,ew", "s,ew"):
+             "r": "weights linear in sqrt(s)", "r,ew": "ratio x weights linear in sqrt(s)"}
+    for sch in ("a", "s", "r", "r,ew"):
         for lo, hi in RANGES:
             sel = in_range(M.TAU, lo, hi)
             x = sa_[sch][:, :, sel]
@@ -398,35 +433,55 @@ def analyse(runs: dict, scale: float, wall: float | None, ssq: dict | None = Non
     P("")
     if len(seeds) > 1:
         P(f"Noise of these errors: standard deviation over the {len(seeds)} seeds of the same point's "
-          "error, median / p90 per tau range (energy: now / log ratio in s; shape: now / ratio x weights in s):")
+          "error, median / p90 per tau range (energy: now / log ratio in sqrt(s); shape: now / weights in sqrt(s)):")
         P("")
-        P("| tau range | energy now | energy log-s | shape now | shape ew-s |")
+        P("| tau range | energy now | energy log-sqrt(s) | shape now | shape sqrt(s) |")
         P("|---|---|---|---|---|")
         for lo, hi in RANGES:
             sel = in_range(M.TAU, lo, hi)
             c = [f"{pct(d[:, :, sel], 50):.4f} / {pct(d[:, :, sel], 90):.4f}"
-                 for d in (spread_e["a"], spread_e["s,log"], spread_s["a"], spread_s["s,ew"])]
+                 for d in (spread_e["a"], spread_e["r,log"], spread_s["a"], spread_s["r"])]
             P(f"| [{lo:g}, {hi:g}) | " + " | ".join(c) + " |")
         P("")
-    P("Per g, max over albedo points and taus (energy now -> log ratio in s; shape now -> "
-      "ratio x weights in s), all taus / tau < 5:")
+    P("Per g, max over the interior albedo points, now -> recommended (energy: log ratio linear in "
+      "sqrt(s); shape: weights linear in sqrt(s)):")
     P("")
-    P("| g | energy, all tau | energy, tau < 5 | shape, all tau | shape, tau < 5 |")
-    P("|---|---|---|---|---|")
-    lt5 = M.TAU < 5
+    P("| g | energy tau < 1 | energy tau 1-5 | energy tau < 5, a >= 0.5 | energy tau >= 5, a >= 0.8 | "
+      "shape tau < 1 | shape tau 1-5 | shape tau < 5, a >= 0.5 |")
+    P("|---|---|---|---|---|---|---|---|")
+    t1, t15, lt5, ge5 = M.TAU < 1, (M.TAU >= 1) & (M.TAU < 5), M.TAU < 5, M.TAU >= 5
+    a5, a8 = A_IN >= 0.5, A_IN >= 0.8
+
+    def mx(x, asel, tsel):
+        return float(np.nanmax(x[asel][:, tsel]))
+
+    every = np.ones(len(A_IN), bool)
     for ig, g in enumerate(tau_g):
-        P(f"| {g:g} | {np.nanmax(ea['a'][ig]):.3f} -> {np.nanmax(ea['s,log'][ig]):.3f} | "
-          f"{np.nanmax(ea['a'][ig][:, lt5]):.3f} -> {np.nanmax(ea['s,log'][ig][:, lt5]):.3f} | "
-          f"{np.nanmax(sa_['a'][ig]):.3f} -> {np.nanmax(sa_['s,ew'][ig]):.3f} | "
-          f"{np.nanmax(sa_['a'][ig][:, lt5]):.3f} -> {np.nanmax(sa_['s,ew'][ig][:, lt5]):.3f} |")
+        cells = []
+        for d_now, d_new, cuts in ((ea["a"], ea["r,log"], ((every, t1), (every, t15), (a5, lt5), (a8, ge5))),
+                                   (sa_["a"], sa_["r"], ((every, t1), (every, t15), (a5, lt5)))):
+            for asel, tsel in cuts:
+                cells.append(f"{mx(d_now[ig], asel, tsel):.3f} -> {mx(d_new[ig], asel, tsel):.3f}")
+        P(f"| {g:g} | " + " | ".join(cells) + " |")
     P("")
+    for lo, hi in RANGES:
+        sel = in_range(M.TAU, lo, hi)
+        for key, d in (("now", ea["a"]), ("new", ea["r,log"])):
+            K[("alb", "e", key, lo)] = (pct(d[:, :, sel], 90), pct(d[:, :, sel], 100),
+                                       pct(d[:, a8][:, :, sel], 90), pct(d[:, a8][:, :, sel], 100))
+        for key, d in (("now", sa_["a"]), ("new", sa_["r"])):
+            K[("alb", "s", key, lo)] = (pct(d[:, :, sel], 90), pct(d[:, :, sel], 100),
+                                       pct(d[:, a8][:, :, sel], 90), pct(d[:, a8][:, :, sel], 100))
     # per albedo interval (which intervals fail), best scheme
-    P("Worst albedo intervals (max over g, tau < 5, the three interior points), energy now / log-s, shape now / ew-s:")
+    P("Per albedo interval (max over g, tau < 5, the three interior points), energy now / log ratio "
+      "in sqrt(s), shape now / weights in sqrt(s):")
     P("")
     P("| interval | " + " | ".join(f"{M.ALBEDO[i]:g}-{M.ALBEDO[i + 1]:g}" for i in range(len(M.ALBEDO) - 1)) + " |")
     P("|---|" + "---|" * (len(M.ALBEDO) - 1))
-    for lab, d in (("energy now", ea["a"]), ("energy log-s", ea["s,log"]), ("shape now", sa_["a"]),
-                   ("shape ew-s", sa_["s,ew"])):
+    halved = np.stack([albedo_halved(runs[("tau", g, M.SEED)]) for g in tau_g])
+    for lab, d in (("energy now", ea["a"]), ("energy log-sqrt(s)", ea["r,log"]),
+                   ("energy log-sqrt(s), interval halved", halved), ("shape now", sa_["a"]),
+                   ("shape sqrt(s)", sa_["r"])):
         cells = []
         for i in range(len(M.ALBEDO) - 1):
             cells.append(f"{np.nanmax(d[:, 3 * i:3 * i + 3][:, :, lt5]):.3f}")
@@ -459,22 +514,28 @@ def analyse(runs: dict, scale: float, wall: float | None, ssq: dict | None = Non
       "the noise allows; a feature narrower than the grid spacing and hidden by the noise "
       "would be missed.")
     P("")
+    have = {g: [sd for sd in seeds if ("tau", g, sd) in runs] for g in tau_g}
+    tg2 = [g for g in tau_g if len(have[g]) >= 2] or tau_g
+    n = min(len(have[g]) for g in tg2)
     E_lin, E_log, Dd = [], [], []
-    for g in tau_g:
-        per = [tau_errors(runs[("tau", g, sd)], A) for sd in seeds if ("tau", g, sd) in runs]
+    for g in tg2:
+        per = [tau_errors(runs[("tau", g, sd)], A) for sd in have[g][:n]]
         E_lin.append(np.stack([p[0] for p in per]))
         E_log.append(np.stack([p[1] for p in per]))
         Dd.append(np.stack([p[2] for p in per]))
     E_lin, E_log, Dd = np.stack(E_lin), np.stack(E_log), np.stack(Dd)     # (G, S, 18, 29[, R])
-    n = E_lin.shape[1]
-    b_lin, se_lin = E_lin.mean(1), E_lin.std(1, ddof=1) / math.sqrt(n)
-    b_log, se_log = E_log.mean(1), E_log.std(1, ddof=1) / math.sqrt(n)
-    Db = Dd.mean(1)
-    rm = np.maximum(np.abs(Dd).sum(-1).mean(1), 1e-300) * 0 + 1.0      # rings of a shape sum to 1
-    sb = np.abs(Db).sum(-1) / rm
-    sse = (Dd.std(1, ddof=1) / math.sqrt(n)).sum(-1) / rm
+    dd = max(n - 1, 1)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        b_lin, se_lin = E_lin.mean(1), E_lin.std(1, ddof=dd) / math.sqrt(n) if n > 1 else np.nan * E_lin[:, 0]
+        b_log, se_log = E_log.mean(1), E_log.std(1, ddof=dd) / math.sqrt(n) if n > 1 else np.nan * E_log[:, 0]
+        Db = Dd.mean(1)
+        sb = np.abs(Db).sum(-1)                  # the rings of a normalised shape sum to 1
+        sse = (Dd.std(1, ddof=dd) / math.sqrt(n)).sum(-1) if n > 1 else np.nan * sb
     s_seed = np.abs(Dd).sum(-1)                                            # per-seed L1 (G, S, 18, 29)
-    P(f"(a) energy, |bias| and se over {n} seeds, all grid albedos and the {len(tau_g)} g; "
+    if n > 1 and tg2 != tau_g:
+        P(f"(Runs with several seeds: g = {', '.join(f'{g:g}' for g in tg2)}.)")
+        P("")
+    P(f"(a) energy, |bias| and se over {n} seeds, all grid albedos and the {len(tg2)} g; "
       "share of points with |bias| > 2 se:")
     P("")
     P("| variable | tau range | \\|bias\\| median | p90 | max | se median | p90 | share > 2 se | single seed \\|e\\| p90 | a >= 0.8: \\|bias\\| p90 | max |")
@@ -485,6 +546,7 @@ def analyse(runs: dict, scale: float, wall: float | None, ssq: dict | None = Non
             bb, ss = np.abs(b[..., sel]), se[..., sel]
             fin = np.isfinite(bb) & np.isfinite(ss)
             share = float(np.mean(bb[fin] > 2 * ss[fin])) if fin.any() else float("nan")
+            K[("tau_a", lab, lo)] = (pct(bb, 90), pct(ss, 90), pct(bb[:, M.ALBEDO >= 0.8], 90))
             P(f"| {lab} | [{lo:g}, {hi:g}) | {row3(bb)} | {pct(ss, 50):.3f} | {pct(ss, 90):.3f} | "
               f"{share:.2f} | {pct(np.abs(E[..., sel]), 90):.3f} | {pct(bb[:, M.ALBEDO >= 0.8], 90):.3f} | "
               f"{pct(bb[:, M.ALBEDO >= 0.8], 100):.3f} |")
@@ -500,10 +562,12 @@ def analyse(runs: dict, scale: float, wall: float | None, ssq: dict | None = Non
           f"{pct(sse[..., sel], 90):.3f} | {pct(s_seed[..., sel], 90):.3f} |")
     P("")
     if n > 1:
-        SP = [spline_errors([runs[("tau", g, sd)] for sd in seeds if ("tau", g, sd) in runs], A) for g in tau_g]
+        SP = [spline_errors([runs[("tau", g, sd)] for sd in have[g][:n]], A) for g in tg2]
         se_lin_b = np.stack([x[0] for x in SP])
         se_log_b = np.stack([x[1] for x in SP])
         ss_b = np.stack([x[2] for x in SP])
+        eh_b = np.stack([x[3] for x in SP])
+        tq = np.sqrt(TAU2[:-1] * TAU2[1:])
         P("(b) smoothing spline, midpoint error of linear interpolation in log tau of the spline:")
         P("")
         P("| tau range | energy: ratio median | p90 | max | log ratio median | p90 | max | shape median | p90 | max |")
@@ -513,15 +577,23 @@ def analyse(runs: dict, scale: float, wall: float | None, ssq: dict | None = Non
             P(f"| [{lo:g}, {hi:g}) | {row3(np.abs(se_lin_b[..., sel]))} | {row3(np.abs(se_log_b[..., sel]))} | "
               f"{row3(ss_b[..., sel])} |")
         P("")
-        P("(b) for albedo >= 0.8 only:")
+        P("(b) for albedo >= 0.8 only; last three columns: the energy (ratio linear in log tau) if the "
+          "tau step were halved (59 grid taus), from the same splines:")
         P("")
-        P("| tau range | energy: ratio median | p90 | max | log ratio median | p90 | max | shape median | p90 | max |")
-        P("|---|---|---|---|---|---|---|---|---|---|")
+        P("| tau range | energy: ratio median | p90 | max | log ratio median | p90 | max | shape median | p90 | max "
+          "| halved step: energy median | p90 | max |")
+        P("|---|---|---|---|---|---|---|---|---|---|---|---|---|")
         ha = M.ALBEDO >= 0.8
         for lo, hi in RANGES:
             sel = in_range(TAU_MID, lo, hi)
+            selq = in_range(tq, lo, hi)
+            K[("tau_half", lo)] = (pct(np.abs(eh_b[:, ha][..., selq]), 90), pct(np.abs(eh_b[:, ha][..., selq]), 100))
+            K[("tau_b", lo)] = (pct(np.abs(se_lin_b[:, ha][..., sel]), 90), pct(np.abs(se_lin_b[:, ha][..., sel]), 100),
+                                pct(ss_b[:, ha][..., sel], 90), pct(ss_b[:, ha][..., sel], 100),
+                                pct(np.abs(se_log_b[:, ha][..., sel]), 90), pct(np.abs(se_log_b[:, ha][..., sel]), 100))
             P(f"| [{lo:g}, {hi:g}) | {row3(np.abs(se_lin_b[:, ha][..., sel]))} | "
-              f"{row3(np.abs(se_log_b[:, ha][..., sel]))} | {row3(ss_b[:, ha][..., sel])} |")
+              f"{row3(np.abs(se_log_b[:, ha][..., sel]))} | {row3(ss_b[:, ha][..., sel])} | "
+              f"{row3(np.abs(eh_b[:, ha][..., selq]))} |")
         P("")
 
     # ---- single scattering, exact
@@ -550,6 +622,10 @@ def analyse(runs: dict, scale: float, wall: float | None, ssq: dict | None = Non
                 sh = row3(so[ks][..., sel]) if ks else "- | - | -"
                 P(f"| {lab} | {sch} | [{lo:g}, {hi:g}) | {row3(np.abs(so[ke][..., sel]))} | {sh} |")
         P("")
+        K["ss"] = (float(np.abs(so[("tau", "lin")][..., TAU_MID < 1]).max()),
+                   float(so[("tau", "shape")][..., TAU_MID < 1].max()),
+                   float(np.abs(so[("g", "g", "lin")][..., M.TAU < 1]).max()),
+                   float(so[("g", "g", "shape")][..., M.TAU < 1].max()))
         worst = np.abs(so[("g", "g", "lin")][..., M.TAU < 1]).max(axis=(1, 2))
         worst_s = so[("g", "g", "shape")][..., M.TAU < 1].max(axis=(1, 2))
         P("Per g interval (tau < 1, max), energy / shape, linear in g: " + "; ".join(
@@ -571,7 +647,6 @@ def analyse(runs: dict, scale: float, wall: float | None, ssq: dict | None = Non
         P("")
         P("| g | seed | tau range | energy median | p90 | max | a >= 0.8: p90 | max | shape median | p90 | max |")
         P("|---|---|---|---|---|---|---|---|---|---|---|")
-        pool_same_e, pool_same_s = {}, {}
         for g in gm:
             for sd in (M.SEED, M.SEED + 1):
                 if ("g", g, sd) not in runs:
@@ -625,6 +700,38 @@ def analyse(runs: dict, scale: float, wall: float | None, ssq: dict | None = Non
                 P(f"| {lab} | [{lo:g}, {hi:g}) | {pct(es[..., sel], 90):.3f} | {pct(es[..., sel], 100):.3f} | "
                   f"{pct(ss[..., sel], 90):.3f} | {pct(ss[..., sel], 100):.3f} |")
         P("")
+    # ---- summary, at the top
+    S = ["### Summary", ""]
+    if ("alb", "e", "now", 0.0) in K:
+        f = lambda k: " / ".join(f"{100 * v:.1f}" for v in K[k][:2])          # noqa: E731
+        f8 = lambda k: " / ".join(f"{100 * v:.1f}" for v in K[k][2:])         # noqa: E731
+        S.append("* Albedo (noise-free, same tally), p90 / max in %, tau < 1 | 1-5 | 5-30: energy now "
+                 + " | ".join(f(("alb", "e", "now", lo)) for lo, _ in RANGES) + "; with log(ratio) linear in "
+                 "sqrt(s), s = (1 - a) / a: " + " | ".join(f(("alb", "e", "new", lo)) for lo, _ in RANGES)
+                 + ". Albedo >= 0.8 only: now " + " | ".join(f8(("alb", "e", "now", lo)) for lo, _ in RANGES)
+                 + "; sqrt(s): " + " | ".join(f8(("alb", "e", "new", lo)) for lo, _ in RANGES)
+                 + ". Shape now " + " | ".join(f(("alb", "s", "now", lo)) for lo, _ in RANGES)
+                 + "; weights linear in sqrt(s) " + " | ".join(f(("alb", "s", "new", lo)) for lo, _ in RANGES)
+                 + " (a >= 0.8: " + " | ".join(f8(("alb", "s", "new", lo)) for lo, _ in RANGES) + ").")
+    if "ss" in K:
+        S.append(f"* Single scattering by quadrature (exact, tau < 1): tau interpolation max {100 * K['ss'][0]:.1f} % "
+                 f"energy, {100 * K['ss'][1]:.2f} % shape; g interpolation max {100 * K['ss'][2]:.1f} % energy, "
+                 f"{100 * K['ss'][3]:.1f} % shape.")
+    if ("tau_b", 0.0) in K:
+        S.append("* Tau, smoothing-spline estimate, albedo >= 0.8, tau < 1 | 1-5 | 5-30, in %: energy (ratio "
+                 "linear in log tau, now) p90 / max "
+                 + " | ".join(" / ".join(f"{100 * v:.1f}" for v in K[("tau_b", lo)][:2]) for lo, _ in RANGES)
+                 + "; log ratio linear in log tau "
+                 + " | ".join(" / ".join(f"{100 * v:.1f}" for v in K[("tau_b", lo)][4:6]) for lo, _ in RANGES)
+                 + "; shape p90 / max "
+                 + " | ".join(" / ".join(f"{100 * v:.1f}" for v in K[("tau_b", lo)][2:4]) for lo, _ in RANGES)
+                 + "; energy with the tau step halved "
+                 + " | ".join(" / ".join(f"{100 * v:.1f}" for v in K[("tau_half", lo)]) for lo, _ in RANGES)
+                 + ". Statistical estimate (same-run midpoints), energy |bias| p90 / se p90 in %: "
+                 + " | ".join(" / ".join(f"{100 * v:.1f}" for v in K[("tau_a", "ratio (now)", lo)][:2]) for lo, _ in RANGES)
+                 + ".")
+    S.append("")
+    L[n_intro:n_intro] = S
     return "\n".join(L)
 
 

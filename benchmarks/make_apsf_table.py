@@ -501,7 +501,12 @@ def write_doc(ctx: dict, doc: str | None) -> None:
       "so it reaches the output around that distance.")
     L("* Infinite homogeneous medium: no boundaries, no ground.")
     if doc:
-        Path(doc).write_text("\n".join(lines) + "\n")
+        old = Path(doc).read_text() if Path(doc).exists() else ""
+        keep = ""   # benchmarks/apsf_interpolation.py's block stays (it owns it)
+        if "<!-- interpolation -->" in old and "<!-- /interpolation -->" in old:
+            keep = "\n" + old[old.index("<!-- interpolation -->"):old.index("<!-- /interpolation -->")] + \
+                "<!-- /interpolation -->\n"
+        Path(doc).write_text("\n".join(lines) + "\n" + keep)
     else:
         print("\n".join(lines))
     print(f"total {t_total / 60:.1f} min")
