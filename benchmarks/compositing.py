@@ -41,7 +41,7 @@ def rel_l1(depth_label: float, medium: str, border: str) -> float:
 def main() -> int:
     rows = ["| camera.empty_depth | border | fog | haze | sea |", "|---|---|---|---|---|"]
     for d in (0.0, 30.0, np.inf):
-        for border in ("open", "closed"):
+        for border in ("open", "closed", "extend"):
             vals = [rel_l1(d, m, border) for m in ("fog", "haze", "sea")]
             rows.append(f"| {'inf' if d == np.inf else f'{d:g}'} | {border} | " + " | ".join(f"{v:.4f}" for v in vals) + " |")
     text = "\n".join([BEGIN, "", "Relative L1 of fogcli-then-composite against composite-then-fogcli (plate at",

@@ -230,7 +230,7 @@ def planned_bytes(n: int, t: int, f: Features, cfg: Config) -> int:
         total += sum(size(n) for size in REFERENCE_BUFFERS.values())
     if f.lights and len(cfg.lights) > 1:
         total += 32 * n
-    if cfg.render.border == "extend" and f.source:
+    if cfg.render.border == "extend" and f.source and uses_apsf(cfg):
         total += int(total * (1 + 2 * cfg.render.border_margin) ** 2 / 4 ** EXT_LEVEL)
     return total
 

@@ -138,7 +138,7 @@ class Runtime:
 
     def program(self, name: str, **defines):
         """Kernels of kernels/<name>.cl built with -D defines, once per process, and once
-        per machine through the binary cache (`binary_cache`)."""
+        per machine through the binary cache (`binary_path`, `_build`)."""
         key = (name,) + tuple(sorted(defines.items()))
         prog = self._programs.get(key)
         if prog is None:
@@ -156,7 +156,8 @@ class Runtime:
         """Where the device binary of this source, these options, this device and driver
         lives (None: the cache is off, FOGCLI_KERNEL_CACHE=0). The key hashes the program's
         source, every header it can include, the options, the device, the driver, the
-        OpenCL platform and PoCL's settings (POCL_LLVM_CPU_NAME compiles for another CPU),
+        OpenCL platform and PoCL's settings (POCL_*: later PoCL releases compile for another
+        CPU with POCL_LLVM_CPU_NAME),
         so an edit, an upgrade or another target builds anew."""
         if os.environ.get("FOGCLI_KERNEL_CACHE", "1") == "0":
             return None
