@@ -24,7 +24,7 @@ from docblock import write_block  # noqa: E402
 from fogcli import noise  # noqa: E402
 from fogcli.lights import placed  # noqa: E402
 from fogcli.metrics import ssim  # noqa: E402
-from fogcli.pipeline import Timings, camera_struct  # noqa: E402
+from fogcli.pipeline import Timings  # noqa: E402
 from lights import cpu_name  # noqa: E402
 
 DOC = ROOT / "docs" / "lights.md"
@@ -137,13 +137,7 @@ def image_vs_double_march(w: int = 48, h: int = 36) -> dict:
         cfg = fogcli.make_config(None, sets=[*IMAGE_SETS, f"lights=[{light}]"])
         _, planes = fogcli.apply(np.zeros((h, w, 3), np.float32), depth, cfg, aovs=("airlight",), return_aovs=True)
         got = np.dstack([planes[f"airlight.{c}"] for c in "RGB"]).astype(np.float64)
-        f = float(camera_struct(cfg, w, h)["focal_px"])
-        ref = np.zeros((h, w, 3))
-        for j in range(h):
-            for i in range(w):
-                d = np.array([(i + 0.5 - w / 2) / f, -(j + 0.5 - h / 2) / f, -1.0])
-                ref[j, i] = noise.airlight_double_march(cfg, cfg.lights[0], np.zeros(3), d / np.linalg.norm(d),
-                                                        float(depth[j, i] * np.linalg.norm(d)))[0]
+        ref = noise.double_march_image(cfg, depth)
         s = np.percentile(ref, 99)
         out[name] = (float(np.abs(got - ref).sum() / ref.sum()), ssim(got / s, ref / s))
     return out

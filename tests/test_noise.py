@@ -11,7 +11,6 @@ import fogcli
 from fogcli import noise
 from fogcli.errors import UserError
 from fogcli.lights import placed
-from fogcli.pipeline import camera_struct
 
 SMOKE = ("{type: noise, factor: %s, scale: 1.5, octaves: 6, shape: %s, center: [0, 0, -8], radius: 2, "
          "size: [3, 4, 3], seed: 3, edge: %s}")
@@ -42,12 +41,10 @@ def test_noise_density_matches_the_numpy_oracle_through_the_camera_march():
     depth = np.random.default_rng(1).uniform(4.0, 20.0, (H, W)).astype(np.float32)
     _, planes = fogcli.apply(np.zeros((H, W, 3), np.float32), depth, cfg, aovs=("optical_depth",), return_aovs=True)
     got = planes["optical_depth"]
-    f = float(camera_struct(cfg, W, H)["focal_px"])
+    dirs, lengths = noise.pinhole_rays(cfg, depth)
     ref = np.zeros((H, W))
-    for j in range(H):
-        for i in range(W):
-            d = np.array([(i + 0.5 - W / 2) / f, -(j + 0.5 - H / 2) / f, -1.0])
-            ref[j, i] = noise.march(np.zeros(3), d / np.linalg.norm(d), depth[j, i] * np.linalg.norm(d), cfg)
+    for j, i in np.ndindex(H, W):
+        ref[j, i] = noise.march(np.zeros(3), dirs[j, i], lengths[j, i], cfg)
     assert ref.max() > 1.0 and (ref == 0).mean() > 0.2     # rays through the noise and beside it
     assert np.abs(got - ref).max() <= 1e-4 * ref.max()
 
@@ -62,10 +59,9 @@ def test_lattice_hash_is_the_same_in_numpy_and_on_the_device():
     W, H = 24, 24
     depth = np.full((H, W), 1.9, np.float32)
     _, planes = fogcli.apply(np.zeros((H, W, 3), np.float32), depth, cfg, aovs=("optical_depth",), return_aovs=True)
-    f = float(camera_struct(cfg, W, H)["focal_px"])
+    dirs, lengths = noise.pinhole_rays(cfg, depth)
     for j, i in [(0, 0), (5, 20), (23, 3), (12, 12), (20, 22)]:
-        d = np.array([(i + 0.5 - W / 2) / f, -(j + 0.5 - H / 2) / f, -1.0])
-        ref = noise.march(np.zeros(3), d / np.linalg.norm(d), 1.9 * float(np.linalg.norm(d)), cfg)
+        ref = noise.march(np.zeros(3), dirs[j, i], float(lengths[j, i]), cfg)
         assert abs(planes["optical_depth"][j, i] - ref) <= 2e-4 * max(ref, 1.0), (i, j)
 
 
@@ -129,13 +125,7 @@ def test_airlight_through_noise_against_a_float64_double_march(light):
     depth[:, :5] = 6.0
     _, planes = fogcli.apply(np.zeros((H, W, 3), np.float32), depth, cfg, aovs=("airlight",), return_aovs=True)
     got = np.dstack([planes[f"airlight.{c}"] for c in "RGB"])
-    f = float(camera_struct(cfg, W, H)["focal_px"])
-    ref = np.zeros((H, W, 3))
-    for j in range(H):
-        for i in range(W):
-            d = np.array([(i + 0.5 - W / 2) / f, -(j + 0.5 - H / 2) / f, -1.0])
-            ref[j, i] = noise.airlight_double_march(cfg, cfg.lights[0], np.zeros(3), d / np.linalg.norm(d),
-                                                    float(depth[j, i] * np.linalg.norm(d)), nodes=256, light_steps=128)[0]
+    ref = noise.double_march_image(cfg, depth, nodes=256, light_steps=128)
     rel = np.abs(got - ref).sum() / ref.sum()
     assert ref.max() > 0 and rel <= 0.01, rel
 

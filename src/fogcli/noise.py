@@ -311,3 +311,27 @@ def airlight_double_march(cfg: Config, light, c: np.ndarray, w: np.ndarray, D: f
     tsc = np.exp(-sa[None, :] * P[:, None]) - tdir
     a_dir, a_sc = (src * tdir).sum(0), (src * tsc).sum(0)
     return a_dir, a_sc + (gain(cfg, light) - 1.0) * (a_dir + a_sc)
+
+
+def pinhole_rays(cfg: Config, depth: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Every pixel's unit ray direction (h, w, 3) and ray length (h, w) for a z-depth map,
+    the camera at the origin looking down -z (the kernels' pixel_ray on the host, for the
+    float64 oracles above)."""
+    h, w = depth.shape
+    cam = cfg.camera
+    f, fy = cam.focal(w), cam.focal_y(w)
+    cx, cy = cam.centre(w, h)
+    jj, ii = np.mgrid[0:h, 0:w] + 0.5
+    d = np.dstack([(ii - cx) / f, -(jj - cy) / fy, -np.ones((h, w))])
+    n = np.linalg.norm(d, axis=-1)
+    return d / n[..., None], np.asarray(depth, np.float64) * n
+
+
+def double_march_image(cfg: Config, depth: np.ndarray, **kw) -> np.ndarray:
+    """A_dir (h, w, 3) of the config's first light by airlight_double_march at every pixel
+    (keywords: its nodes, light_steps)."""
+    dirs, lengths = pinhole_rays(cfg, depth)
+    out = np.zeros(dirs.shape)
+    for j, i in np.ndindex(depth.shape):
+        out[j, i] = airlight_double_march(cfg, cfg.lights[0], np.zeros(3), dirs[j, i], float(lengths[j, i]), **kw)[0]
+    return out

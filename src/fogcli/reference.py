@@ -31,17 +31,15 @@ class _Blur:
         self.prog = rt.program("reference", **_defines(plan))
         w, h, n = plan.w, plan.h, plan.w * plan.h
         mf = cl.mem_flags
-        from .pipeline import REFERENCE_BUFFERS
+        from .pipeline import REFERENCE_BUFFERS, border_margin, open_border   # pipeline imports this module
 
         for name, size in REFERENCE_BUFFERS.items():      # declared with the plan's (check_memory)
             setattr(self, name, cl.Buffer(rt.ctx, mf.READ_WRITE, size(n)))
-        t.add("reference", cl.enqueue_fill_buffer(self.q, self.acc, np.float32(0), 0, 16 * n))
+        t.add("reference", cl.enqueue_fill_buffer(self.q, self.acc, np.float32(0), 0, self.acc.size))
         rmax = int(math.ceil(4.0 * max(smax, S0) * RATIO)) + 1
         self.taps = cl.Buffer(rt.ctx, mf.READ_WRITE, 4 * (rmax + 1))
         self.nx = cl.Buffer(rt.ctx, mf.READ_WRITE, 4 * w)
         self.ny = cl.Buffer(rt.ctx, mf.READ_WRITE, 4 * h)
-        from .pipeline import border_margin, open_border
-
         self.open = np.int32(open_border(plan.cfg))
         self.margin = border_margin(plan.cfg, w, h)
 
