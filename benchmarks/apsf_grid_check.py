@@ -1,9 +1,10 @@
 """The shipped APSF grid's interpolation error where it can be measured free of Monte Carlo
-noise, with the runtime's scheme (fogcli.apsf: log ratio and shape linear in
-q = sqrt((1 - a) / a) across albedo, linear in g, log tau):
+noise, with the runtime's scheme (fogcli.apsf._slice_ga: across albedo a natural cubic spline in
+q = sqrt((1 - a) / a) of the log ratio and of the shape; linear in g and log tau):
 
 * albedo: one tally serves every albedo, so the grid albedos and the midpoints between them
-  come from the same photons (g = 0, 0.5, 0.85, 0.95, the table's seed, 1/4 of its photons);
+  come from the same photons (g = 0, 0.5, 0.85, 0.95: the table's own runs, its seed and photons;
+  --scale 0.25 takes the first quarter of them);
 * g: single scattering by quadrature (exact) at the grid g and the midpoints, tau < 1.
 
     PYTHONPATH=src python benchmarks/apsf_grid_check.py [--doc docs/apsf-table.md]   # ~5 min, 2 cores
@@ -23,14 +24,10 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path[:0] = [str(ROOT / "src"), str(ROOT / "benchmarks")]
 import make_apsf_table as M  # noqa: E402
-from fogcli import apsf_mc as mc  # noqa: E402
+from fogcli import apsf, apsf_mc as mc  # noqa: E402
 
 G_CHECK = (0.0, 0.5, 0.85, 0.95)
 RANGES = ((0.01, 1.0), (1.0, 5.0), (5.0, 31.0))
-
-
-def q(a):
-    return np.sqrt((1 - np.asarray(a, np.float64)) / np.asarray(a, np.float64))
 
 
 def ring_l1(wa, wb, A):
@@ -38,8 +35,8 @@ def ring_l1(wa, wb, A):
     return np.abs(ra - rb).sum(-1) / np.maximum(rb.sum(-1), 1e-300)
 
 
-def albedo_run(g: float):
-    t = M.run_g(g, M.photons_for(g, 0.25), M.SEED)
+def albedo_run(g: float, scale: float = 1.0):
+    t = M.run_g(g, M.photons_for(g, scale), M.SEED)
     mids = 0.5 * (M.ALBEDO[:-1] + M.ALBEDO[1:])
     r = M.reduce_tally(t, np.concatenate([M.ALBEDO, mids]))
     return g, r["ratio"], r["shape"], t.th_edges
@@ -51,16 +48,26 @@ def rings(th_edges):
 
 
 def albedo_errors(ratio, shape, A):
+    """Each midpoint from the grid albedos by the runtime's albedo interpolation; then two
+    schemes not shipped: the spline's shape clipped at 0, and linear in q (the one before)."""
     na = len(M.ALBEDO)
     rg, rd, sg, sd = ratio[:na], ratio[na:], shape[:na], shape[na:]
     mids = 0.5 * (M.ALBEDO[:-1] + M.ALBEDO[1:])
-    t = ((q(mids) - q(M.ALBEDO[:-1])) / (q(M.ALBEDO[1:]) - q(M.ALBEDO[:-1])))[:, None]
+    tab = dict(g=np.array([0.0, 1.0]), albedo=M.ALBEDO, ratio=np.stack([rg, rg]), shape=np.stack([sg, sg]))
+    ri = np.stack([apsf._slice_ga(tab, "ratio", 0.0, a) for a in mids])
+    si = np.stack([apsf._slice_ga(tab, "shape", 0.0, a) for a in mids])
+    clipped = np.maximum(np.stack([np.tensordot(apsf.albedo_weights(M.ALBEDO, a), sg, axes=(0, 0)) for a in mids]), 0.0)
+    clipped /= np.maximum(clipped.sum(-1, keepdims=True), 1e-300)
+    q = np.sqrt((1 - M.ALBEDO) / M.ALBEDO)
+    t = ((np.sqrt((1 - mids) / mids) - q[:-1]) / (q[1:] - q[:-1]))[:, None]
+    ri_lin = np.exp((1 - t) * np.log(np.maximum(rg[:-1], 1e-300)) + t * np.log(np.maximum(rg[1:], 1e-300)))
+    si_lin = (1 - t[..., None]) * sg[:-1] + t[..., None] * sg[1:]
+    ok = rd > 1e-250
     with np.errstate(divide="ignore", invalid="ignore"):
-        ri = np.exp((1 - t) * np.log(rg[:-1]) + t * np.log(rg[1:]))
-        e = np.where(rd > 1e-250, np.abs(ri / rd - 1), np.nan)
-    si = (1 - t[..., None]) * sg[:-1] + t[..., None] * sg[1:]
-    s = np.where(rd > 1e-250, ring_l1(si, sd, A), np.nan)
-    return e, s, mids
+        energy = lambda r: np.where(ok, np.abs(r / rd - 1), np.nan)  # noqa: E731
+        shape_err = lambda s: np.where(ok, ring_l1(s, sd, A), np.nan)  # noqa: E731
+        return dict(shipped=(energy(ri), shape_err(si)), clipped=(energy(ri), shape_err(clipped)),
+                    linear=(energy(ri_lin), shape_err(si_lin)))
 
 
 def g_errors(A, th_edges, taus=(0.03, 0.1, 0.3, 0.7), albedo=1.0):
@@ -95,10 +102,11 @@ def main() -> int:
 
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--doc", help="write the block between the grid-check markers of this doc")
+    ap.add_argument("--scale", type=float, default=1.0, help="photons, as a share of the table's (1: its own runs)")
     args = ap.parse_args()
     buf = io.StringIO()
     with redirect_stdout(buf):
-        report()
+        report(args.scale)
     text = buf.getvalue()
     print(text)
     if args.doc:
@@ -111,27 +119,27 @@ def main() -> int:
     return 0
 
 
-def report() -> None:
+def cells(X) -> str:
+    """p90 / max of X (..., tau) over each tau range, as table cells."""
+    return " \\| ".join(fmt(X[..., (M.TAU >= lo) & (M.TAU < hi)]) for lo, hi in RANGES)
+
+
+def report(scale: float) -> None:
     with mp.get_context("spawn").Pool(2) as pool:
-        runs = pool.map(albedo_run, G_CHECK)
+        runs = pool.starmap(albedo_run, [(g, scale) for g in G_CHECK])
     A = rings(runs[0][3])
-    print(f"grid: {len(M.G)} g x {len(M.ALBEDO)} albedos x {len(M.TAU)} tau; "
+    print(f"grid: {len(M.G)} g x {len(M.ALBEDO)} albedos x {len(M.TAU)} tau; photons x {scale:g} of the table's; "
           "p90 / max in %, tau [0.01, 1) | [1, 5) | [5, 30]\n")
     print("| albedo midpoints (same tally) | energy | shape |\n|---|---|---|")
-    E, S = [], []
-    for g, ratio, shape, _ in runs:
-        e, s, mids = albedo_errors(ratio, shape, A)
-        E.append(e)
-        S.append(s)
-    E, S = np.stack(E), np.stack(S)           # (g, mids, tau)
+    errs = [albedo_errors(ratio, shape, A) for _, ratio, shape, _ in runs]
+    E, S = (np.stack([e["shipped"][i] for e in errs]) for i in (0, 1))           # (g, mids, tau)
     mids = 0.5 * (M.ALBEDO[:-1] + M.ALBEDO[1:])
     for name, sel in (("all albedos", mids > 0), ("albedo < 0.3", mids < 0.3), ("albedo 0.3-0.8", (mids >= 0.3) & (mids < 0.8)),
                       ("albedo >= 0.8", mids >= 0.8)):
-        cells = []
-        for lo, hi in RANGES:
-            tsel = (M.TAU >= lo) & (M.TAU < hi)
-            cells.append((fmt(E[:, sel][:, :, tsel]), fmt(S[:, sel][:, :, tsel])))
-        print(f"| {name} | " + " \\| ".join(c[0] for c in cells) + " | " + " \\| ".join(c[1] for c in cells) + " |")
+        print(f"| {name} | {cells(E[:, sel])} | {cells(S[:, sel])} |")
+    for key, name in (("clipped", "shape clipped at 0 and renormalised"), ("linear", "linear in q (the scheme before)")):
+        E2, S2 = (np.stack([e[key][i] for e in errs]) for i in (0, 1))
+        print(f"| all albedos, {name}: not shipped | {cells(E2) if key == 'linear' else ''} | {cells(S2)} |")
     ge, gs = g_errors(A, runs[0][3])
     print("\n| g midpoints, single scattering (exact), tau 0.03-0.7 | energy | shape |\n|---|---|---|")
     print(f"| every interval of G | {fmt(ge)} | {fmt(gs)} |")
