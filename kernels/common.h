@@ -6,6 +6,16 @@
 /* sqrt() is an out-of-line library call in PoCL, and one call stops the vectoriser; the
  * clang builtin becomes the instruction. The host defines FOGCLI_POCL for PoCL only, so a
  * vendor compiler never sees the builtin. */
+/* Outside the image: a work-item of a launch rounded up to whole work-groups. Programs built
+ * with -D WHOLE_GROUPS run only where whole work-groups fit (Runtime.launch2d) and skip the
+ * test: under it PoCL masks every memory access, and it vectorises masked RGBA and table
+ * reads for AVX-512 only (benchmarks/pocl_vectorisation.py). */
+#ifdef WHOLE_GROUPS
+#define OUTSIDE(i, j, w, h) 0
+#else
+#define OUTSIDE(i, j, w, h) ((i) >= (w) || (j) >= (h))
+#endif
+
 #ifdef FOGCLI_POCL
 #define SQRT_(x) __builtin_sqrtf(x)
 #else

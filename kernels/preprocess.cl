@@ -64,7 +64,7 @@ __kernel void view_cosines(__global const float *depth, __global float *cosv, co
                            const int height, const camera_t cam)
 {
     int i = get_global_id(0), j = get_global_id(1);
-    if (i >= width || j >= height) return;
+    if (OUTSIDE(i, j, width, height)) return;
     float wx, wy, wz;
     float dist = pixel_ray(&cam, i, j, depth[j * width + i], &wx, &wy, &wz);
     /* sky and anything at max_depth: a dome facing the camera */
@@ -73,19 +73,34 @@ __kernel void view_cosines(__global const float *depth, __global float *cosv, co
 }
 #endif
 
+/* What a plan writes besides direct and scat0 is fixed when it is built (-D PRE_SOURCE,
+ * PRE_SEP, PRE_SPLIT_MEDIUM, PRE_TRANSMITTANCE, each 0 or 1; left out, 0): a store under a
+ * run-time flag is a masked store, which kept PoCL from vectorising this kernel on AVX2
+ * (3x slower; benchmarks/pocl_vectorisation.py has the pattern). */
+#ifndef PRE_SOURCE
+#define PRE_SOURCE 0
+#endif
+#ifndef PRE_SEP
+#define PRE_SEP 0
+#endif
+#ifndef PRE_SPLIT_MEDIUM
+#define PRE_SPLIT_MEDIUM 0
+#endif
+#ifndef PRE_TRANSMITTANCE
+#define PRE_TRANSMITTANCE 0
+#endif
 __kernel void preprocess(__global const float4 *image, __global const float *depth,
                          __global float4 *direct, __global float4 *scat0,
                          __global float *spread0, __global float4 *medium_term,
-                         __global float4 *transmittance, const int want_transmittance,
-                         const int split_medium,
+                         __global float4 *transmittance,
                          const int width, const int height, const medium_t m,
-                         __global float4 *prep0, const int source, const float thresh1,
+                         __global float4 *prep0, const float thresh1,
                          const float eps, __global float4 *sep_chain0, __global float4 *sep_prep0,
-                         const int sep, const float4 sep_par, __global const float *lut,
+                         const float4 sep_par, __global const float *lut,
                          __global const float *cosines)
 {
     int i = get_global_id(0), j = get_global_id(1);
-    if (i >= width || j >= height) return;
+    if (OUTSIDE(i, j, width, height)) return;
     int idx = j * width + i;
 
     float wx, wy, wz;
@@ -140,9 +155,10 @@ __kernel void preprocess(__global const float4 *image, __global const float *dep
 
     /* emission and ambient travel in `direct` unless an AOV wants them apart: one buffer
      * less to write here and to read in the composite */
-    float keep = split_medium ? 0.0f : 1.0f;
+    float keep = PRE_SPLIT_MEDIUM ? 0.0f : 1.0f;
     store4(direct, idx, at[0] + keep * med[0], at[1] + keep * med[1], at[2] + keep * med[2], alpha);
-    if (sep) {
+#if PRE_SEP
+    {
         /* Iser eq. 4.25: bright (luminance of L above sep_par.x, width .y) and near (D' = P
          * below .z, width .w) pixels get a chain of their own */
         float ms = smoothstep_(sep_par.x, sep_par.x + sep_par.y,
@@ -157,14 +173,19 @@ __kernel void preprocess(__global const float4 *image, __global const float *dep
         store_prep(sep_prep0, idx, l0, l1, l2, sigma, thresh1, eps);
 #endif
     }
+#endif
     store4(scat0, idx, sc[0], sc[1], sc[2], wv);
     spread0[idx] = sigma;
-    if (split_medium) store4(medium_term, idx, med[0], med[1], med[2], P);
-    if (want_transmittance) store4(transmittance, idx, tr[0], tr[1], tr[2], 1.0f);
-#ifdef PSF_APSF
-    if (source) store_prep_apsf(prep0, idx, sc[0], sc[1], sc[2], lp, lut, 0);
-#else
-    if (source) store_prep(prep0, idx, sc[0], sc[1], sc[2], sigma, thresh1, eps);
+#if PRE_SPLIT_MEDIUM
+    store4(medium_term, idx, med[0], med[1], med[2], P);
+#endif
+#if PRE_TRANSMITTANCE
+    store4(transmittance, idx, tr[0], tr[1], tr[2], 1.0f);
+#endif
+#if PRE_SOURCE && defined(PSF_APSF)
+    store_prep_apsf(prep0, idx, sc[0], sc[1], sc[2], lp, lut, 0);
+#elif PRE_SOURCE
+    store_prep(prep0, idx, sc[0], sc[1], sc[2], sigma, thresh1, eps);
 #endif
 }
 

@@ -82,3 +82,31 @@ def test_cache_off_and_same_results(cache, monkeypatch, rng):
         monkeypatch.setattr(pipeline, "_PLANS", {})
         np.testing.assert_array_equal(apply(img, depth, cfg), plain)
     assert len(list(cache.glob("*.bin"))) >= 4
+
+
+COUNT = r'''#include "common.h"
+__kernel void count(__global int *c, const int w, const int h)
+{
+    int i = get_global_id(0), j = get_global_id(1);
+    if (OUTSIDE(i, j, w, h)) return;
+    atomic_inc(&c[j * w + i]);
+}
+'''
+
+
+@pytest.mark.parametrize("w,h", [(1, 1), (5, 3), (31, 7), (32, 4), (33, 5), (64, 8), (100, 37)])
+def test_launch2d_covers_every_pixel_once(rt, w, h):
+    """launch2d: the whole-groups kernel (no bounds check) stays inside the image, the
+    checked one fills the strips, and no pixel is done twice."""
+    cl = rt.cl
+    opts = ["-I", str(runtime.KERNEL_DIR)] + [f"-D{k}={v}" for k, v in D4.items()]
+    whole = cl.Kernel(cl.Program(rt.ctx, COUNT).build(options=opts + ["-DWHOLE_GROUPS=1"]), "count")
+    checked = cl.Kernel(cl.Program(rt.ctx, COUNT).build(options=opts), "count")
+    guard = 4096                    # a whole-groups launch past the image would count here
+    buf = cl.Buffer(rt.ctx, cl.mem_flags.READ_WRITE | cl.mem_flags.COPY_HOST_PTR,
+                    hostbuf=np.zeros(w * h + guard, np.int32))
+    for ev in rt.launch2d((whole, checked), w, h, buf, np.int32(w), np.int32(h)):
+        ev.wait()
+    out = np.empty(w * h + guard, np.int32)
+    cl.enqueue_copy(rt.queue, out, buf)
+    assert (out[: w * h] == 1).all() and not out[w * h:].any()

@@ -293,8 +293,10 @@ class Plan:
         except cl.Error as exc:
             raise ProcessingError(f"cannot allocate device buffers for {width}x{height}: {exc}") from exc
         d = defines(cfg)
-        self.k_pre_prog = rt.program("preprocess", **d)
-        self.k_pre = self.k_pre_prog.preprocess
+        pre = dict(d, PRE_SOURCE=int(self.source), PRE_SEP=int(self.sep), PRE_SPLIT_MEDIUM=int(self.split_medium),
+                   PRE_TRANSMITTANCE=int("transmittance" in self.aovs))
+        self.k_pre_prog = rt.program("preprocess", **pre)
+        self.k_pre_whole = rt.program("preprocess", WHOLE_GROUPS=1, **pre)
         self.k_density = rt.program("density", **d)
         pyr = rt.program("pyramid", **d)
         self.k_reduce, self.k_reduce_src = pyr.reduce_level, pyr.reduce_level_source
@@ -415,21 +417,21 @@ class Plan:
         return self.lut_host
 
     def preprocess(self, t: Timings) -> None:
-        q = self.rt.queue
         eps = self.cfg.render.resolved()[1]
         self.upload_lut(t)
         self.optical_depth(t)
+        whole, checked = self.k_pre_whole, self.k_pre_prog
         if self.lambert:
-            t.add("preprocess", self.k_pre_prog.view_cosines(
-                q, *self.rt.nd(self.w, self.h), self.depth, self.cosines, np.int32(self.w), np.int32(self.h),
-                camera_struct(self.cfg, self.w, self.h)))
-        t.add("preprocess", self.k_pre(
-            q, *self.rt.nd(self.w, self.h), self.image, self.depth, self.direct, self.chain, self.spread,
-            self.medium, self.trans, np.int32("transmittance" in self.aovs), np.int32(self.split_medium),
-            np.int32(self.w), np.int32(self.h), medium_struct(self.cfg, self.w, self.h),
-            self.prep, np.int32(self.source), np.float32(self.threshold(1)), np.float32(eps),
-            self.chain2, self.prep2, np.int32(self.sep and self.cfg.render.separation.enabled), self.sep_params(),
-            self.lut, self.cosines))
+            for ev in self.rt.launch2d((whole.view_cosines, checked.view_cosines), self.w, self.h,
+                                       self.depth, self.cosines, np.int32(self.w), np.int32(self.h),
+                                       camera_struct(self.cfg, self.w, self.h)):
+                t.add("preprocess", ev)
+        for ev in self.rt.launch2d(
+                (whole.preprocess, checked.preprocess), self.w, self.h, self.image, self.depth, self.direct,
+                self.chain, self.spread, self.medium, self.trans, np.int32(self.w), np.int32(self.h),
+                medium_struct(self.cfg, self.w, self.h), self.prep, np.float32(self.threshold(1)), np.float32(eps),
+                self.chain2, self.prep2, self.sep_params(), self.lut, self.cosines):
+            t.add("preprocess", ev)
 
     def lights(self, t: Timings) -> None:
         """Every light's airlight (kernels/lights.cl): a_dir kept for after the pyramid, a_sc

@@ -136,6 +136,23 @@ class Runtime:
         lx, ly = self.local2d
         return (-(-int(w) // lx) * lx, -(-int(h) // ly) * ly), (lx, ly)
 
+    def launch2d(self, kernels, w: int, h: int, *args) -> list:
+        """Run a w x h kernel as (whole, checked): `whole`, built with -D WHOLE_GROUPS, on the
+        part that whole work-groups cover, without a bounds check; `checked` on the strips to
+        its right and below. Under a bounds check PoCL must mask every memory access of a
+        work-item, and masked RGBA and table reads vectorise on AVX-512 only
+        (benchmarks/pocl_vectorisation.py). Returns the events."""
+        lx, ly = self.local2d
+        w0, h0 = w // lx * lx, h // ly * ly
+        q, evs = self.queue, []
+        if w0 and h0:
+            evs.append(kernels[0](q, (w0, h0), (lx, ly), *args))
+        if w0 < w:
+            evs.append(kernels[1](q, (lx, -(-h // ly) * ly), (lx, ly), *args, global_offset=(w0, 0)))
+        if h0 < h and w0:
+            evs.append(kernels[1](q, (w0, ly), (lx, ly), *args, global_offset=(0, h0)))
+        return evs
+
     def program(self, name: str, **defines):
         """Kernels of kernels/<name>.cl built with -D defines, once per process, and once
         per machine through the binary cache (`binary_path`, `_build`)."""
@@ -156,9 +173,9 @@ class Runtime:
         """Where the device binary of this source, these options, this device and driver
         lives (None: the cache is off, FOGCLI_KERNEL_CACHE=0). The key hashes the program's
         source, every header it can include, the options, the device, the driver, the
-        OpenCL platform and PoCL's settings (POCL_*: later PoCL releases compile for another
-        CPU with POCL_LLVM_CPU_NAME),
-        so an edit, an upgrade or another target builds anew."""
+        OpenCL platform and PoCL's settings (POCL_*), so an edit, an upgrade or another
+        target builds anew: PoCL's device version names the CPU it compiles for
+        (benchmarks/avx2/run.sh makes it another)."""
         if os.environ.get("FOGCLI_KERNEL_CACHE", "1") == "0":
             return None
         import hashlib
