@@ -72,13 +72,23 @@ __kernel void composite(__global const float4 *direct, __global const float4 *me
 }
 
 /* `fetch: source`: the last collapse step (level 0) fused with the final sum. With pixel
- * separation it runs again for the separated chain with `accumulate` set, adding its
- * light to the output (and to the scattered AOV). */
+ * separation it runs again for the separated chain built with COMP_ACCUMULATE, adding its
+ * light to the output (and to the scattered AOV). What it writes is fixed at build time
+ * (COMP_AOV, COMP_SPLIT_MEDIUM; left out, 0), as in preprocess: a store under a run-time
+ * flag is masked, which PoCL vectorises for AVX-512 only. */
+#ifndef COMP_ACCUMULATE
+#define COMP_ACCUMULATE 0
+#endif
+#ifndef COMP_AOV
+#define COMP_AOV 0
+#endif
+#ifndef COMP_SPLIT_MEDIUM
+#define COMP_SPLIT_MEDIUM 0
+#endif
 __kernel void composite_source(__global const float4 *direct, __global const float4 *medium_term,
                                __global const float4 *chain, __global const float4 *half_img,
                                __global const int4 *lv, const int kmax, const float c,
-                               const float a, const int accumulate, const int add_medium,
-                               __global float4 *out, const int want_aov,
+                               const float a, __global float4 *out,
                                __global float *level_aov, __global float4 *scattered_aov,
                                __global const float4 *prep, __global const float *spread0,
                                __global const float *edge, __global const float *cons,
@@ -86,7 +96,7 @@ __kernel void composite_source(__global const float4 *direct, __global const flo
 {
     int i = get_global_id(0), j = get_global_id(1);
     int width = lv[0].y, height = lv[0].z;
-    if (i >= width || j >= height) return;
+    if (OUTSIDE(i, j, width, height)) return;
     int idx = j * width + i;
     float4 v = chain[idx];
     float3 sc = v.xyz;
@@ -99,18 +109,20 @@ __kernel void composite_source(__global const float4 *direct, __global const flo
 #endif
         sc = keep_px(v.xyz, prep[idx].xyz, half_img, width, height, i, j, a, edge, 0) + up.xyz;
     }
-    if (accumulate) {
-        out[idx].xyz += sc;
-        if (want_aov) scattered_aov[idx].xyz += sc;
-        return;
-    }
-    store_out(out, direct, medium_term, add_medium, idx, sc);
-    if (want_aov) {
-        /* the level of this pixel's Gaussian spread (with apsf its light lands on several
-         * levels around it) */
-        level_aov[idx] = level_of(spread0[idx], c, (float)kmax);
-        scattered_aov[idx] = (float4)(sc, 0.0f);
-    }
+#if COMP_ACCUMULATE
+    out[idx].xyz += sc;
+#if COMP_AOV
+    scattered_aov[idx].xyz += sc;
+#endif
+#else
+    store_out(out, direct, medium_term, COMP_SPLIT_MEDIUM, idx, sc);
+#if COMP_AOV
+    /* the level of this pixel's Gaussian spread (with apsf its light lands on several
+     * levels around it) */
+    level_aov[idx] = level_of(spread0[idx], c, (float)kmax);
+    scattered_aov[idx] = (float4)(sc, 0.0f);
+#endif
+#endif
 }
 
 /* Iser eq. 4.28 for the receiver fetch: the separated chain (a plain Gaussian chain of the

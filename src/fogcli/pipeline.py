@@ -302,7 +302,8 @@ class Plan:
         self.k_reduce, self.k_reduce_src = pyr.reduce_level, pyr.reduce_level_source
         self.k_collapse, self.k_prep0, self.k_split = pyr.collapse_level, pyr.prep_level0, pyr.split_level
         self.k_comp = rt.program("composite", **d).composite
-        self.k_comp_src = rt.program("composite", **d).composite_source
+        # composite_source: what it writes fixed at build time, on whole work-groups (as preprocess)
+        self._comp = dict(d, COMP_AOV=int(bool(self.aovs)), COMP_SPLIT_MEDIUM=int(self.split_medium))
         self.k_comp_sep = rt.program("composite", **d).composite_separated
         self.k_border_src = pyr.border_sources if self.apsf else None
         self.k_border_inject = pyr.border_inject if self.apsf else None
@@ -699,13 +700,16 @@ class Plan:
         chain, half, prep = self.source_bufs(second)
         if top > 0:
             self.split(t, 0, chain, half)
-        t.add("composite", self.k_comp_src(
-            self.rt.queue, *self.rt.nd(self.w, self.h), self.direct, self.medium, chain, half,
-            self.lv_buf, np.int32(top), np.float32(self.cfg.render.resolved()[0]),
-            np.float32(self.half_step()), np.int32(second), np.int32(self.split_medium), self.out,
-            np.int32(bool(self.aovs)),
-            self.level_aov, self.scat_aov, prep, self.spread, self.edge, self.cons,
-            np.int32(self.cons_off[1])))
+        comp = dict(self._comp, COMP_ACCUMULATE=int(second))     # the separated chain adds its light
+        kernels = (self.rt.program("composite", WHOLE_GROUPS=1, **comp).composite_source,
+                   self.rt.program("composite", **comp).composite_source)
+        for ev in self.rt.launch2d(
+                kernels, self.w, self.h, self.direct, self.medium, chain, half,
+                self.lv_buf, np.int32(top), np.float32(self.cfg.render.resolved()[0]),
+                np.float32(self.half_step()), self.out, self.level_aov, self.scat_aov, prep, self.spread,
+                self.edge, self.cons,
+                np.int32(self.cons_off[1])):
+            t.add("composite", ev)
 
     def extend(self, t: Timings) -> bool:
         """render.border: extend. The frame's edge continued `border_margin` past each side:
