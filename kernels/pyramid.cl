@@ -158,7 +158,7 @@ __kernel void split_level(__global const float4 *chain, const int off, const int
                           __global const float *edge, const int edge_off)
 {
     int i = get_global_id(0);
-    if (i >= n) return;
+    if (OUTSIDE(i, 0, n, 1)) return;
     /* scalar loads and stores so that PoCL vectorises it (see load4 in common.h) */
     float r, g, b, w_;
     load4(chain, off + i, &r, &g, &b, &w_);
@@ -187,7 +187,7 @@ __kernel void collapse_level(__global float4 *chain, const int off, const int w,
                              __global const float *cons, const int cons_up)
 {
     int x = get_global_id(0), y = get_global_id(1);
-    if (x >= w || y >= h) return;
+    if (OUTSIDE(x, y, w, h)) return;
     int d = off + y * w + x;
     float4 v = chain[d];
 #ifdef PSF_APSF
@@ -277,7 +277,7 @@ __kernel void border_inject(__global float4 *chain, const int off, const int w, 
                             __global const float4 *ext, const int pw, const int ox, const int oy)
 {
     int x = get_global_id(0), y = get_global_id(1);
-    if (x >= w || y >= h) return;
+    if (OUTSIDE(x, y, w, h)) return;
     int d = off + y * w + x;
     float4 e = ext[(y + oy) * pw + x + ox];
     chain[d] = (float4)(chain[d].xyz + e.xyz, chain[d].w);

@@ -300,7 +300,10 @@ class Plan:
         self.k_density = rt.program("density", **d)
         pyr = rt.program("pyramid", **d)
         self.k_reduce, self.k_reduce_src = pyr.reduce_level, pyr.reduce_level_source
-        self.k_collapse, self.k_prep0, self.k_split = pyr.collapse_level, pyr.prep_level0, pyr.split_level
+        self.k_prep0 = pyr.prep_level0
+        whole = rt.program("pyramid", WHOLE_GROUPS=1, **d)     # launch2d / launch1d: no bounds check
+        self.k_collapse = (whole.collapse_level, pyr.collapse_level)
+        self.k_split = (whole.split_level, pyr.split_level)
         self.k_comp = rt.program("composite", **d).composite
         # composite_source: what it writes fixed at build time, on whole work-groups (as preprocess)
         self._comp = dict(d, COMP_AOV=int(bool(self.aovs)), COMP_SPLIT_MEDIUM=int(self.split_medium))
@@ -657,10 +660,10 @@ class Plan:
     def split(self, t: Timings, k: int, chain, out) -> None:
         """Half-octave shares of level k of `chain` into `out` (level-0 sized scratch)."""
         o, w, h, _ = (int(v) for v in self.lv[k])
-        t.add("composite", self.k_split(
-            self.rt.queue, *self.rt.nd(w * h), chain, np.int32(o), np.int32(w * h), out,
-            np.float32(self.threshold(k + 1)), np.float32(self.cfg.render.resolved()[1]),
-            self.lut, np.int32(k), np.int32(w), self.edge, np.int32(self.edge_off[k])))
+        for ev in self.rt.launch1d(self.k_split, w * h, chain, np.int32(o), np.int32(w * h), out,
+                                   np.float32(self.threshold(k + 1)), np.float32(self.cfg.render.resolved()[1]),
+                                   self.lut, np.int32(k), np.int32(w), self.edge, np.int32(self.edge_off[k])):
+            t.add("composite", ev)
 
     def source_bufs(self, second: bool) -> tuple:
         """(colour chain, half-octave scratch, prep chain) of the main or the separated
@@ -674,7 +677,7 @@ class Plan:
         fused into composite_source). The input buffer, free after preprocess, is the
         scratch for the half-octave shares. ext: the extension plan's light (`extend`, run
         first) joins at its level."""
-        q, a = self.rt.queue, self.half_step()
+        a = self.half_step()
         chain, half, prep = self.source_bufs(second)
         top = len(self.sizes) - 1
         if ext and self._ext_level == top:
@@ -682,10 +685,10 @@ class Plan:
         for k in range(top - 1, 0, -1):
             (o, w, h, _), (uo, uw, uh, _) = self.lv[k], self.lv[k + 1]
             self.split(t, k, chain, half)
-            t.add("composite", self.k_collapse(
-                q, *self.rt.nd(w, h), chain, np.int32(o), np.int32(w), np.int32(h), half,
-                np.int32(uo), np.int32(uw), np.int32(uh), np.float32(a), prep, self.edge,
-                np.int32(self.edge_off[k]), self.cons, np.int32(self.cons_off[k + 1])))
+            for ev in self.rt.launch2d(self.k_collapse, w, h, chain, np.int32(o), np.int32(w), np.int32(h), half,
+                                       np.int32(uo), np.int32(uw), np.int32(uh), np.float32(a), prep, self.edge,
+                                       np.int32(self.edge_off[k]), self.cons, np.int32(self.cons_off[k + 1])):
+                t.add("composite", ev)
             if ext and k == self._ext_level:
                 self._inject(t)
 

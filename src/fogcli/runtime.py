@@ -153,6 +153,15 @@ class Runtime:
             evs.append(kernels[1](q, (w0, ly), (lx, ly), *args, global_offset=(0, h0)))
         return evs
 
+    def launch1d(self, kernels, n: int, *args) -> list:
+        """launch2d for a kernel over n items: whole work-groups, then the rest checked."""
+        lx = self.local1d
+        n0 = n // lx * lx
+        evs = [kernels[0](self.queue, (n0,), (lx,), *args)] if n0 else []
+        if n0 < n:
+            evs.append(kernels[1](self.queue, (lx,), (lx,), *args, global_offset=(n0,)))
+        return evs
+
     def program(self, name: str, **defines):
         """Kernels of kernels/<name>.cl built with -D defines, once per process, and once
         per machine through the binary cache (`binary_path`, `_build`)."""
