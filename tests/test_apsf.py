@@ -316,3 +316,43 @@ def test_apsf_with_heterogeneous_media_separation_emission_and_every_aov():
     assert rgb_of(planes, "scattered").sum() > 0.01 * out.sum()
     e1, e2 = rgb_of(planes, "scattered").sum(), rgb_of(planes2, "scattered").sum()
     assert abs(e2 / e1 - 1) < 0.02
+
+
+def _view_cosines(depth, f, fy, cx, cy):
+    """float64 oracle of kernels/preprocess.cl view_cosines (planar z depth): camera-space
+    points, along each axis the one-sided difference with the smaller depth step (the
+    inward one at the image's edge), |cos| between the normal and the line of sight."""
+    h, w = depth.shape
+    x = (np.arange(w) + 0.5 - cx) / f
+    y = -(np.arange(h) + 0.5 - cy) / fy
+    P = np.stack(np.broadcast_arrays(x[None, :] * depth, y[:, None] * depth, -depth), -1).astype(np.float64)
+    out = np.empty((h, w))
+    for j in range(h):
+        for i in range(w):
+            p = P[j, i]
+            a, b = P[j, min(i + 1, w - 1)], P[j, max(i - 1, 0)]
+            u = a - p if i == 0 or (i < w - 1 and abs(a[2] - p[2]) < abs(p[2] - b[2])) else p - b
+            a, b = P[min(j + 1, h - 1), i], P[max(j - 1, 0), i]
+            v = a - p if j == 0 or (j < h - 1 and abs(a[2] - p[2]) < abs(p[2] - b[2])) else p - b
+            n = np.cross(u, v)
+            c = abs(n @ p) / math.sqrt((n @ n) * (p @ p)) if n @ n > 0 else float("nan")
+            out[j, i] = c if c <= 1 else 1.0
+    return np.nan_to_num(out, nan=1.0)
+
+
+@pytest.mark.parametrize("w,h", [(37, 19), (64, 8), (5, 40)])
+def test_view_cosines_match_oracle(rt, rng, w, h):
+    """view_cosines (on whole work-groups and the checked strips) against the oracle on a
+    depth map of tilted steps, every pixel including the edges; 1e-4 absolute (float32)."""
+    yy, xx = np.mgrid[0:h, 0:w]
+    depth = (5.0 + 0.05 * xx + 0.03 * yy + 2.0 * ((xx // 7 + yy // 5) % 2)
+             + rng.uniform(0, 0.01, (h, w))).astype(np.float32)
+    plan, cfg = plan_for(rt, w, h, "camera.fov=60", "render.psf=apsf", "render.emission_profile=lambertian")
+    tm = Timings()
+    plan.upload(rng.uniform(0, 1, (h, w, 4)).astype(np.float32), depth, tm)
+    plan.preprocess(tm)
+    got = np.empty((h, w), np.float32)
+    rt.cl.enqueue_copy(rt.queue, got, plan.cosines)
+    cam = cfg.camera
+    want = _view_cosines(depth.astype(np.float64), cam.focal(w), cam.focal_y(w), *cam.centre(w, h))
+    np.testing.assert_allclose(got, want, atol=1e-4)
