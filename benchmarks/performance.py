@@ -72,6 +72,21 @@ def stage_table(mpxs, reps):
     return rows
 
 
+def light_stage(reps):
+    """The `lights` stage of one point light in fog at 2 MPx (its airlight kernel and the two
+    that add its light), best of reps, and the copy it is counted in."""
+    w, h = size_for(2)
+    rgb, z, fov = harbour_sample(w, h)
+    cfg = make_config("fog", sets=["lights=[{type: point, position: [2, 3, -15], intensity: 400}]"])
+    apply(rgb, z, cfg)
+    best = 1e9
+    for _ in range(reps):
+        t = Timings()
+        apply(rgb, z, cfg, timings=t)
+        best = min(best, sum((e.profile.end - e.profile.start) * 1e-6 for e in t.stages["lights"]))
+    return best, copy_ms((h, w, 4))
+
+
 def reference_time():
     w, h = size_for(0.25)
     rgb, z, fov = harbour_sample(w, h)
@@ -145,13 +160,15 @@ def main():
     args = ap.parse_args()
     if args.stages_json:
         rows = stage_table([float(x) if "." in x else int(x) for x in args.sizes.split(",")], args.reps)
-        Path(args.stages_json).write_text(json.dumps(dict(device=get_runtime(None).device.version, rows=rows)))
+        Path(args.stages_json).write_text(json.dumps(dict(device=get_runtime(None).device.version, rows=rows,
+                                                          light=light_stage(args.reps))))
         return
     reps = 2 if args.quick else 3
     amd = avx2_rows((1, 2) if args.quick else (1, 2, 8), reps)
     dev = get_runtime(None).info.label()
     mpxs = (0.5, 1, 2) if args.quick else (0.5, 1, 2, 4, 8)
     rows = stage_table(mpxs, reps=reps)
+    light = light_stage(reps)
     ref = reference_time()
     print(f"reference at {ref[0]}x{ref[1]}: kernel {ref[2]:.0f} ms, wall {ref[3]:.0f} ms "
           f"({ref[2] / ref[5]:.0f}x the pyramid)", flush=True)
@@ -166,6 +183,9 @@ def main():
           f"source collapse, psf {Render().psf}, border {Render().border}, emission {Render().emission_profile}) on the harbour scene at each size. `copies` = the time as a multiple of one "
           "numpy copy of the RGBA float32 image, measured in the same run (the machine is noisy; ratios "
           "are what to compare).", ""] + stage_md(rows)
+    lamp = ("One point light in fog at 2 MPx (`lights: [{type: point, position: [2, 3, -15], intensity: 400}]`; "
+            "its `lights` stage: the airlight kernel and the two that add its light), on top of the above: ")
+    md += ["", lamp + f"{light[0]:.1f} ms = {light[0] / light[1]:.1f} copies."]
     md += ["", "### The same kernels compiled for an AVX2-only CPU", ""]
     if amd is None:
         md.append("Not measured: this machine cannot emulate another CPU (benchmarks/avx2/run.sh needs CPUID faulting).")
@@ -177,6 +197,7 @@ def main():
                "measured in its own process."
                + (f" kernel_ms at 8 MPx = {r1[8] / r1[1]:.1f}x that at 1 MPx." if 8 in r1 and 1 in r1 else ""), ""]
         md += stage_md(amd["rows"])
+        md += ["", lamp + f"{amd['light'][0]:.1f} ms = {amd['light'][0] / amd['light'][1]:.1f} copies."]
     md += ["", f"Reference (default psf) at {ref[0]}x{ref[1]}: {ref[2]:.0f} ms of kernels ({ref[3]:.0f} ms wall), "
            f"{ref[2] / ref[4]:.0f} copies, {ref[2] / ref[5]:.0f}x the pyramid at the same size.", "",
            "## Fidelity against the reference", "",
