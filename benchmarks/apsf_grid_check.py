@@ -30,11 +30,6 @@ G_CHECK = (0.0, 0.5, 0.85, 0.95)
 RANGES = ((0.01, 1.0), (1.0, 5.0), (5.0, 31.0))
 
 
-def ring_l1(wa, wb, A):
-    ra, rb = wa @ A.T, wb @ A.T
-    return np.abs(ra - rb).sum(-1) / np.maximum(rb.sum(-1), 1e-300)
-
-
 def albedo_run(g: float, scale: float = 1.0):
     t = M.run_g(g, M.photons_for(g, scale), M.SEED)
     mids = 0.5 * (M.ALBEDO[:-1] + M.ALBEDO[1:])
@@ -42,12 +37,7 @@ def albedo_run(g: float, scale: float = 1.0):
     return g, r["ratio"], r["shape"], t.th_edges
 
 
-def rings(th_edges):
-    _, u = mc.kernel_bins(th_edges, np.zeros(len(th_edges) - 1))
-    return np.diff(mc.gaussian_cdf(u), axis=0)
-
-
-def albedo_errors(ratio, shape, A):
+def albedo_errors(ratio, shape, th_edges):
     """Each midpoint from the grid albedos by the runtime's albedo interpolation; then two
     schemes not shipped: the spline's shape clipped at 0, and linear in q (the one before)."""
     na = len(M.ALBEDO)
@@ -65,12 +55,12 @@ def albedo_errors(ratio, shape, A):
     ok = rd > 1e-250
     with np.errstate(divide="ignore", invalid="ignore"):
         energy = lambda r: np.where(ok, np.abs(r / rd - 1), np.nan)  # noqa: E731
-        shape_err = lambda s: np.where(ok, ring_l1(s, sd, A), np.nan)  # noqa: E731
+        shape_err = lambda s: np.where(ok, mc.ring_error(th_edges, s, sd), np.nan)  # noqa: E731
         return dict(shipped=(energy(ri), shape_err(si)), clipped=(energy(ri), shape_err(clipped)),
                     linear=(energy(ri_lin), shape_err(si_lin)))
 
 
-def g_errors(A, th_edges, taus=(0.03, 0.1, 0.3, 0.7), albedo=1.0):
+def g_errors(th_edges, taus=(0.03, 0.1, 0.3, 0.7), albedo=1.0):
     te = np.asarray(th_edges, np.float64)
     nf = int(np.searchsorted(te, math.pi / 2 + 1e-12))
     thc = np.sqrt(te[:-1] * te[1:])
@@ -86,7 +76,7 @@ def g_errors(A, th_edges, taus=(0.03, 0.1, 0.3, 0.7), albedo=1.0):
         sh = W / np.maximum(W.sum(-1, keepdims=True), 1e-300)
         ei = np.exp(0.5 * (np.log(E[0]) + np.log(E[2])))
         out_e.append(np.abs(ei / E[1] - 1))
-        out_s.append(ring_l1(0.5 * (sh[0] + sh[2]), sh[1], A))
+        out_s.append(mc.ring_error(th_edges, 0.5 * (sh[0] + sh[2]), sh[1]))
     return np.array(out_e), np.array(out_s)
 
 
@@ -127,11 +117,10 @@ def cells(X) -> str:
 def report(scale: float) -> None:
     with mp.get_context("spawn").Pool(2) as pool:
         runs = pool.starmap(albedo_run, [(g, scale) for g in G_CHECK])
-    A = rings(runs[0][3])
     print(f"grid: {len(M.G)} g x {len(M.ALBEDO)} albedos x {len(M.TAU)} tau; photons x {scale:g} of the table's; "
           "p90 / max in %, tau [0.01, 1) | [1, 5) | [5, 30]\n")
     print("| albedo midpoints (same tally) | energy | shape |\n|---|---|---|")
-    errs = [albedo_errors(ratio, shape, A) for _, ratio, shape, _ in runs]
+    errs = [albedo_errors(ratio, shape, th) for _, ratio, shape, th in runs]
     E, S = (np.stack([e["shipped"][i] for e in errs]) for i in (0, 1))           # (g, mids, tau)
     mids = 0.5 * (M.ALBEDO[:-1] + M.ALBEDO[1:])
     for name, sel in (("all albedos", mids > 0), ("albedo < 0.3", mids < 0.3), ("albedo 0.3-0.8", (mids >= 0.3) & (mids < 0.8)),
@@ -140,7 +129,7 @@ def report(scale: float) -> None:
     for key, name in (("clipped", "shape clipped at 0 and renormalised"), ("linear", "linear in q (the scheme before)")):
         E2, S2 = (np.stack([e[key][i] for e in errs]) for i in (0, 1))
         print(f"| all albedos, {name}: not shipped | {cells(E2) if key == 'linear' else ''} | {cells(S2)} |")
-    ge, gs = g_errors(A, runs[0][3])
+    ge, gs = g_errors(runs[0][3])
     print("\n| g midpoints, single scattering (exact), tau 0.03-0.7 | energy | shape |\n|---|---|---|")
     print(f"| every interval of G | {fmt(ge)} | {fmt(gs)} |")
     worst = int(np.nanargmax(gs.max(-1)))

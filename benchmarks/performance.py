@@ -12,6 +12,7 @@ import argparse
 import json
 import math
 import os
+import platform
 import re
 import subprocess
 import sys
@@ -72,12 +73,15 @@ def stage_table(mpxs, reps):
     return rows
 
 
+LAMP = "lights=[{type: point, position: [2, 3, -15], intensity: 400}]"    # also benchmarks/lights.py's
+
+
 def light_stage(reps):
     """The `lights` stage of one point light in fog at 2 MPx (its airlight kernel and the two
     that add its light), best of reps, and the copy it is counted in."""
     w, h = size_for(2)
     rgb, z, fov = harbour_sample(w, h)
-    cfg = make_config("fog", sets=["lights=[{type: point, position: [2, 3, -15], intensity: 400}]"])
+    cfg = make_config("fog", sets=[LAMP])
     apply(rgb, z, cfg)
     best = 1e9
     for _ in range(reps):
@@ -122,10 +126,10 @@ def fidelity(seeds):
 
 
 def cpu_name() -> str:
-    for line in Path("/proc/cpuinfo").read_text().splitlines():
-        if line.startswith("model name"):
-            return line.split(":", 1)[1].strip()
-    return "unknown CPU"
+    try:
+        return next(ln.split(":", 1)[1].strip() for ln in open("/proc/cpuinfo") if ln.startswith("model name"))
+    except (OSError, StopIteration):
+        return platform.processor() or platform.machine()
 
 
 def avx2_rows(mpxs, reps):
@@ -183,7 +187,7 @@ def main():
           f"source collapse, psf {Render().psf}, border {Render().border}, emission {Render().emission_profile}) on the harbour scene at each size. `copies` = the time as a multiple of one "
           "numpy copy of the RGBA float32 image, measured in the same run (the machine is noisy; ratios "
           "are what to compare).", ""] + stage_md(rows)
-    lamp = ("One point light in fog at 2 MPx (`lights: [{type: point, position: [2, 3, -15], intensity: 400}]`; "
+    lamp = (f"One point light in fog at 2 MPx (`{LAMP.replace('=', ': ', 1)}`; "
             "its `lights` stage: the airlight kernel and the two that add its light), on top of the above: ")
     md += ["", lamp + f"{light[0]:.1f} ms = {light[0] / light[1]:.1f} copies."]
     md += ["", "### The same kernels compiled for an AVX2-only CPU", ""]

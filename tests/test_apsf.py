@@ -318,14 +318,15 @@ def test_apsf_with_heterogeneous_media_separation_emission_and_every_aov():
     assert abs(e2 / e1 - 1) < 0.02
 
 
-def _view_cosines(depth, f, fy, cx, cy):
+def _view_cosines(cfg, depth):
     """float64 oracle of kernels/preprocess.cl view_cosines (planar z depth): camera-space
     points, along each axis the one-sided difference with the smaller depth step (the
     inward one at the image's edge), |cos| between the normal and the line of sight."""
+    from fogcli.noise import pinhole_rays
+
     h, w = depth.shape
-    x = (np.arange(w) + 0.5 - cx) / f
-    y = -(np.arange(h) + 0.5 - cy) / fy
-    P = np.stack(np.broadcast_arrays(x[None, :] * depth, y[:, None] * depth, -depth), -1).astype(np.float64)
+    dirs, lengths = pinhole_rays(cfg, depth)
+    P = dirs * lengths[..., None]
     out = np.empty((h, w))
     for j in range(h):
         for i in range(w):
@@ -351,8 +352,5 @@ def test_view_cosines_match_oracle(rt, rng, w, h):
     tm = Timings()
     plan.upload(rng.uniform(0, 1, (h, w, 4)).astype(np.float32), depth, tm)
     plan.preprocess(tm)
-    got = np.empty((h, w), np.float32)
-    rt.cl.enqueue_copy(rt.queue, got, plan.cosines)
-    cam = cfg.camera
-    want = _view_cosines(depth.astype(np.float64), cam.focal(w), cam.focal_y(w), *cam.centre(w, h))
-    np.testing.assert_allclose(got, want, atol=1e-4)
+    got = _download(plan, plan.cosines, 1)
+    np.testing.assert_allclose(got, _view_cosines(cfg, depth), atol=1e-4)

@@ -43,7 +43,8 @@ class Timings:
     stages: dict = field(default_factory=dict)
 
     def add(self, stage: str, event) -> None:
-        self.stages.setdefault(stage, []).append(event)
+        """One event, or the list of a split launch (Runtime.launch2d / launch1d)."""
+        self.stages.setdefault(stage, []).extend(event if isinstance(event, list) else [event])
 
     def resolve(self) -> dict[str, float]:
         out = {}
@@ -305,8 +306,14 @@ class Plan:
         self.k_collapse = (whole.collapse_level, pyr.collapse_level)
         self.k_split = (whole.split_level, pyr.split_level)
         self.k_comp = rt.program("composite", **d).composite
-        # composite_source: what it writes fixed at build time, on whole work-groups (as preprocess)
-        self._comp = dict(d, COMP_AOV=int(bool(self.aovs)), COMP_SPLIT_MEDIUM=int(self.split_medium))
+        # composite_source: what it writes fixed at build time, on whole work-groups (as preprocess);
+        # [True]: the separated chain's pass, which adds its light
+        self.k_comp_src = {}
+        for second in (False, True) if self.sep else (False,):
+            comp = dict(d, COMP_AOV=int(bool(self.aovs)), COMP_SPLIT_MEDIUM=int(self.split_medium),
+                        COMP_ACCUMULATE=int(second))
+            self.k_comp_src[second] = (rt.program("composite", WHOLE_GROUPS=1, **comp).composite_source,
+                                       rt.program("composite", **comp).composite_source)
         self.k_comp_sep = rt.program("composite", **d).composite_separated
         self.k_border_src = pyr.border_sources if self.apsf else None
         self.k_border_inject = pyr.border_inject if self.apsf else None
@@ -426,16 +433,14 @@ class Plan:
         self.optical_depth(t)
         whole, checked = self.k_pre_whole, self.k_pre_prog
         if self.lambert:
-            for ev in self.rt.launch2d((whole.view_cosines, checked.view_cosines), self.w, self.h,
-                                       self.depth, self.cosines, np.int32(self.w), np.int32(self.h),
-                                       camera_struct(self.cfg, self.w, self.h)):
-                t.add("preprocess", ev)
-        for ev in self.rt.launch2d(
-                (whole.preprocess, checked.preprocess), self.w, self.h, self.image, self.depth, self.direct,
-                self.chain, self.spread, self.medium, self.trans, np.int32(self.w), np.int32(self.h),
-                medium_struct(self.cfg, self.w, self.h), self.prep, np.float32(self.threshold(1)), np.float32(eps),
-                self.chain2, self.prep2, self.sep_params(), self.lut, self.cosines):
-            t.add("preprocess", ev)
+            t.add("preprocess", self.rt.launch2d((whole.view_cosines, checked.view_cosines), self.w, self.h,
+                                                 self.depth, self.cosines, np.int32(self.w), np.int32(self.h),
+                                                 camera_struct(self.cfg, self.w, self.h)))
+        t.add("preprocess", self.rt.launch2d(
+            (whole.preprocess, checked.preprocess), self.w, self.h, self.image, self.depth, self.direct,
+            self.chain, self.spread, self.medium, self.trans, np.int32(self.w), np.int32(self.h),
+            medium_struct(self.cfg, self.w, self.h), self.prep, np.float32(self.threshold(1)), np.float32(eps),
+            self.chain2, self.prep2, self.sep_params(), self.lut, self.cosines))
 
     def lights(self, t: Timings) -> None:
         """Every light's airlight (kernels/lights.cl): a_dir kept for after the pyramid, a_sc
@@ -660,10 +665,10 @@ class Plan:
     def split(self, t: Timings, k: int, chain, out) -> None:
         """Half-octave shares of level k of `chain` into `out` (level-0 sized scratch)."""
         o, w, h, _ = (int(v) for v in self.lv[k])
-        for ev in self.rt.launch1d(self.k_split, w * h, chain, np.int32(o), np.int32(w * h), out,
-                                   np.float32(self.threshold(k + 1)), np.float32(self.cfg.render.resolved()[1]),
-                                   self.lut, np.int32(k), np.int32(w), self.edge, np.int32(self.edge_off[k])):
-            t.add("composite", ev)
+        t.add("composite", self.rt.launch1d(
+            self.k_split, w * h, chain, np.int32(o), np.int32(w * h), out, np.float32(self.threshold(k + 1)),
+            np.float32(self.cfg.render.resolved()[1]), self.lut, np.int32(k), np.int32(w), self.edge,
+            np.int32(self.edge_off[k])))
 
     def source_bufs(self, second: bool) -> tuple:
         """(colour chain, half-octave scratch, prep chain) of the main or the separated
@@ -685,10 +690,10 @@ class Plan:
         for k in range(top - 1, 0, -1):
             (o, w, h, _), (uo, uw, uh, _) = self.lv[k], self.lv[k + 1]
             self.split(t, k, chain, half)
-            for ev in self.rt.launch2d(self.k_collapse, w, h, chain, np.int32(o), np.int32(w), np.int32(h), half,
-                                       np.int32(uo), np.int32(uw), np.int32(uh), np.float32(a), prep, self.edge,
-                                       np.int32(self.edge_off[k]), self.cons, np.int32(self.cons_off[k + 1])):
-                t.add("composite", ev)
+            t.add("composite", self.rt.launch2d(
+                self.k_collapse, w, h, chain, np.int32(o), np.int32(w), np.int32(h), half, np.int32(uo),
+                np.int32(uw), np.int32(uh), np.float32(a), prep, self.edge, np.int32(self.edge_off[k]), self.cons,
+                np.int32(self.cons_off[k + 1])))
             if ext and k == self._ext_level:
                 self._inject(t)
 
@@ -703,16 +708,10 @@ class Plan:
         chain, half, prep = self.source_bufs(second)
         if top > 0:
             self.split(t, 0, chain, half)
-        comp = dict(self._comp, COMP_ACCUMULATE=int(second))     # the separated chain adds its light
-        kernels = (self.rt.program("composite", WHOLE_GROUPS=1, **comp).composite_source,
-                   self.rt.program("composite", **comp).composite_source)
-        for ev in self.rt.launch2d(
-                kernels, self.w, self.h, self.direct, self.medium, chain, half,
-                self.lv_buf, np.int32(top), np.float32(self.cfg.render.resolved()[0]),
-                np.float32(self.half_step()), self.out, self.level_aov, self.scat_aov, prep, self.spread,
-                self.edge, self.cons,
-                np.int32(self.cons_off[1])):
-            t.add("composite", ev)
+        t.add("composite", self.rt.launch2d(
+            self.k_comp_src[second], self.w, self.h, self.direct, self.medium, chain, half, self.lv_buf,
+            np.int32(top), np.float32(self.cfg.render.resolved()[0]), np.float32(self.half_step()), self.out,
+            self.level_aov, self.scat_aov, prep, self.spread, self.edge, self.cons, np.int32(self.cons_off[1])))
 
     def extend(self, t: Timings) -> bool:
         """render.border: extend. The frame's edge continued `border_margin` past each side:
