@@ -157,41 +157,108 @@ __kernel void airlight(__global const float *depth, __global float4 *a_dir, __gl
 /* v, made to depend on prev (0 * prev is not folded without fast math) */
 #define AL_AFTER(v, prev) ((v) + 0.0f * (prev))
 
-/* v clamped to [0, hi], exact inside */
-AL_INLINE float al_clamp(float v, float hi)
+/* AL_LANES 8 (CPUs with AVX2 and no AVX-512): the same code on float8, eight pixels of a row
+ * per work-item. LLVM gives up on the loop over work-items there (the table reads are gathers,
+ * which it does not emit for AVX2 CPUs, and the bounds check masks every store), so the kernel
+ * ran scalar, 5.5x slower than on AVX-512; written on float8 it is vector code whatever the
+ * vectoriser decides, the table reads one load per lane. Per-pixel values are alf, uniform
+ * ones float. */
+#ifndef AL_LANES
+#define AL_LANES 1
+#endif
+#if AL_LANES == 8
+typedef float8 alf;
+typedef int8 ali;
+#define AL_ABS(v) as_float8(as_int8(v) & 0x7fffffff)
+/* lane by lane: the library's sqrt and vload8 on vectors are calls in PoCL; these compile to
+ * one instruction */
+#define AL_SQRT(v) al_sqrt8(v)
+#define AL_INT(v) __builtin_convertvector((v), int8)
+#define AL_FLOAT(v) __builtin_convertvector((v), float8)
+#define AL_LOAD(p, k) ((float8)((p)[(k).s0], (p)[(k).s1], (p)[(k).s2], (p)[(k).s3],     \
+                                (p)[(k).s4], (p)[(k).s5], (p)[(k).s6], (p)[(k).s7]))
+AL_INLINE float8 al_sqrt8(float8 v)
 {
-    v = 0.5f * (v + __builtin_fabsf(v));
-    float d = v - hi;
-    return v - 0.5f * (d + __builtin_fabsf(d));
+    return (float8)(SQRT_(v.s0), SQRT_(v.s1), SQRT_(v.s2), SQRT_(v.s3),
+                    SQRT_(v.s4), SQRT_(v.s5), SQRT_(v.s6), SQRT_(v.s7));
+}
+
+AL_INLINE float8 al_load8(__global const float *p)
+{
+    return (float8)(p[0], p[1], p[2], p[3], p[4], p[5], p[6], p[7]);
+}
+
+/* exp_poly and log_pos of common.h, lane by lane */
+AL_INLINE float8 al_exp(float8 y)
+{
+    float8 z = y * 1.44269504f;
+    z = z < -127.0f ? -127.0f : z;
+    z = z > 128.0f ? 128.0f : z;
+    int8 ni = AL_INT(z + (z >= 0.0f ? (float8)(0.5f) : (float8)(-0.5f)));
+    float8 g = (z - AL_FLOAT(ni)) * 0.69314718f;
+    float8 p = 1.0f + g * (1.0f + g * (0.5f + g * (1.0f / 6.0f + g * (1.0f / 24.0f
+               + g * (1.0f / 120.0f + g * (1.0f / 720.0f + g * (1.0f / 5040.0f)))))));
+    return z <= -127.0f ? (float8)(0.0f) : p * as_float8((ni + 127) << 23);
+}
+
+AL_INLINE float8 al_log(float8 x)
+{
+    int8 bits = as_int8(x);
+    int8 m = (bits & 0x007fffff) | 0x3f800000;
+    int8 big = (m > 0x3fb504f3) & 1;
+    int8 e = ((bits >> 23) & 0xff) - 127 + big;
+    float8 mant = as_float8(m - (big << 23));
+    float8 t = (mant - 1.0f) / (mant + 1.0f), t2 = t * t;
+    float8 series = t * (2.0f + t2 * (0.66666667f + t2 * (0.4f + t2 * 0.28571429f)));
+    return series + AL_FLOAT(e) * 0.69314718f;
+}
+#else
+typedef float alf;
+typedef int ali;
+#define AL_ABS(v) __builtin_fabsf(v)
+#define AL_SQRT(v) SQRT_(v)
+#define AL_INT(v) ((int)(v))
+#define AL_FLOAT(v) ((float)(v))
+#define AL_LOAD(p, k) ((p)[k])
+#define al_exp exp_poly
+#define al_log log_pos
+#endif
+
+/* v clamped to [0, hi], exact inside */
+AL_INLINE alf al_clamp(alf v, float hi)
+{
+    v = 0.5f * (v + AL_ABS(v));
+    alf d = v - hi;
+    return v - 0.5f * (d + AL_ABS(d));
 }
 
 /* bilinear look-up of table entry `e` (0: F, 1: C) at continuous (u, v) */
-AL_INLINE float al_fetch(__global const float *tab, float u, float v, int e)
+AL_INLINE alf al_fetch(__global const float *tab, alf u, alf v, int e)
 {
     u = al_clamp(u, AL_NB - 1.001f);
     v = al_clamp(v, AL_NX - 1.001f);
-    int i = (int)u, j = (int)v;
-    float fu = u - (float)i, fv = v - (float)j;
-    int k = 2 * (i * AL_NX + j) + e;
-    float p0 = tab[k], p1 = tab[k + 2], p2 = tab[k + 2 * AL_NX], p3 = tab[k + 2 * AL_NX + 2];
-    float a = p0 + (p1 - p0) * fv, b = p2 + (p3 - p2) * fv;
+    ali i = AL_INT(u), j = AL_INT(v);
+    alf fu = u - AL_FLOAT(i), fv = v - AL_FLOAT(j);
+    ali k = 2 * (i * AL_NX + j) + e;
+    alf p0 = AL_LOAD(tab, k), p1 = AL_LOAD(tab, k + 2), p2 = AL_LOAD(tab, k + 2 * AL_NX), p3 = AL_LOAD(tab, k + 2 * AL_NX + 2);
+    alf a = p0 + (p1 - p0) * fv, b = p2 + (p3 - p2) * fv;
     return a + (b - a) * fu;
 }
 
-AL_INLINE float al_ex(float q, float R)
+AL_INLINE alf al_ex(alf q, alf R)
 {
-    float t = SQRT_(q * q + R * R);
+    alf t = AL_SQRT(q * q + R * R);
     return q >= 0.0f ? (q + t) / R : R / (t - q);
 }
 
 /* h(x) = p_g(-tanh x) / cosh x from e^x (clamped to [1e-15, 1e15], where h is below 1e-14 of
  * its peak: e^2x stays finite) */
-AL_INLINE float al_h(float g, float ex)
+AL_INLINE alf al_h(float g, alf ex)
 {
     ex = 1e-15f + al_clamp(ex - 1e-15f, 1e15f);
-    float e2 = ex * ex, q = 1.0f / (e2 + 1.0f);
-    float d = 1.0f + g * g + 2.0f * g * (1.0f - 2.0f * q);     /* tanh x = 1 - 2 / (e^2x + 1) */
-    return (1.0f - g * g) * 0.1591549431f * ex * q / (d * SQRT_(d));   /* 1 / cosh x = 2 e^x q */
+    alf e2 = ex * ex, q = 1.0f / (e2 + 1.0f);
+    alf d = 1.0f + g * g + 2.0f * g * (1.0f - 2.0f * q);     /* tanh x = 1 - 2 / (e^2x + 1) */
+    return (1.0f - g * g) * 0.1591549431f * ex * q / (d * AL_SQRT(d));   /* 1 / cosh x = 2 e^x q */
 }
 
 /* ln of int_{x0}^{x1} h exp(-beta E_r) dx, E_r = ((1 + r) e^x + (1 - r) e^-x) / 2; xm, em:
@@ -204,30 +271,31 @@ AL_INLINE float al_h(float g, float ex)
  * it replaced 2 Gauss-Legendre nodes (5 exponentials, 9 divisions per segment; now 2
  * exponentials per segment; worst in test_table_kernel_matches_the_quadrature_kernel_on_whole_
  * frames, A / A_sc: 4.5e-4 / 1.67e-3 with Simpson, 3.0e-4 / 1.74e-3 with the 2 nodes). */
-AL_INLINE float al_segment(__global const float *tab, float r, float xm, float em, float beta,
-                           float lb, float x0, float x1, float ex0, float ex1, const float *sp, float after)
+AL_INLINE alf al_segment(__global const float *tab, float r, float xm, float em, alf beta,
+                         alf lb, alf x0, alf x1, alf ex0, alf ex1, const alf *sp, alf after)
 {
     const float sx = (AL_NX - 1) / (AL_X1 - AL_X0);
-    float u = AL_AFTER((lb - AL_LB0) * ((AL_NB - 1) / (AL_LB1 - AL_LB0)), after);
-    float v0 = (x0 - AL_X0) * sx;
-    float v1 = AL_AFTER((x1 - AL_X0) * sx, v0);
-    float e0 = 0.5f * ((1.0f + r) * ex0 + (1.0f - r) / ex0);
-    float e1 = 0.5f * ((1.0f + r) * ex1 + (1.0f - r) / AL_AFTER(ex1, e0));
-    float F0 = al_fetch(tab, u, v0, 0) - beta * (x0 < xm ? e0 : em);
-    float F1 = al_fetch(tab, u, AL_AFTER(v1, F0), 0) - beta * (x1 < xm ? e1 : em);
-    float C0 = al_fetch(tab, u, AL_AFTER(v0, F1), 1) - beta * (x0 > xm ? e0 : em);
-    float C1 = al_fetch(tab, u, AL_AFTER(v1, C0), 1) - beta * (x1 > xm ? e1 : em);
-    /* outside the table h ~ 2 p e^{-|x|}: ln F (r = 1, left) and ln C (right) go with slope +-1 */
-    F0 += r >= 1.0f && x0 < AL_X0 ? x0 - AL_X0 : 0.0f;
-    F1 += r >= 1.0f && x1 < AL_X0 ? x1 - AL_X0 : 0.0f;
+    alf u = AL_AFTER((lb - AL_LB0) * ((AL_NB - 1) / (AL_LB1 - AL_LB0)), after);
+    alf v0 = (x0 - AL_X0) * sx;
+    alf v1 = AL_AFTER((x1 - AL_X0) * sx, v0);
+    alf e0 = 0.5f * ((1.0f + r) * ex0 + (1.0f - r) / ex0);
+    alf e1 = 0.5f * ((1.0f + r) * ex1 + (1.0f - r) / AL_AFTER(ex1, e0));
+    alf F0 = al_fetch(tab, u, v0, 0) - beta * (x0 < xm ? e0 : em);
+    alf F1 = al_fetch(tab, u, AL_AFTER(v1, F0), 0) - beta * (x1 < xm ? e1 : em);
+    alf C0 = al_fetch(tab, u, AL_AFTER(v0, F1), 1) - beta * (x0 > xm ? e0 : em);
+    alf C1 = al_fetch(tab, u, AL_AFTER(v1, C0), 1) - beta * (x1 > xm ? e1 : em);
+    /* outside the table h ~ 2 p e^{-|x|}: ln F (r = 1, left) and ln C (right) go with slope +-1
+     * (r is uniform: the outer choice is not per pixel) */
+    F0 += r >= 1.0f ? (x0 < AL_X0 ? x0 - AL_X0 : 0.0f) : 0.0f;
+    F1 += r >= 1.0f ? (x1 < AL_X0 ? x1 - AL_X0 : 0.0f) : 0.0f;
     C0 -= x0 > AL_X1 ? x0 - AL_X1 : 0.0f;
     C1 -= x1 > AL_X1 ? x1 - AL_X1 : 0.0f;
-    float big = F1 < C0 ? F1 : C0, small = F1 < C0 ? F0 : C1;
-    float tabled = big + log_pos(1.0f - exp_poly(small - big));
-    float mid = beta * 0.5f * ((1.0f + r) * sp[0] + (1.0f - r) * sp[1]);
-    float f0 = sp[2] * exp_poly(mid - beta * e0);
-    float f1 = sp[4] * exp_poly(AL_AFTER(mid - beta * e1, f0));
-    float direct = -mid + log_pos((x1 - x0) * (1.0f / 6.0f) * (f0 + 4.0f * sp[3] + f1));
+    alf big = F1 < C0 ? F1 : C0, small = F1 < C0 ? F0 : C1;
+    alf tabled = big + al_log(1.0f - al_exp(small - big));
+    alf mid = beta * 0.5f * ((1.0f + r) * sp[0] + (1.0f - r) * sp[1]);
+    alf f0 = sp[2] * al_exp(mid - beta * e0);
+    alf f1 = sp[4] * al_exp(AL_AFTER(mid - beta * e1, f0));
+    alf direct = -mid + al_log((x1 - x0) * (1.0f / 6.0f) * (f0 + 4.0f * sp[3] + f1));
     return small - big <= -0.6931472f ? tabled : direct;
 }
 
@@ -235,40 +303,79 @@ AL_INLINE float al_segment(__global const float *tab, float r, float xm, float e
  * absorption sa) per unit of ss I / R, out through ld, lt. The channel's uniform values:
  * r = sa / st, xm = -atanh(r), em = sqrt(1 - r^2), off = its table's offset in floats. */
 AL_INLINE void al_channel(__global const float *tab, float st, float lst, float sa, float r, float xm,
-                          float em, int off, float R, float d1, float x0, float x1, float ex0, float ex1, float lR,
-                          const float *sp, float after, float *ld, float *lt)
+                          float em, int off, alf R, alf d1, alf x0, alf x1, alf ex0, alf ex1, alf lR,
+                          const alf *sp, alf after, alf *ld, alf *lt)
 {
-    float beta = st * R;
-    float lb = AL_AFTER(lR + lst, after);       /* ln beta, lst = ln st from the host */
-    lb = AL_LB0 + 0.5f * ((lb - AL_LB0) + __builtin_fabsf(lb - AL_LB0));   /* beta below the table: its first row */
-    float d = -st * d1 + al_segment(tab, 1.0f, -1e30f, 0.0f, beta, lb, x0, x1, ex0, ex1, sp, lb);
-    float t = r < 1.0f ? -sa * d1 + al_segment(tab + off, r, xm, em, beta, lb, x0, x1, ex0, ex1, sp, d) : d;
+    alf beta = st * R;
+    alf lb = AL_AFTER(lR + lst, after);       /* ln beta, lst = ln st from the host */
+    lb = AL_LB0 + 0.5f * ((lb - AL_LB0) + AL_ABS(lb - AL_LB0));   /* beta below the table: its first row */
+    alf d = -st * d1 + al_segment(tab, 1.0f, -1e30f, 0.0f, beta, lb, x0, x1, ex0, ex1, sp, lb);
+    alf t = r < 1.0f ? -sa * d1 + al_segment(tab + off, r, xm, em, beta, lb, x0, x1, ex0, ex1, sp, d) : d;
     *ld = beta < AL_BMAX ? d - lR : -1e30f;
     *lt = beta < AL_BMAX ? t - lR : -1e30f;
 }
 
-/* The per-pixel part the kernels share: ray, d1, R, e^x and x at both ends, ln R. */
-#define AL_GEOMETRY                                                                            \
+#if AL_LANES == 8
+/* pixel_ray (density.h) of pixels i0 .. i0 + 7 of row j, depth dep */
+AL_INLINE float8 al_pixel_ray(const camera_t *c, int i0, int j, float8 dep, float8 *wx, float8 *wy, float8 *wz)
+{
+    float8 dx = ((float)i0 + (float8)(0.5f, 1.5f, 2.5f, 3.5f, 4.5f, 5.5f, 6.5f, 7.5f) - c->cx) / c->focal_px;
+    float dy = -(j + 0.5f - c->cy) / c->focal_y;
+    float8 dlen = AL_SQRT(dx * dx + dy * dy + 1.0f);
+    float8 r = 1.0f / dlen;
+    *wx = (c->rot0.x * dx + c->rot0.y * dy - c->rot0.z) * r;
+    *wy = (c->rot1.x * dx + c->rot1.y * dy - c->rot1.z) * r;
+    *wz = (c->rot2.x * dx + c->rot2.y * dy - c->rot2.z) * r;
+    float8 dist = dep * (c->depth_is_z ? dlen : (float8)(1.0f));
+    return dist < c->max_depth ? dist : c->max_depth;
+}
+/* eight pixels of a row; at the row's end the lanes past it read its last pixel and are not
+ * stored */
+#define AL_PIXELS                                                                              \
+    int i = 8 * get_global_id(0), j = get_global_id(1);                                        \
+    if (i >= width || j >= height) return;                                                     \
+    int idx = j * width + i, whole = i + 8 <= width;                                           \
+    int8 lane = (int8)(0, 1, 2, 3, 4, 5, 6, 7), last = (int8)(width - 1 - i);                  \
+    float8 dep = whole ? al_load8(depth + idx) : AL_LOAD(depth + idx, lane < last ? lane : last); \
+    float8 wx, wy, wz;                                                                         \
+    float8 D = al_pixel_ray(&cam, i, j, dep, &wx, &wy, &wz);
+#define AL_PUT1(L)                                                                             \
+    if (whole || i + L < width) {                                                              \
+        a_dir[idx + L] = (float4)(d0r.s##L, d1r.s##L, d2r.s##L, 0.0f);                         \
+        a_sc[idx + L] = (float4)(s0.s##L, s1.s##L, s2.s##L, wp.s##L);                          \
+    }
+#define AL_PUT                                                                                 \
+    AL_PUT1(0) AL_PUT1(1) AL_PUT1(2) AL_PUT1(3) AL_PUT1(4) AL_PUT1(5) AL_PUT1(6) AL_PUT1(7)
+#else
+#define AL_PIXELS                                                                              \
     int i = get_global_id(0), j = get_global_id(1);                                            \
     if (i >= width || j >= height) return;                                                     \
     int idx = j * width + i;                                                                   \
     float wx, wy, wz;                                                                          \
-    float D = pixel_ray(&cam, i, j, depth[idx], &wx, &wy, &wz);                                \
-    float cx = wy * vz - wz * vy;                                                              \
-    float cy = AL_AFTER(wz * vx - wx * vz, cx);                                                \
-    float cz = AL_AFTER(wx * vy - wy * vx, cy);                                                \
-    float d1 = AL_AFTER(wx * vx + wy * vy + wz * vz, cz);                                      \
-    float R = SQRT_(cx * cx + cy * cy + cz * cz + rad2);                                       \
-    float ex0 = al_ex(-d1, R);                                                                 \
-    float ex1 = al_ex(AL_AFTER(D - d1, ex0), R);                                               \
-    float x0 = log_pos(ex0);                                                                   \
-    float x1 = log_pos(AL_AFTER(ex1, x0));                                                     \
-    float lR = log_pos(AL_AFTER(R, x1));                                                       \
+    float D = pixel_ray(&cam, i, j, depth[idx], &wx, &wy, &wz);
+#define AL_PUT                                                                                 \
+    store4(a_dir, idx, d0r, d1r, d2r, 0.0f);                                                   \
+    store4(a_sc, idx, s0, s1, s2, wp);
+#endif
+
+/* The per-pixel part the kernels share: ray, d1, R, e^x and x at both ends, ln R. */
+#define AL_GEOMETRY                                                                            \
+    AL_PIXELS                                                                                  \
+    alf cx = wy * vz - wz * vy;                                                                \
+    alf cy = AL_AFTER(wz * vx - wx * vz, cx);                                                  \
+    alf cz = AL_AFTER(wx * vy - wy * vx, cy);                                                  \
+    alf d1 = AL_AFTER(wx * vx + wy * vy + wz * vz, cz);                                        \
+    alf R = AL_SQRT(cx * cx + cy * cy + cz * cz + rad2);                                       \
+    alf ex0 = al_ex(-d1, R);                                                                   \
+    alf ex1 = al_ex(AL_AFTER(D - d1, ex0), R);                                                 \
+    alf x0 = al_log(ex0);                                                                      \
+    alf x1 = al_log(AL_AFTER(ex1, x0));                                                        \
+    alf lR = al_log(AL_AFTER(R, x1));                                                          \
     /* Simpson's rule on [x0, x1] where a table difference would lose its digits: e^x at the  \
      * middle (sqrt of the ends' product, clamped as al_h does), its inverse, h at the nodes;  \
      * h does not depend on the channel */                                                    \
-    float sp[5];                                                                               \
-    sp[0] = SQRT_((1e-15f + al_clamp(ex0 - 1e-15f, 1e15f)) * (1e-15f + al_clamp(ex1 - 1e-15f, 1e15f))); \
+    alf sp[5];                                                                                 \
+    sp[0] = AL_SQRT((1e-15f + al_clamp(ex0 - 1e-15f, 1e15f)) * (1e-15f + al_clamp(ex1 - 1e-15f, 1e15f))); \
     sp[1] = 1.0f / sp[0];                                                                      \
     sp[2] = al_h(g, AL_AFTER(ex0, sp[1]));                                                     \
     sp[3] = al_h(g, AL_AFTER(sp[0], sp[2]));                                                   \
@@ -278,12 +385,12 @@ AL_INLINE void al_channel(__global const float *tab, float st, float lst, float 
  * ln(ss I) per channel (lk), the gain; A_sc spread at the optical depth where the ray passes
  * the light (hf clamp(d1, 0, D)). */
 #define AL_STORE                                                                               \
-    float d0r = exp_poly(lk0 + ld0);                                                           \
-    float d1r = exp_poly(AL_AFTER(lk1 + ld1, d0r));                                            \
-    float d2r = exp_poly(AL_AFTER(lk2 + ld2, d1r));                                            \
-    float t0 = exp_poly(AL_AFTER(lk0 + lt0, d2r));                                             \
-    float t1 = exp_poly(AL_AFTER(lk1 + lt1, t0));                                              \
-    float t2 = exp_poly(AL_AFTER(lk2 + lt2, t1));                                              \
+    alf d0r = al_exp(lk0 + ld0);                                                               \
+    alf d1r = al_exp(AL_AFTER(lk1 + ld1, d0r));                                                \
+    alf d2r = al_exp(AL_AFTER(lk2 + ld2, d1r));                                                \
+    alf t0 = al_exp(AL_AFTER(lk0 + lt0, d2r));                                                 \
+    alf t1 = al_exp(AL_AFTER(lk1 + lt1, t0));                                                  \
+    alf t2 = al_exp(AL_AFTER(lk2 + lt2, t1));                                                  \
     AL_STORE_RGB
 
 /* Grey media: one exponential each for A and A + A_sc, scaled per channel by the host's
@@ -291,23 +398,23 @@ AL_INLINE void al_channel(__global const float *tab, float st, float lst, float 
  * Each exponential is a dependent step of the chain that keeps LLVM from pairing them,
  * and the chain is the kernel's latency: 2 steps instead of 6 (-15 % of the kernel). */
 #define AL_STORE_GREY                                                                          \
-    float ed = exp_poly(lkm + ld0);                                                            \
-    float et = exp_poly(AL_AFTER(lkm + lt0, ed));                                              \
-    float d0r = k0 * ed, d1r = AL_AFTER(k1 * ed, d0r), d2r = AL_AFTER(k2 * ed, d1r);           \
-    float t0 = AL_AFTER(k0 * et, d2r), t1 = AL_AFTER(k1 * et, t0), t2 = AL_AFTER(k2 * et, t1); \
+    alf ed = al_exp(lkm + ld0);                                                                \
+    alf et = al_exp(AL_AFTER(lkm + lt0, ed));                                                  \
+    alf d0r = k0 * ed, d1r = AL_AFTER(k1 * ed, d0r), d2r = AL_AFTER(k2 * ed, d1r);             \
+    alf t0 = AL_AFTER(k0 * et, d2r), t1 = AL_AFTER(k1 * et, t0), t2 = AL_AFTER(k2 * et, t1);   \
     AL_STORE_RGB
 
 #define AL_STORE_RGB                                                                           \
-    float s0 = t0 - d0r, s1 = AL_AFTER(t1 - d1r, s0), s2 = AL_AFTER(t2 - d2r, s1);             \
-    s0 = 0.5f * (s0 + __builtin_fabsf(s0));                                                    \
-    s1 = 0.5f * (s1 + __builtin_fabsf(s1));                                                    \
-    s2 = 0.5f * (s2 + __builtin_fabsf(s2));                                                    \
+    alf s0 = t0 - d0r, s1 = AL_AFTER(t1 - d1r, s0), s2 = AL_AFTER(t2 - d2r, s1);               \
+    s0 = 0.5f * (s0 + AL_ABS(s0));                                                             \
+    s1 = 0.5f * (s1 + AL_ABS(s1));                                                             \
+    s2 = 0.5f * (s2 + AL_ABS(s2));                                                             \
     s0 += (gn0 - 1.0f) * (d0r + s0);                                                           \
     s1 = AL_AFTER(s1 + (gn1 - 1.0f) * (d1r + s1), s0);                                         \
     s2 = AL_AFTER(s2 + (gn2 - 1.0f) * (d2r + s2), s1);                                         \
-    float sstar = hf * (0.5f * (d1 + __builtin_fabsf(d1)) - 0.5f * ((d1 - D) + __builtin_fabsf(d1 - D))); \
-    store4(a_dir, idx, d0r, d1r, d2r, 0.0f);                                                   \
-    store4(a_sc, idx, s0, s1, s2, sstar * (0.2126f * s0 + 0.7152f * s1 + 0.0722f * s2));
+    alf sstar = hf * (0.5f * (d1 + AL_ABS(d1)) - 0.5f * ((d1 - D) + AL_ABS(d1 - D)));          \
+    alf wp = sstar * (0.2126f * s0 + 0.7152f * s1 + 0.0722f * s2);                             \
+    AL_PUT
 
 /* Point lights when every density primitive is homogeneous (factor hf): grey media (the three
  * channels share st, sa), integrated once. vx, vy, vz: camera to light (world); rad2: the
@@ -322,7 +429,7 @@ __kernel void airlight_table_grey(__global const float *depth, __global float4 *
                                   const float vx, const float vy, const float vz, const float rad2)
 {
     AL_GEOMETRY
-    float ld0, lt0;
+    alf ld0, lt0;
     al_channel(tab, st, lst, sa, r, xm, em, off, R, d1, x0, x1, ex0, ex1, lR, sp, sp[4], &ld0, &lt0);
     AL_STORE_GREY
 }
@@ -339,7 +446,7 @@ __kernel void airlight_table(__global const float *depth, __global float4 *a_dir
                              const float vx, const float vy, const float vz, const float rad2)
 {
     AL_GEOMETRY
-    float ld0, lt0, ld1, lt1, ld2, lt2;
+    alf ld0, lt0, ld1, lt1, ld2, lt2;
     al_channel(tab, st0, lst0, sa0, r0, xm0, em0, off0, R, d1, x0, x1, ex0, ex1, lR, sp, sp[4], &ld0, &lt0);
     al_channel(tab, st1, lst1, sa1, r1, xm1, em1, off1, R, d1, x0, x1, ex0, ex1, lR, sp, lt0, &ld1, &lt1);
     al_channel(tab, st2, lst2, sa2, r2, xm2, em2, off2, R, d1, x0, x1, ex0, ex1, lR, sp, lt1, &ld2, &lt2);

@@ -24,16 +24,24 @@ def test_airlight_kernel_against_float64_quadrature():
     assert 0.0 < worst <= 1e-3, where
 
 
-def test_table_kernel_matches_the_quadrature_kernel_on_whole_frames():
+@pytest.mark.parametrize("lanes", [1, 8])
+def test_table_kernel_matches_the_quadrature_kernel_on_whole_frames(lanes, monkeypatch):
     """Point lights in homogeneous media take the tables (airlight_table); the same medium with
     a density primitive of factor 0 takes the quadrature kernel. Over whole frames (lights in
     front, behind, beside, on a ray; grey and chromatic media; g 0 to 0.95), on pixels holding
     >= 1e-3 of the peak: the airlight within 1e-3 relative; its twice-scattered part, the
     difference of two table values (all of the camera leg's attenuation minus its
     extinction), within 3e-3 (measured 1.9e-3: near surfaces, where ss D is small, the
-    difference is 5-10x smaller than its terms)."""
+    difference is 5-10x smaller than its terms). Both builds of the table kernels: one pixel
+    per work-item, and eight (AL_LANES 8, what CPUs with AVX2 and no AVX-512 run), on a width
+    that leaves a row's last work-item 5 pixels."""
+    from fogcli import pipeline
+    from fogcli.runtime import get_runtime
+
+    monkeypatch.setattr(get_runtime(), "lanes", lanes)
+    monkeypatch.setattr(pipeline, "_PLANS", {})       # plans hold the kernels built for their lanes
     rng = np.random.default_rng(11)
-    depth = rng.uniform(1.0, 80.0, (48, 64)).astype(np.float32)
+    depth = rng.uniform(1.0, 80.0, (48, 61)).astype(np.float32)
     depth[:8, :8] = np.inf
     zero_prim = "{type: exponential, factor: 0, falloff: 0.1}"
     worst = [0.0, 0.0]
@@ -49,7 +57,7 @@ def test_table_kernel_matches_the_quadrature_kernel_on_whole_frames():
                 f"medium.scattering=[{ss[0]:.4f}, {ss[1]:.4f}, {ss[2]:.4f}]", light, "camera.max_depth=200"]
         got = []
         for density in ("[{type: homogeneous}]", f"[{{type: homogeneous}}, {zero_prim}]"):
-            _, planes = fogcli.apply(np.zeros((48, 64, 3), np.float32), depth,
+            _, planes = fogcli.apply(np.zeros((48, 61, 3), np.float32), depth,
                                      fogcli.make_config(None, sets=sets + [f"medium.density={density}"]),
                                      aovs=("airlight", "airlight_scattered"), return_aovs=True)
             got.append([np.dstack([planes[f"{n}.{c}"] for c in "RGB"]) for n in ("airlight", "airlight_scattered")])

@@ -320,7 +320,8 @@ class Plan:
         if cfg.lights:
             from .airlight_table import DEFINES
 
-            self.k_lights = rt.program("lights", **d, **DEFINES)
+            self.lanes = rt.lanes      # pixels of a row per work-item of the table kernels (AL_LANES)
+            self.k_lights = rt.program("lights", **d, **DEFINES, AL_LANES=self.lanes)
         else:
             self.k_lights = None
         self._al_tables = None     # (key, device buffer) of airlight_table.tables
@@ -474,15 +475,16 @@ class Plan:
                 ev = self._airlight_noise(t, dst, cam, lm, device_quad()[0], ls, light)
             elif homogeneous and light.type == "point":    # tables instead of quadrature
                 tab, grey, per_channel, common = self._table_args(ls)
+                tsize = self.rt.nd(-(-self.w // self.lanes), self.h)
                 if grey:        # ln(ss I) per channel as its largest and exp(each - largest)
                     lk = [float(x) for x in common[2:5]]
                     lkm = max(lk)
                     scale = [np.float32(math.exp(x - lkm)) for x in lk]
-                    ev = self.k_lights.airlight_table_grey(q, *size, self.depth, *dst, np.int32(self.w),
+                    ev = self.k_lights.airlight_table_grey(q, *tsize, self.depth, *dst, np.int32(self.w),
                                                            np.int32(self.h), cam, tab, *common[:2], *per_channel[0],
                                                            np.float32(lkm), *scale, *common[5:])
                 else:
-                    ev = self.k_lights.airlight_table(q, *size, self.depth, *dst, np.int32(self.w), np.int32(self.h),
+                    ev = self.k_lights.airlight_table(q, *tsize, self.depth, *dst, np.int32(self.w), np.int32(self.h),
                                                       cam, tab, *common[:2], *[x for c in per_channel for x in c],
                                                       *common[2:])
             elif homogeneous and light.type == "directional":     # closed form
