@@ -289,7 +289,10 @@ def write_doc(ctx: dict, doc: str | None) -> None:
       "photons near the cameras keep their weight and the time saved outside R pays for them. "
       "Unbiased. A last roulette (keep 1/2) after 120 / sqrt(1 - g) scatterings bounds the time.")
     L("* Fit: NNLS on the ring energies (the profile weighted by u du) and the cumulative energy, "
-      "with sum(w) = energy imposed exactly. Light narrower than sigma_0 goes to w_0.")
+      "with sum(w) = energy imposed exactly, plus a small penalty on the weights' second difference "
+      f"across widths (`apsf_mc.FIT_SMOOTH` = {mc.FIT_SMOOTH:g}): neighbouring half-octave Gaussians are "
+      "nearly interchangeable, and without it the fit is sparse and picks different ones at neighbouring "
+      "albedos, which interpolation then mixes. Light narrower than sigma_0 goes to w_0.")
     L("")
     L("## Estimator check: single scattering against quadrature")
     L("")

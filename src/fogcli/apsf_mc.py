@@ -73,6 +73,12 @@ import numpy as np
 J = 31
 SIGMA_U = 2.0 ** (-14 + np.arange(J) / 2.0)           # Gaussian widths in u = tan(theta)
 N_MU = 20                                              # emission-cosine bins over [-1, 1]
+# Neighbouring half-octave Gaussians are nearly interchangeable, so the plain NNLS fit is
+# sparse and picks different ones at neighbouring albedos: interpolating such weights mixes
+# two different kernels (up to 3 % ring error at albedo midpoints, tau 1-5). A small
+# penalty on the weights' second difference makes them a smooth function of the profile:
+# 0.5 % there, for < 0.01 more fit error on noise-free profiles (docs/apsf-table.md).
+FIT_SMOOTH = 0.03
 
 
 def theta_edges(theta0: float = 2e-5, per_octave: int = 6, back_bins: int = 9) -> np.ndarray:
@@ -433,17 +439,19 @@ def gaussian_cdf(u: np.ndarray, sigma=SIGMA_U) -> np.ndarray:
     return np.where(np.isinf(u)[:, None], 1.0, c)
 
 
-def fit_gaussians(th_edges: np.ndarray, f: np.ndarray, sigma=SIGMA_U):
+def fit_gaussians(th_edges: np.ndarray, f: np.ndarray, sigma=SIGMA_U, smooth: float = FIT_SMOOTH):
     """Non-negative weights of the unit Gaussians reproducing the ring energies of K(u).
     Least squares on the ring energies (the profile weighted by u du, i.e. what a ring of
     pixels receives) plus the cumulative energy, with sum(w) = energy as a heavily weighted
-    row and then imposed exactly. Returns weights (..., J), energy (...), and the error:
+    row and then imposed exactly, plus `smooth` times the second difference of the weights
+    across widths (see FIT_SMOOTH). Returns weights (..., J), energy (...), and the error:
     sum over rings |fit - K| / energy."""
     from scipy.optimize import nnls           # scipy is only needed to build the table
     ring, u = kernel_bins(th_edges, f)
     cdf = gaussian_cdf(u, sigma)
     A_ring = np.diff(cdf, axis=0)                                     # (nf, J)
     A_cum = cdf[1:-1]
+    D2 = np.diff(np.eye(len(sigma)), n=2, axis=0)
     shp = ring.shape[:-1]
     ring2 = ring.reshape(-1, ring.shape[-1])
     W = np.zeros((len(ring2), len(sigma)))
@@ -454,8 +462,8 @@ def fit_gaussians(th_edges: np.ndarray, f: np.ndarray, sigma=SIGMA_U):
         if not E > 0:
             continue
         b_ring, b_cum = k / E, np.cumsum(k)[:-1] / E
-        A = np.vstack([A_ring, 0.5 * A_cum, 100.0 * np.ones((1, len(sigma)))])
-        b = np.concatenate([b_ring, 0.5 * b_cum, [100.0]])
+        A = np.vstack([A_ring, 0.5 * A_cum, smooth * D2, 100.0 * np.ones((1, len(sigma)))])
+        b = np.concatenate([b_ring, 0.5 * b_cum, np.zeros(len(D2)), [100.0]])
         w, _ = nnls(A, b, maxiter=2000)
         w *= 1.0 / w.sum()
         W[i] = w * E
