@@ -497,11 +497,11 @@ __kernel void epi_samples(__global const float *depth, __global float4 *sh_a, __
         return;
     }
     float3 fA, fT;
-    march_shares(depth, width, height, cam, m, prims, L, thickness, offscreen_shadowed, px, py, &fA, &fT,
-                 maps + (size_t)k * 4 * SH_BINS, ranges[k]);
+    int shadowed = march_shares(depth, width, height, cam, m, prims, L, thickness, offscreen_shadowed, px, py,
+                                &fA, &fT, maps + (size_t)k * 4 * SH_BINS, ranges[k]);
     float Dn;
     sh_a[s] = (float4)(fA, pixel_z(&cam, depth, width, (int)px, (int)py, &Dn));
-    sh_t[s] = (float4)(fT, 1.0f);
+    sh_t[s] = (float4)(fT, shadowed ? 1.0f : 2.0f);      /* .w: 0 outside, 2 nothing in shadow */
 }
 
 /* atan2 to 2e-6 rad (an odd degree-11 polynomial of atan on [0, 1]): the slice index needs
@@ -509,7 +509,7 @@ __kernel void epi_samples(__global const float *depth, __global float4 *sh_a, __
  * of the unwarp's time */
 inline float fast_atan2(float y, float x)
 {
-    float ax = fabs(x), ay = fabs(y), mx = maxf(ax, ay);
+    float ax = __builtin_fabsf(x), ay = __builtin_fabsf(y), mx = maxf(ax, ay);
     float a = mx > 0.0f ? minf(ax, ay) / mx : 0.0f, q = a * a;
     float r = a * (((((-0.0117212f * q + 0.05265332f) * q - 0.11643287f) * q + 0.19354346f) * q - 0.33262347f) * q
                    + 0.99997726f);
@@ -518,62 +518,110 @@ inline float fast_atan2(float y, float x)
     return y < 0.0f ? -r : r;
 }
 
+/* Every pixel from the four samples around it: Intel's unwarp, bilinear weights times
+ * (thr / max(|dz|, thr))^4, thr 3 % of the pixel's depth, so that samples on another surface
+ * hardly count. A pixel within 8 pixels of the light's image, or whose weights sum to less
+ * than 1e-2, is flagged (march[idx] = 1) and marched by epi_march. Kept free of calls,
+ * atomics and float3 values, with the march out of it and the channels chained by SH_AFTER,
+ * so that PoCL vectorises it: a call anywhere in a kernel, even on a branch a pixel in 10000
+ * takes, or side-by-side steps that LLVM pairs kept the whole of it scalar (95 ms at 2 MPx,
+ * now 33). A sample's .w of sh_t says whether nothing on its ray is in shadow (2). */
+/* v after prev (0 * prev is not folded without fast math): keeps LLVM's SLP pass from pairing
+ * the channels' (or the samples') side-by-side steps into short vectors before PoCL builds
+ * the loop over work-items, which such a value stops (kernels/lights.cl, AL_AFTER) */
+#define SH_AFTER(v, prev) ((v) + 0.0f * (prev))
+
 __kernel void epi_unwarp(__global const float *depth, __global float4 *a_dir, __global float4 *a_sc,
                          __global const float4 *sh_a, __global const float4 *sh_t,
-                         const int width, const int height, const camera_t cam, const lmedium_t m,
-                         __global const float4 *prims, const light_t L, const float thickness,
-                         const int offscreen_shadowed, const float ex, const float ey, const float a0,
+                         const int width, const int height, const camera_t cam,
+                         const float ex, const float ey, const float a0,
                          const float da, const float r0, const float rb, const float h1, const float h2,
                          const int m1, const int nm, const int ns,
-                         const int full_circle, __global int *marched)         /* marched[0]: pixels marched */
+                         const int full_circle, __global uchar *march)
 {
     int i = get_global_id(0), j = get_global_id(1);
     if (i >= width || j >= height) return;
     int idx = j * width + i;
-    float4 od = a_dir[idx], os = a_sc[idx];
-    if (od.x + od.y + od.z + os.x + os.y + os.z <= 0.0f) return;      /* no light here to shadow */
+    float d0, d1, d2, dw, s0, s1, s2, sw;
+    load4(a_dir, idx, &d0, &d1, &d2, &dw);
+    load4(a_sc, idx, &s0, &s1, &s2, &sw);
+    int light = d0 + d1 + d2 + s0 + s1 + s2 > 0.0f;           /* no light here: nothing to shadow */
     float px = i + 0.5f, py = j + 0.5f;
     float dx = px - ex, dy = py - ey, r = SQRT_(dx * dx + dy * dy);
     float rel = fast_atan2(dy, dx) - a0;
-    if (full_circle) rel -= 2.0f * M_PI_F * floor(rel / (2.0f * M_PI_F));
+    const float two_pi = 2.0f * M_PI_F;
+    rel = full_circle ? rel - two_pi * (float)floor_i(rel / two_pi) : rel;
     float fk = rel / da, fm = r < rb ? (r - r0) / h1 : m1 + (r - rb) / h2;
-    int k0 = (int)floor(fk), m0 = (int)floor(fm);
-    float tk = fk - k0, tm = fm - m0;
+    /* clamped before the conversion: far outside the slices fk can exceed the int range */
+    fk = fk < -4.0f ? -4.0f : (fk > ns + 4.0f ? ns + 4.0f : fk);
+    int k0 = floor_i(fk);
+    float tk = fk - k0;
+    fm = SH_AFTER(fm, tk);
+    fm = fm < -4.0f ? -4.0f : (fm > nm + 4.0f ? nm + 4.0f : fm);
+    int m0 = floor_i(fm);
+    float tm = fm - m0;
     int k1 = k0 + 1;
-    if (full_circle) {
-        k0 = (k0 % ns + ns) % ns;
-        k1 = (k1 % ns + ns) % ns;
-    }
+    k0 = full_circle ? (k0 % ns + ns) % ns : k0;
+    k1 = full_circle ? (k1 % ns + ns) % ns : k1;
     int ok = r >= 8.0f && m0 >= 0 && m0 + 1 < nm && k0 >= 0 && k1 < ns;
-    float3 fA = (float3)(0.0f), fT = (float3)(0.0f);
-    if (ok) {
-        /* Intel's unwarp: bilinear weights times (thr / max(|dz|, thr))^4, thr 3 % of the
-         * pixel's depth, so that samples on another surface hardly count; marched below when
-         * the weights sum to less than 1e-2 */
-        float Dn;
-        float zp = pixel_z(&cam, depth, width, i, j, &Dn), thr = 0.03f * zp, sum = 0.0f;
-        int lit = 1;            /* all four samples unshadowed: the pixel keeps its airlight */
-        for (int c = 0; c < 4; ++c) {
-            int kk = (c & 1) ? k1 : k0, mm = m0 + (c >> 1);
-            int s = kk * nm + mm;
-            float4 a = sh_a[s], t = sh_t[s];
-            lit = lit && a.x == 1.0f && a.y == 1.0f && a.z == 1.0f && t.x == 1.0f && t.y == 1.0f && t.z == 1.0f;
-            float q = thr / maxf(fabs(a.w - zp), thr);
-            float wgt = t.w * ((c & 1) ? tk : 1.0f - tk) * ((c >> 1) ? tm : 1.0f - tm) * (q * q) * (q * q);
-            sum += wgt;
-            fA += wgt * a.xyz;
-            fT += wgt * t.xyz;
-        }
-        ok = sum >= 1e-2f;
-        if (ok && lit) return;
-        fA /= sum;
-        fT /= sum;
+    /* out of range: read sample 0 (weights unused) rather than branch around the reads */
+    int kk0 = ok ? k0 : 0, kk1 = ok ? k1 : 0, mm0 = ok ? m0 : 0;
+    /* pixel_z without its float3 ray */
+    float wx, wy, wz;
+    float Dp = pixel_ray(&cam, i, j, depth[idx], &wx, &wy, &wz);
+    float qx = (px - cam.cx) / cam.focal_px, qy = (py - cam.cy) / cam.focal_y;
+    float zp = Dp / SQRT_(qx * qx + qy * qy + 1.0f), thr = 0.03f * zp;
+    float sum = 0.0f, fa0 = 0.0f, fa1 = 0.0f, fa2 = 0.0f, ft0 = 0.0f, ft1 = 0.0f, ft2 = 0.0f;
+    int lit = 1;            /* all four samples unshadowed: the pixel keeps its airlight */
+#pragma unroll
+    for (int c = 0; c < 4; ++c) {
+        int s = ((c & 1) ? kk1 : kk0) * nm + mm0 + (c >> 1);
+        float a_0, a_1, a_2, a_w, t_0, t_1, t_2, t_w;
+        load4(sh_a, s, &a_0, &a_1, &a_2, &a_w);
+        load4(sh_t, s, &t_0, &t_1, &t_2, &t_w);
+        lit &= t_w == 2.0f;
+        float dz = __builtin_fabsf(SH_AFTER(a_w, sum) - zp);
+        float q = thr / (dz > thr ? dz : thr);
+        float wgt = (t_w > 0.0f ? 1.0f : 0.0f) * ((c & 1) ? tk : 1.0f - tk) * ((c >> 1) ? tm : 1.0f - tm) * (q * q) * (q * q);
+        sum += wgt;
+        fa0 += wgt * a_0;
+        fa1 += SH_AFTER(wgt, fa0) * a_1;
+        fa2 += SH_AFTER(wgt, fa1) * a_2;
+        ft0 += SH_AFTER(wgt, fa2) * t_0;
+        ft1 += SH_AFTER(wgt, ft0) * t_1;
+        ft2 += SH_AFTER(wgt, ft1) * t_2;
     }
-    if (!ok) {
-        atomic_inc(marched);
-        if (!march_shares(depth, width, height, cam, m, prims, L, thickness, offscreen_shadowed, px, py, &fA, &fT,
-                          0, (float4)(0.0f)))
-            return;
+    ok = ok && sum >= 1e-2f;
+    march[idx] = light && !ok;
+    float inv = 1.0f / (sum > 0.0f ? sum : 1.0f);
+    /* apply_shares, in scalars, each channel after the last (SH_AFTER) */
+    float n0 = fa0 * inv * d0, n1 = SH_AFTER(fa1 * inv * d1, n0), n2 = SH_AFTER(fa2 * inv * d2, n1);
+    float c0 = SH_AFTER(ft0 * inv * (s0 + d0) - n0, n2);
+    float c1 = SH_AFTER(ft1 * inv * (s1 + d1) - n1, c0);
+    float c2 = SH_AFTER(ft2 * inv * (s2 + d2) - n2, c1);
+    c0 = c0 > 0.0f ? c0 : 0.0f;
+    c1 = c1 > 0.0f ? c1 : 0.0f;
+    c2 = c2 > 0.0f ? c2 : 0.0f;
+    float y0 = 0.2126f * s0 + 0.7152f * s1 + 0.0722f * s2, y1 = 0.2126f * c0 + 0.7152f * c1 + 0.0722f * c2;
+    if (light && ok && !lit) {
+        store4(a_dir, idx, n0, n1, n2, dw);
+        store4(a_sc, idx, c0, c1, c2, y0 > 0.0f ? sw * (y1 / y0) : 0.0f);
     }
-    apply_shares(a_dir, a_sc, idx, fA, fT);
+}
+
+/* The pixels epi_unwarp flagged, marched themselves (marched[0] counts them). */
+__kernel void epi_march(__global const float *depth, __global float4 *a_dir, __global float4 *a_sc,
+                        const int width, const int height, const camera_t cam, const lmedium_t m,
+                        __global const float4 *prims, const light_t L, const float thickness,
+                        const int offscreen_shadowed, __global const uchar *march, __global int *marched)
+{
+    int i = get_global_id(0), j = get_global_id(1);
+    if (i >= width || j >= height) return;
+    int idx = j * width + i;
+    if (!march[idx]) return;
+    atomic_inc(marched);
+    float3 fA, fT;
+    if (march_shares(depth, width, height, cam, m, prims, L, thickness, offscreen_shadowed, i + 0.5f, j + 0.5f,
+                     &fA, &fT, 0, (float4)(0.0f)))
+        apply_shares(a_dir, a_sc, idx, fA, fT);
 }

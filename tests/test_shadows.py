@@ -97,7 +97,7 @@ def test_awkward_lights_give_finite_shares_and_no_false_shadows():
 
 
 def test_epipolar_sampling_matches_the_march():
-    """render.lights.method epipolar (the default; step 16 and 1024 slices, at most 1/16 of the
+    """render.lights.method epipolar (the default; step 16 and 512 slices, at most 1/16 of the
     longer side and two slices per border pixel) against march on the facade scene at 256 x 192
     and 64 x 48, thickness 0.05 m, five lights: relative L1 of the airlight <= 1 % (measured
     0.02-0.94 % at both sizes: the error is along the slices, where a shadow's edge falls

@@ -296,7 +296,8 @@ class LightsRender(_Model):
         "epipolar", description="shadows: epipolar (marched at samples on lines through the light's image, "
         "interpolated) | march (every pixel marched: the reference)")
     slices: Annotated[int, Field(ge=16, le=16384, strict=True)] = Field(
-        1024, description="epipolar: lines through the light's image (at most two per border pixel)")
+        512, description="epipolar: lines through the light's image (at most two per border pixel); more are closer "
+        "where a shadow's edge falls between lines, at a cost in proportion (docs/lights.md, Shadows)")
     step: Annotated[int, Field(ge=1, le=64, strict=True)] = Field(
         16, description="epipolar: pixels between samples on a line (at most 1/16 of the image's longer side)")
     thickness: Annotated[Num, Field(gt=0)] = Field(1.0, description="m, how far behind a visible surface it blocks light")

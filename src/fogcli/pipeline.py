@@ -182,6 +182,7 @@ class Features:
     lambert: bool         # emission_profile lambertian: view cosines
     aovs: tuple
     reference: bool       # method reference: three more full-size planes
+    epipolar: bool        # lights with screen shadows, method epipolar: a flag per pixel
 
 
 # The per-frame device buffers, declared once: name -> bytes for n pixels, a pyramid of t
@@ -206,6 +207,7 @@ BUFFERS = {
     "level_aov": lambda n, t, f: 4 * n * bool(f.aovs),
     "scat_aov": lambda n, t, f: 16 * n * bool(f.aovs),
     "cosines": lambda n, t, f: 4 * n * f.lambert,
+    "epi_flags": lambda n, t, f: n * f.epipolar,           # pixels the epipolar unwarp leaves to the march
 }
 REFERENCE_BUFFERS = {"src": lambda n: 16 * n, "tmp": lambda n: 16 * n, "acc": lambda n: 16 * n}
 
@@ -215,7 +217,8 @@ def plan_features(cfg: Config, aovs=()) -> Features:
     source = r.method == "pyramid" and r.fetch == "source"
     return Features(source, r.method == "pyramid" and r.separation.enabled,
                     bool({"optical_depth", "emission", "direct"} & set(aovs)), bool(cfg.lights),
-                    uses_apsf(cfg) and r.emission_profile == "lambertian", tuple(aovs), r.method == "reference")
+                    uses_apsf(cfg) and r.emission_profile == "lambertian", tuple(aovs), r.method == "reference",
+                    bool(cfg.lights) and r.lights.shadows == "screen" and r.lights.method == "epipolar")
 
 
 def buffer_bytes(n: int, t: int, f: Features) -> dict:
@@ -548,7 +551,7 @@ class Plan:
         """render.lights.method: epipolar (kernels/shadows.cl): each slice through the light's
         image walked once into a 1D shadow map with min/max trees (epi_maps), the shares at
         samples on the slices read from them (epi_samples), then every pixel from its four
-        samples, or marched (epi_unwarp).
+        samples (epi_unwarp), or marched (epi_march: the pixels epi_unwarp flagged).
         self.epi_marched[0]: how many pixels were marched themselves (benchmarks/shadows.py)."""
         from .lights import epipolar_layout
 
@@ -573,7 +576,9 @@ class Plan:
         t.add("shadows", k.epi_samples(q, *self.rt.nd(nm, ns), self.depth, sh_a, sh_t, np.int32(self.w),
                                        np.int32(self.h), *sh_args, *lay, maps, ranges))
         t.add("shadows", k.epi_unwarp(q, *self.rt.nd(self.w, self.h), self.depth, *dst, sh_a, sh_t, np.int32(self.w),
-                                      np.int32(self.h), *sh_args, *lay, np.int32(full), counter))
+                                      np.int32(self.h), cam_, *lay, np.int32(full), self.epi_flags))
+        t.add("shadows", k.epi_march(q, *self.rt.nd(self.w, self.h), self.depth, *dst, np.int32(self.w),
+                                     np.int32(self.h), *sh_args, self.epi_flags, counter))
         cl.enqueue_copy(q, self.epi_marched, counter, is_blocking=False)     # read with the download
 
     def _airlight_tables(self):
