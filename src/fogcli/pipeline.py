@@ -212,6 +212,24 @@ BUFFERS = {
 REFERENCE_BUFFERS = {"src": lambda n: 16 * n, "tmp": lambda n: 16 * n, "acc": lambda n: 16 * n}
 
 
+def pair_region(sizes: list, nt: int, local: tuple) -> tuple | None:
+    """The pixels composite_source_pairs takes, (x0, x1, y0, y1), on whole work-groups of pairs:
+    where level 1's taps (nt + 1 columns about x / 2, nt rows) and the half image's x - 1 .. x + 2
+    need no clamp and the apsf conservation factors are 1 (up2_cons: 2 texels from level 1's
+    edges). None when the levels are too few or the image too small for one work-group."""
+    if len(sizes) < 2:
+        return None
+    (w, h), (w1, h1) = sizes[0], sizes[1]
+    xs = [i2 for i2 in range(w // 2) if i2 - nt // 2 >= 2 and i2 + nt // 2 + 1 <= w1 - 2 and 2 * i2 + 2 <= w - 1]
+    ys = [j for j in range(h) if (j >> 1) - nt // 2 + (j & 1) >= 2 and (j >> 1) + nt // 2 + (j & 1) <= h1 - 2]
+    if not xs or not ys:
+        return None
+    nx, ny = (xs[-1] + 1 - xs[0]) // local[0] * local[0], (ys[-1] + 1 - ys[0]) // local[1] * local[1]
+    if nx == 0 or ny == 0:
+        return None
+    return 2 * xs[0], 2 * (xs[0] + nx), ys[0], ys[0] + ny
+
+
 def plan_features(cfg: Config, aovs=()) -> Features:
     r = cfg.render
     source = r.method == "pyramid" and r.fetch == "source"
@@ -311,12 +329,15 @@ class Plan:
         self.k_comp = rt.program("composite", **d).composite
         # composite_source: what it writes fixed at build time, on whole work-groups (as preprocess);
         # [True]: the separated chain's pass, which adds its light
-        self.k_comp_src = {}
+        # and composite_source_pairs, two pixels a work-item, on the part away from the edges
+        self.k_comp_src, self.k_comp_pairs = {}, {}
         for second in (False, True) if self.sep else (False,):
             comp = dict(d, COMP_AOV=int(bool(self.aovs)), COMP_SPLIT_MEDIUM=int(self.split_medium),
                         COMP_ACCUMULATE=int(second))
-            self.k_comp_src[second] = (rt.program("composite", WHOLE_GROUPS=1, **comp).composite_source,
-                                       rt.program("composite", **comp).composite_source)
+            whole = rt.program("composite", WHOLE_GROUPS=1, **comp)
+            self.k_comp_src[second] = (whole.composite_source, rt.program("composite", **comp).composite_source)
+            self.k_comp_pairs[second] = whole.composite_source_pairs
+        self._pairs = pair_region(self.sizes, 2 if d["INTERP"] == 0 else 4, rt.local2d)
         self.k_comp_sep = rt.program("composite", **d).composite_separated
         self.k_border_src = pyr.border_sources if self.apsf else None
         self.k_border_inject = pyr.border_inject if self.apsf else None
@@ -715,10 +736,20 @@ class Plan:
         chain, half, prep = self.source_bufs(second)
         if top > 0:
             self.split(t, 0, chain, half)
-        t.add("composite", self.rt.launch2d(
-            self.k_comp_src[second], self.w, self.h, self.direct, self.medium, chain, half, self.lv_buf,
-            np.int32(top), np.float32(self.cfg.render.resolved()[0]), np.float32(self.half_step()), self.out,
-            self.level_aov, self.scat_aov, prep, self.spread, self.edge, self.cons, np.int32(self.cons_off[1])))
+        args = (self.direct, self.medium, chain, half, self.lv_buf, np.int32(top),
+                np.float32(self.cfg.render.resolved()[0]), np.float32(self.half_step()), self.out, self.level_aov,
+                self.scat_aov, prep, self.spread, self.edge, self.cons, np.int32(self.cons_off[1]))
+        if self._pairs is None:
+            t.add("composite", self.rt.launch2d(self.k_comp_src[second], self.w, self.h, *args))
+            return
+        # the pairs' rectangle [x0, x1) x [y0, y1) on whole work-groups, the frame around it checked
+        (x0, x1, y0, y1), q, checked = self._pairs, self.rt.queue, self.k_comp_src[second][1]
+        t.add("composite", self.k_comp_pairs[second](q, ((x1 - x0) // 2, y1 - y0), self.rt.local2d, *args,
+                                                     global_offset=(x0 // 2, y0)))
+        for gx, gy, ox, oy in ((self.w, y0, 0, 0), (self.w, self.h - y1, 0, y1), (x0, y1 - y0, 0, y0),
+                               (self.w - x1, y1 - y0, x1, y0)):
+            if gx > 0 and gy > 0:
+                t.add("composite", checked(q, (gx, gy), None, *args, global_offset=(ox, oy)))
 
     def extend(self, t: Timings) -> bool:
         """render.border: extend. The frame's edge continued `border_margin` past each side:
