@@ -85,14 +85,14 @@ __kernel void composite(__global const float4 *direct, __global const float4 *me
 #ifndef COMP_SPLIT_MEDIUM
 #define COMP_SPLIT_MEDIUM 0
 #endif
-__kernel void composite_source(__global const float4 *direct, __global const float4 *medium_term,
-                               __global const float4 *chain, __global const float4 *half_img,
-                               __global const int4 *lv, const int kmax, const float c,
-                               const float a, __global float4 *out,
-                               __global float *level_aov, __global float4 *scattered_aov,
-                               __global const float4 *prep, __global const float *spread0,
-                               __global const float *edge, __global const float *cons,
-                               const int cons_up)
+/* the arguments of composite_source and composite_source_pairs (launched alike) */
+#define COMP_SOURCE_ARGS                                                                          \
+    __global const float4 *direct, __global const float4 *medium_term, __global const float4 *chain, \
+    __global const float4 *half_img, __global const int4 *lv, const int kmax, const float c,     \
+    const float a, __global float4 *out, __global float *level_aov, __global float4 *scattered_aov, \
+    __global const float4 *prep, __global const float *spread0, __global const float *edge,      \
+    __global const float *cons, const int cons_up
+__kernel void composite_source(COMP_SOURCE_ARGS)
 {
     int i = get_global_id(0), j = get_global_id(1);
     int width = lv[0].y, height = lv[0].z;
@@ -216,14 +216,7 @@ __attribute__((always_inline)) inline void comp_pixel(int idx, int x, int j, int
 #endif
 }
 
-__kernel void composite_source_pairs(__global const float4 *direct, __global const float4 *medium_term,
-                                     __global const float4 *chain, __global const float4 *half_img,
-                                     __global const int4 *lv, const int kmax, const float c,
-                                     const float a, __global float4 *out,
-                                     __global float *level_aov, __global float4 *scattered_aov,
-                                     __global const float4 *prep, __global const float *spread0,
-                                     __global const float *edge, __global const float *cons,
-                                     const int cons_up)
+__kernel void composite_source_pairs(COMP_SOURCE_ARGS)
 {
     int i2 = get_global_id(0), j = get_global_id(1);
     int width = lv[0].y, height = lv[0].z;
