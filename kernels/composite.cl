@@ -1,6 +1,7 @@
 /* Stage 3: depth-blurred level selection and the final sum (Elek eq. 10-12, Iser 4.4.3,
  * 4.4.5). Level geometry comes from the plan: lv[k] = (offset, width, height, 0). */
 #include "common.h"
+#include "pairs.h"
 
 /* level_fetch: one integer level, 2D interpolated at the level-0 pixel centre p0;
  * chain_linear: linear across the two levels around `level` (clamped to kmax). */
@@ -125,71 +126,13 @@ __kernel void composite_source(COMP_SOURCE_ARGS)
 #endif
 }
 
-/* composite_source on two horizontally adjacent pixels per work-item, for the part of the
- * image away from its edges (the host launches it there on whole work-groups and
- * composite_source on the frame around it). Per pixel, composite_source reads level 1 at
- * x >> 1 and the half image at clamped neighbours: gathers, and float4 values, which keep
- * PoCL from vectorising it (it ran scalar, ~35 ms at 2 MPx). Here the two pixels of a pair
- * read level 1 at the same UP_NT + 1 columns around i2 and the half image at x - 1 .. x + 2,
- * none clamped, every channel a scalar: the reads are linear in the work-item, and the
- * kernel vectorises. Away from the edges the apsf conservation factors are 1 (up2_cons). */
-#if INTERP == 0
-#define UP_NT 2
-__constant float UP_WE[2] = {0.25f, 0.75f};        /* even x: taps i2 - 1, i2 (up2_fetch4) */
-__constant float UP_WO[2] = {0.75f, 0.25f};        /* odd x: taps i2, i2 + 1 */
-#else
-#define UP_NT 4
-__constant float UP_WE[4] = {0.00260417f, 0.31510417f, 0.61197917f, 0.0703125f};
-__constant float UP_WO[4] = {0.0703125f, 0.61197917f, 0.31510417f, 0.00260417f};
-#endif
-/* v after prev (0 * prev is not folded without fast math): keeps LLVM's SLP pass from pairing
- * the channels' side-by-side steps into short vectors, which stop the loop vectoriser */
-#define CP_AFTER(v, prev) ((v) + 0.0f * (prev))
-
-/* one pixel of the pair: keep_px + store_out of composite_source, in scalars */
-__attribute__((always_inline)) inline void comp_pixel(int idx, int x, int j, int width, float u0, float u1, float u2,
-                       __global const float *r0, __global const float *r1, __global const float *r2,
-                       float a, __global const float4 *chain, __global const float4 *prep,
-                       __global const float4 *direct, __global const float4 *medium_term,
-                       __global float4 *out, __global float *level_aov, __global float4 *scattered_aov,
-                       __global const float *spread0, __global const float *edge, float c, int kmax, int height)
+/* composite_source_pairs: pairs.h. One pixel of a pair: store_out of composite_source, in
+ * scalars, of the kept and up-sampled light s. */
+PAIR_INLINE void comp_store(int idx, float s0, float s1, float s2, __global const float4 *direct,
+                            __global const float4 *medium_term, __global float4 *out,
+                            __global float *level_aov, __global float4 *scattered_aov,
+                            __global const float *spread0, float c, int kmax)
 {
-    float b = 1.0f - 2.0f * a;
-    /* half_blur: rows r0, r1, r2 (clamped by the caller), columns x - 1, x, x + 1 */
-    float h0 = a * (a * r0[4 * x - 4] + b * r0[4 * x] + a * r0[4 * x + 4])
-             + b * (a * r1[4 * x - 4] + b * r1[4 * x] + a * r1[4 * x + 4])
-             + a * (a * r2[4 * x - 4] + b * r2[4 * x] + a * r2[4 * x + 4]);
-    float h1 = a * (a * r0[4 * x - 3] + b * r0[4 * x + 1] + a * r0[4 * x + 5])
-             + b * (a * r1[4 * x - 3] + b * r1[4 * x + 1] + a * r1[4 * x + 5])
-             + a * (a * r2[4 * x - 3] + b * r2[4 * x + 1] + a * r2[4 * x + 5]);
-    h1 = CP_AFTER(h1, h0);
-    float h2 = a * (a * r0[4 * x - 2] + b * r0[4 * x + 2] + a * r0[4 * x + 6])
-             + b * (a * r1[4 * x - 2] + b * r1[4 * x + 2] + a * r1[4 * x + 6])
-             + a * (a * r2[4 * x - 2] + b * r2[4 * x + 2] + a * r2[4 * x + 6]);
-    h2 = CP_AFTER(h2, h1);
-    float v0, v1, v2, vw, p0, p1, p2, pw;
-    load4(chain, idx, &v0, &v1, &v2, &vw);
-    load4(prep, idx, &p0, &p1, &p2, &pw);
-    float c0 = r1[4 * x], c1 = r1[4 * x + 1], c2 = r1[4 * x + 2], cw = r1[4 * x + 3];
-#ifdef PSF_APSF
-#ifdef BORDER_OPEN
-    float es = edge[x] * edge[width + j], eh = edge[width + height + x] * edge[2 * width + height + j];
-    float s0 = h0 + (v0 - p0 - c0 / eh) * es;
-    float s1 = CP_AFTER(h1 + (v1 - p1 - c1 / eh) * es, s0);
-    float s2 = CP_AFTER(h2 + (v2 - p2 - c2 / eh) * es, s1);
-#else
-    float s0 = h0 + v0 - p0 - c0;
-    float s1 = CP_AFTER(h1 + v1 - p1 - c1, s0);
-    float s2 = CP_AFTER(h2 + v2 - p2 - c2, s1);
-#endif
-#else
-    float s0 = h0 + (1.0f - cw) * v0;
-    float s1 = CP_AFTER(h1 + (1.0f - cw) * v1, s0);
-    float s2 = CP_AFTER(h2 + (1.0f - cw) * v2, s1);
-#endif
-    s0 += u0;
-    s1 = CP_AFTER(s1 + u1, s0);
-    s2 = CP_AFTER(s2 + u2, s1);
 #if COMP_ACCUMULATE
     float o0, o1, o2, ow;
     load4(out, idx, &o0, &o1, &o2, &ow);
@@ -221,43 +164,13 @@ __kernel void composite_source_pairs(COMP_SOURCE_ARGS)
     int i2 = get_global_id(0), j = get_global_id(1);
     int width = lv[0].y, height = lv[0].z;
     int x = 2 * i2, idx = j * width + x;
-    int w1 = lv[1].y;
-    __global const float *up = (__global const float *)(chain + lv[1].x);
-    /* level 1 at columns i2 - UP_NT / 2 .. i2 + UP_NT / 2: the even pixel's taps are the first
-     * UP_NT, the odd one's the last UP_NT; the rows and their weights are the row's own */
-    int y0 = (j >> 1) - UP_NT / 2 + (j & 1);
-    float e0 = 0.0f, e1 = 0.0f, e2 = 0.0f, o0 = 0.0f, o1 = 0.0f, o2 = 0.0f;
-#pragma unroll
-    for (int r = 0; r < UP_NT; ++r) {
-        float wr = (j & 1) ? UP_WO[r] : UP_WE[r];
-        __global const float *row = up + 4 * ((y0 + r) * w1 + i2 - UP_NT / 2);
-        float re0 = 0.0f, re1 = 0.0f, re2 = 0.0f, ro0 = 0.0f, ro1 = 0.0f, ro2 = 0.0f;
-#pragma unroll
-        for (int t = 0; t <= UP_NT; ++t) {
-            float we = t < UP_NT ? UP_WE[t] : 0.0f, wo = t > 0 ? UP_WO[t - 1] : 0.0f;
-            float q0 = row[4 * t], q1 = row[4 * t + 1], q2 = row[4 * t + 2];
-            re0 += we * q0;
-            re1 = CP_AFTER(re1 + we * q1, re0);
-            re2 = CP_AFTER(re2 + we * q2, re1);
-            ro0 = CP_AFTER(ro0 + wo * q0, re2);
-            ro1 = CP_AFTER(ro1 + wo * q1, ro0);
-            ro2 = CP_AFTER(ro2 + wo * q2, ro1);
-        }
-        e0 += wr * re0;
-        e1 = CP_AFTER(e1 + wr * re1, e0);
-        e2 = CP_AFTER(e2 + wr * re2, e1);
-        o0 = CP_AFTER(o0 + wr * ro0, e2);
-        o1 = CP_AFTER(o1 + wr * ro1, o0);
-        o2 = CP_AFTER(o2 + wr * ro2, o1);
-    }
-    __global const float *hb = (__global const float *)half_img;
-    __global const float *r0 = hb + 4 * (j > 0 ? j - 1 : 0) * width;
-    __global const float *r1 = hb + 4 * j * width;
-    __global const float *r2 = hb + 4 * (j + 1 < height ? j + 1 : height - 1) * width;
-    comp_pixel(idx, x, j, width, e0, e1, e2, r0, r1, r2, a, chain, prep, direct, medium_term, out,
-               level_aov, scattered_aov, spread0, edge, c, kmax, height);
-    comp_pixel(idx + 1, x + 1, j, width, o0, o1, o2, r0, r1, r2, a, chain, prep, direct, medium_term, out,
-               level_aov, scattered_aov, spread0, edge, c, kmax, height);
+    float e0, e1, e2, o0, o1, o2, s0, s1, s2;
+    pair_up((__global const float *)(chain + lv[1].x), lv[1].y, i2, j, &e0, &e1, &e2, &o0, &o1, &o2);
+    PAIR_ROWS(half_img, j, width, height)
+    pair_keep(chain, prep, idx, x, j, width, height, r0, r1, r2, a, edge, e0, e1, e2, &s0, &s1, &s2);
+    comp_store(idx, s0, s1, s2, direct, medium_term, out, level_aov, scattered_aov, spread0, c, kmax);
+    pair_keep(chain, prep, idx + 1, x + 1, j, width, height, r0, r1, r2, a, edge, o0, o1, o2, &s0, &s1, &s2);
+    comp_store(idx + 1, s0, s1, s2, direct, medium_term, out, level_aov, scattered_aov, spread0, c, kmax);
 }
 
 /* Iser eq. 4.28 for the receiver fetch: the separated chain (a plain Gaussian chain of the

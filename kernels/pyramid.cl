@@ -3,6 +3,7 @@
  * All levels of a chain live in one buffer; `src`/`dst` are level offsets into it.
  * .w of the colour chain carries the luminance-weighted spread W^[k] (Elek sec. 3.5). */
 #include "common.h"
+#include "pairs.h"
 
 __kernel void reduce_level(__global float4 *chain, __global float *spread_chain,
                            const int src_off, const int sw, const int sh,
@@ -197,6 +198,27 @@ __kernel void collapse_level(__global float4 *chain, const int off, const int w,
 #endif
     float3 e = keep_px(v.xyz, prep[d].xyz, half_img, w, h, x, y, a, edge, edge_off) + up.xyz;
     chain[d] = (float4)(e, v.w);
+}
+
+/* collapse_level on two pixels per work-item, away from the level's edges (pairs.h) */
+__kernel void collapse_pairs(__global float4 *chain, const int off, const int w, const int h,
+                             __global const float4 *half_img, const int up_off, const int uw,
+                             const int uh, const float a, __global const float4 *prep,
+                             __global const float *edge, const int edge_off,
+                             __global const float *cons, const int cons_up)
+{
+    int i2 = get_global_id(0), y = get_global_id(1);
+    int x = 2 * i2, d = off + y * w + x;
+    float e0, e1, e2, o0, o1, o2, s0, s1, s2, v0, v1, v2, vw;
+    pair_up((__global const float *)(chain + up_off), uw, i2, y, &e0, &e1, &e2, &o0, &o1, &o2);
+    PAIR_ROWS(half_img, y, w, h)
+    /* each pixel reads only its own value of level k before writing it */
+    pair_keep(chain, prep, d, x, y, w, h, r0, r1, r2, a, edge + edge_off, e0, e1, e2, &s0, &s1, &s2);
+    load4(chain, d, &v0, &v1, &v2, &vw);
+    store4(chain, d, s0, s1, s2, vw);
+    pair_keep(chain, prep, d + 1, x + 1, y, w, h, r0, r1, r2, a, edge + edge_off, o0, o1, o2, &s0, &s1, &s2);
+    load4(chain, d + 1, &v0, &v1, &v2, &vw);
+    store4(chain, d + 1, s0, s1, s2, vw);
 }
 
 /* Level 0 of the prep chain from level 0 of the colour chain (tests set level 0 directly;

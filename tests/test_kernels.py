@@ -141,8 +141,8 @@ def test_source_collapse_matches_oracle(rt, rng, interp, size):
 @pytest.mark.parametrize("sets", [[], ["render.interpolation=linear-bilinear"], ["render.border=closed"],
                                   ["render.psf=gaussian", "render.border=closed"], ["render.separation.enabled=true"]])
 def test_pair_composite_matches_the_per_pixel_one(sets, monkeypatch):
-    """composite_source_pairs (two pixels a work-item, the image away from its edges) against
-    composite_source on every pixel: the same operations in the same order, so equal to float32
+    """composite_source_pairs and collapse_pairs (two pixels a work-item, each level away from
+    its edges) against composite_source and collapse_level on every pixel: the same operations in the same order, so equal to float32
     rounding (1e-6 of the peak; measured 0 for bicubic, 1.5e-7 bilinear), with the scattered
     AOV and the separated chain's accumulating pass; on a size whose pair rectangle leaves
     strips on all four sides."""
@@ -162,8 +162,10 @@ def test_pair_composite_matches_the_per_pixel_one(sets, monkeypatch):
         out, planes = fogcli.apply(rgb, z, cfg, aovs=("scattered",), return_aovs=True)
         got[pairs] = (out, planes["scattered.R"])
         if pairs:
-            x0, x1, y0, y1 = next(iter(pipeline._PLANS.values()))._pairs
+            regions = next(iter(pipeline._PLANS.values()))._pairs
+            x0, x1, y0, y1 = regions[0]
             assert 0 < x0 and x1 < w and 0 < y0 and y1 < h and x1 - x0 >= 64
+            assert regions[1] is not None          # the level-1 collapse takes pairs too
     for a, b in zip(got[True], got[False]):
         assert np.abs(a - b).max() <= 1e-6 * np.abs(b).max()
 

@@ -213,10 +213,11 @@ REFERENCE_BUFFERS = {"src": lambda n: 16 * n, "tmp": lambda n: 16 * n, "acc": la
 
 
 def pair_region(sizes: list, nt: int, local: tuple) -> tuple | None:
-    """The pixels composite_source_pairs takes, (x0, x1, y0, y1), on whole work-groups of pairs:
-    where level 1's taps (nt + 1 columns about x / 2, nt rows) and the half image's x - 1 .. x + 2
-    need no clamp and the apsf conservation factors are 1 (up2_cons: 2 texels from level 1's
-    edges). None when the levels are too few or the image too small for one work-group."""
+    """The pixels of level sizes[0] the two-pixel kernels take (kernels/pairs.h), (x0, x1, y0, y1),
+    on whole work-groups of pairs: where the taps of the level above, sizes[1] (nt + 1 columns
+    about x / 2, nt rows), and the half image's x - 1 .. x + 2
+    need no clamp and the apsf conservation factors are 1 (up2_cons: 2 texels from the upper
+    level's edges). None when the levels are too few or the image too small for one work-group."""
     if len(sizes) < 2:
         return None
     (w, h), (w1, h1) = sizes[0], sizes[1]
@@ -325,6 +326,7 @@ class Plan:
         self.k_prep0 = pyr.prep_level0
         whole = rt.program("pyramid", WHOLE_GROUPS=1, **d)     # launch2d / launch1d: no bounds check
         self.k_collapse = (whole.collapse_level, pyr.collapse_level)
+        self.k_collapse_pairs = whole.collapse_pairs
         self.k_split = (whole.split_level, pyr.split_level)
         self.k_comp = rt.program("composite", **d).composite
         # composite_source: what it writes fixed at build time, on whole work-groups (as preprocess);
@@ -337,7 +339,9 @@ class Plan:
             whole = rt.program("composite", WHOLE_GROUPS=1, **comp)
             self.k_comp_src[second] = (whole.composite_source, rt.program("composite", **comp).composite_source)
             self.k_comp_pairs[second] = whole.composite_source_pairs
-        self._pairs = pair_region(self.sizes, 2 if d["INTERP"] == 0 else 4, rt.local2d)
+        # per level k: the rectangle its two-pixel kernels take (level 0: composite_source_pairs)
+        self._pairs = [pair_region(self.sizes[k:], 2 if d["INTERP"] == 0 else 4, rt.local2d)
+                       for k in range(len(self.sizes))]
         self.k_comp_sep = rt.program("composite", **d).composite_separated
         self.k_border_src = pyr.border_sources if self.apsf else None
         self.k_border_inject = pyr.border_inject if self.apsf else None
@@ -718,10 +722,9 @@ class Plan:
         for k in range(top - 1, 0, -1):
             (o, w, h, _), (uo, uw, uh, _) = self.lv[k], self.lv[k + 1]
             self.split(t, k, chain, half)
-            t.add("composite", self.rt.launch2d(
-                self.k_collapse, w, h, chain, np.int32(o), np.int32(w), np.int32(h), half, np.int32(uo),
-                np.int32(uw), np.int32(uh), np.float32(a), prep, self.edge, np.int32(self.edge_off[k]), self.cons,
-                np.int32(self.cons_off[k + 1])))
+            args = (chain, np.int32(o), np.int32(w), np.int32(h), half, np.int32(uo), np.int32(uw), np.int32(uh),
+                    np.float32(a), prep, self.edge, np.int32(self.edge_off[k]), self.cons, np.int32(self.cons_off[k + 1]))
+            self._launch_pairs(t, self._pairs[k], self.k_collapse_pairs, self.k_collapse, w, h, args)
             if ext and k == self._ext_level:
                 self._inject(t)
 
@@ -739,17 +742,21 @@ class Plan:
         args = (self.direct, self.medium, chain, half, self.lv_buf, np.int32(top),
                 np.float32(self.cfg.render.resolved()[0]), np.float32(self.half_step()), self.out, self.level_aov,
                 self.scat_aov, prep, self.spread, self.edge, self.cons, np.int32(self.cons_off[1]))
-        if self._pairs is None:
-            t.add("composite", self.rt.launch2d(self.k_comp_src[second], self.w, self.h, *args))
+        self._launch_pairs(t, self._pairs[0], self.k_comp_pairs[second], self.k_comp_src[second], self.w, self.h,
+                           args)
+
+    def _launch_pairs(self, t: Timings, region, pairs, kernels, w: int, h: int, args: tuple) -> None:
+        """A w x h level through its two-pixel kernel (`pairs`, pairs.h) on `region` [x0, x1) x
+        [y0, y1), whole work-groups, and the per-pixel kernel (checked) on the frame around it;
+        without a region, the per-pixel kernels alone (launch2d)."""
+        if region is None:
+            t.add("composite", self.rt.launch2d(kernels, w, h, *args))
             return
-        # the pairs' rectangle [x0, x1) x [y0, y1) on whole work-groups, the frame around it checked
-        (x0, x1, y0, y1), q, checked = self._pairs, self.rt.queue, self.k_comp_src[second][1]
-        t.add("composite", self.k_comp_pairs[second](q, ((x1 - x0) // 2, y1 - y0), self.rt.local2d, *args,
-                                                     global_offset=(x0 // 2, y0)))
-        for gx, gy, ox, oy in ((self.w, y0, 0, 0), (self.w, self.h - y1, 0, y1), (x0, y1 - y0, 0, y0),
-                               (self.w - x1, y1 - y0, x1, y0)):
-            if gx > 0 and gy > 0:
-                t.add("composite", checked(q, (gx, gy), None, *args, global_offset=(ox, oy)))
+        (x0, x1, y0, y1), q = region, self.rt.queue
+        t.add("composite", pairs(q, ((x1 - x0) // 2, y1 - y0), self.rt.local2d, *args, global_offset=(x0 // 2, y0)))
+        for gx, gy, ox, oy in ((w, y0, 0, 0), (w, h - y1, 0, y1), (x0, y1 - y0, 0, y0), (w - x1, y1 - y0, x1, y0)):
+            if gx > 0 and gy > 0:     # exact sizes: no pixel twice (the separated chain's pass adds)
+                t.add("composite", kernels[1](q, (gx, gy), None, *args, global_offset=(ox, oy)))
 
     def extend(self, t: Timings) -> bool:
         """render.border: extend. The frame's edge continued `border_margin` past each side:
