@@ -181,11 +181,12 @@ __kernel void split_level(__global const float4 *chain, const int off, const int
     store4(half_img, i, (mh - m) * r, (mh - m) * g, (mh - m) * b, mh);
 }
 
-__kernel void collapse_level(__global float4 *chain, const int off, const int w, const int h,
-                             __global const float4 *half_img, const int up_off, const int uw,
-                             const int uh, const float a, __global const float4 *prep,
-                             __global const float *edge, const int edge_off,
-                             __global const float *cons, const int cons_up)
+/* the arguments of collapse_level and collapse_pairs (launched alike) */
+#define COLLAPSE_ARGS                                                                            \
+    __global float4 *chain, const int off, const int w, const int h, __global const float4 *half_img, \
+    const int up_off, const int uw, const int uh, const float a, __global const float4 *prep,   \
+    __global const float *edge, const int edge_off, __global const float *cons, const int cons_up
+__kernel void collapse_level(COLLAPSE_ARGS)
 {
     int x = get_global_id(0), y = get_global_id(1);
     if (OUTSIDE(x, y, w, h)) return;
@@ -201,11 +202,7 @@ __kernel void collapse_level(__global float4 *chain, const int off, const int w,
 }
 
 /* collapse_level on two pixels per work-item, away from the level's edges (pairs.h) */
-__kernel void collapse_pairs(__global float4 *chain, const int off, const int w, const int h,
-                             __global const float4 *half_img, const int up_off, const int uw,
-                             const int uh, const float a, __global const float4 *prep,
-                             __global const float *edge, const int edge_off,
-                             __global const float *cons, const int cons_up)
+__kernel void collapse_pairs(COLLAPSE_ARGS)
 {
     int i2 = get_global_id(0), y = get_global_id(1);
     int x = 2 * i2, d = off + y * w + x;
