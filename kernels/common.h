@@ -10,6 +10,15 @@
  * with -D WHOLE_GROUPS run only where whole work-groups fit (Runtime.launch2d) and skip the
  * test: under it PoCL masks every memory access, and it vectorises masked RGBA and table
  * reads for AVX-512 only (benchmarks/pocl_vectorisation.py). */
+/* Helpers PoCL must inline: one that stays a call keeps the kernel from being vectorised
+ * across work-items (LLVM's inliner leaves large ones out). */
+#define ALWAYS_INLINE __attribute__((always_inline)) inline
+/* v, made to depend on prev (0 * prev is not folded without fast math). LLVM's SLP pass pairs
+ * side-by-side copies of a computation (the channels of a pixel, its taps) into short vectors
+ * before PoCL builds the loop over work-items, and such a value stops that loop's vectoriser
+ * ("instruction return type cannot be vectorized"): chaining the copies prevents the pairing. */
+#define AFTER(v, prev) ((v) + 0.0f * (prev))
+
 #ifdef WHOLE_GROUPS
 #define OUTSIDE(i, j, w, h) 0
 #else

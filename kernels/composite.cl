@@ -93,45 +93,13 @@ __kernel void composite(__global const float4 *direct, __global const float4 *me
     const float a, __global float4 *out, __global float *level_aov, __global float4 *scattered_aov, \
     __global const float4 *prep, __global const float *spread0, __global const float *edge,      \
     __global const float *cons, const int cons_up
-__kernel void composite_source(COMP_SOURCE_ARGS)
-{
-    int i = get_global_id(0), j = get_global_id(1);
-    int width = lv[0].y, height = lv[0].z;
-    if (OUTSIDE(i, j, width, height)) return;
-    int idx = j * width + i;
-    float4 v = chain[idx];
-    float3 sc = v.xyz;
-    if (kmax > 0)
-    {
-#ifdef PSF_APSF
-        float4 up = UP2_APSF(chain + lv[1].x, lv[1].y, lv[1].z, i, j, cons, cons_up, width, height);
-#else
-        float4 up = up2_fetch4(chain + lv[1].x, lv[1].y, lv[1].z, i, j);
-#endif
-        sc = keep_px(v.xyz, prep[idx].xyz, half_img, width, height, i, j, a, edge, 0) + up.xyz;
-    }
-#if COMP_ACCUMULATE
-    out[idx].xyz += sc;
-#if COMP_AOV
-    scattered_aov[idx].xyz += sc;
-#endif
-#else
-    store_out(out, direct, medium_term, COMP_SPLIT_MEDIUM, idx, sc);
-#if COMP_AOV
-    /* the level of this pixel's Gaussian spread (with apsf its light lands on several
-     * levels around it) */
-    level_aov[idx] = level_of(spread0[idx], c, (float)kmax);
-    scattered_aov[idx] = (float4)(sc, 0.0f);
-#endif
-#endif
-}
-
-/* composite_source_pairs: pairs.h. One pixel of a pair: store_out of composite_source, in
- * scalars, of the kept and up-sampled light s. */
-PAIR_INLINE void comp_store(int idx, float s0, float s1, float s2, __global const float4 *direct,
-                            __global const float4 *medium_term, __global float4 *out,
-                            __global float *level_aov, __global float4 *scattered_aov,
-                            __global const float *spread0, float c, int kmax)
+/* What composite_source and composite_source_pairs (pairs.h) write of a pixel's kept and
+ * up-sampled light s: store_out and the AOVs, or (COMP_ACCUMULATE) s added; in scalars, which
+ * the pair kernel needs to vectorise. */
+ALWAYS_INLINE void comp_store(int idx, float s0, float s1, float s2, __global const float4 *direct,
+                              __global const float4 *medium_term, __global float4 *out,
+                              __global float *level_aov, __global float4 *scattered_aov,
+                              __global const float *spread0, float c, int kmax)
 {
 #if COMP_ACCUMULATE
     float o0, o1, o2, ow;
@@ -153,10 +121,32 @@ PAIR_INLINE void comp_store(int idx, float s0, float s1, float s2, __global cons
 #endif
     store4(out, idx, d0 + s0, d1 + s1, d2 + s2, dw);
 #if COMP_AOV
+    /* the level of this pixel's Gaussian spread (with apsf its light lands on several
+     * levels around it) */
     level_aov[idx] = level_of(spread0[idx], c, (float)kmax);
     store4(scattered_aov, idx, s0, s1, s2, 0.0f);
 #endif
 #endif
+}
+
+__kernel void composite_source(COMP_SOURCE_ARGS)
+{
+    int i = get_global_id(0), j = get_global_id(1);
+    int width = lv[0].y, height = lv[0].z;
+    if (OUTSIDE(i, j, width, height)) return;
+    int idx = j * width + i;
+    float4 v = chain[idx];
+    float3 sc = v.xyz;
+    if (kmax > 0)
+    {
+#ifdef PSF_APSF
+        float4 up = UP2_APSF(chain + lv[1].x, lv[1].y, lv[1].z, i, j, cons, cons_up, width, height);
+#else
+        float4 up = up2_fetch4(chain + lv[1].x, lv[1].y, lv[1].z, i, j);
+#endif
+        sc = keep_px(v.xyz, prep[idx].xyz, half_img, width, height, i, j, a, edge, 0) + up.xyz;
+    }
+    comp_store(idx, sc.x, sc.y, sc.z, direct, medium_term, out, level_aov, scattered_aov, spread0, c, kmax);
 }
 
 __kernel void composite_source_pairs(COMP_SOURCE_ARGS)

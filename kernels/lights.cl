@@ -148,14 +148,11 @@ __kernel void airlight(__global const float *depth, __global float4 *a_dir, __gl
  *  - sinh, cosh, asinh from e^x, which the geometry gives directly: e^x = (q + t) / R with
  *    q = s - d1, t = |x - l| (R / (t - q) where q < 0, without cancellation);
  *  - table indices clamped by fabs (a compare-and-select clamp before a gather stops it);
- *  - uniform values from the host as scalars, and isomorphic steps chained by AL_AFTER:
+ *  - uniform values from the host as scalars, and isomorphic steps chained by AFTER:
  *    LLVM's SLP pass pairs two side-by-side copies of a computation into 2-wide vectors
  *    before PoCL builds the work-item loop, and such a value stops the loop's vectoriser
  *    ("instruction return type cannot be vectorized"; seen with llvm-dis on PoCL's
  *    parallel.bc, POCL_LEAVE_KERNEL_COMPILER_TEMP_FILES=1). */
-#define AL_INLINE __attribute__((always_inline)) inline
-/* v, made to depend on prev (0 * prev is not folded without fast math) */
-#define AL_AFTER(v, prev) ((v) + 0.0f * (prev))
 
 /* AL_LANES 8 (CPUs with AVX2 and no AVX-512): the same code on float8, eight pixels of a row
  * per work-item. LLVM gives up on the loop over work-items there (the table reads are gathers,
@@ -177,19 +174,19 @@ typedef int8 ali;
 #define AL_FLOAT(v) __builtin_convertvector((v), float8)
 #define AL_LOAD(p, k) ((float8)((p)[(k).s0], (p)[(k).s1], (p)[(k).s2], (p)[(k).s3],     \
                                 (p)[(k).s4], (p)[(k).s5], (p)[(k).s6], (p)[(k).s7]))
-AL_INLINE float8 al_sqrt8(float8 v)
+ALWAYS_INLINE float8 al_sqrt8(float8 v)
 {
     return (float8)(SQRT_(v.s0), SQRT_(v.s1), SQRT_(v.s2), SQRT_(v.s3),
                     SQRT_(v.s4), SQRT_(v.s5), SQRT_(v.s6), SQRT_(v.s7));
 }
 
-AL_INLINE float8 al_load8(__global const float *p)
+ALWAYS_INLINE float8 al_load8(__global const float *p)
 {
     return (float8)(p[0], p[1], p[2], p[3], p[4], p[5], p[6], p[7]);
 }
 
 /* exp_poly and log_pos of common.h, lane by lane */
-AL_INLINE float8 al_exp(float8 y)
+ALWAYS_INLINE float8 al_exp(float8 y)
 {
     float8 z = y * 1.44269504f;
     z = z < -127.0f ? -127.0f : z;
@@ -201,7 +198,7 @@ AL_INLINE float8 al_exp(float8 y)
     return z <= -127.0f ? (float8)(0.0f) : p * as_float8((ni + 127) << 23);
 }
 
-AL_INLINE float8 al_log(float8 x)
+ALWAYS_INLINE float8 al_log(float8 x)
 {
     int8 bits = as_int8(x);
     int8 m = (bits & 0x007fffff) | 0x3f800000;
@@ -225,7 +222,7 @@ typedef int ali;
 #endif
 
 /* v clamped to [0, hi], exact inside */
-AL_INLINE alf al_clamp(alf v, float hi)
+ALWAYS_INLINE alf al_clamp(alf v, float hi)
 {
     v = 0.5f * (v + AL_ABS(v));
     alf d = v - hi;
@@ -233,7 +230,7 @@ AL_INLINE alf al_clamp(alf v, float hi)
 }
 
 /* bilinear look-up of table entry `e` (0: F, 1: C) at continuous (u, v) */
-AL_INLINE alf al_fetch(__global const float *tab, alf u, alf v, int e)
+ALWAYS_INLINE alf al_fetch(__global const float *tab, alf u, alf v, int e)
 {
     u = al_clamp(u, AL_NB - 1.001f);
     v = al_clamp(v, AL_NX - 1.001f);
@@ -245,7 +242,7 @@ AL_INLINE alf al_fetch(__global const float *tab, alf u, alf v, int e)
     return a + (b - a) * fu;
 }
 
-AL_INLINE alf al_ex(alf q, alf R)
+ALWAYS_INLINE alf al_ex(alf q, alf R)
 {
     alf t = AL_SQRT(q * q + R * R);
     return q >= 0.0f ? (q + t) / R : R / (t - q);
@@ -253,7 +250,7 @@ AL_INLINE alf al_ex(alf q, alf R)
 
 /* h(x) = p_g(-tanh x) / cosh x from e^x (clamped to [1e-15, 1e15], where h is below 1e-14 of
  * its peak: e^2x stays finite) */
-AL_INLINE alf al_h(float g, alf ex)
+ALWAYS_INLINE alf al_h(float g, alf ex)
 {
     ex = 1e-15f + al_clamp(ex - 1e-15f, 1e15f);
     alf e2 = ex * ex, q = 1.0f / (e2 + 1.0f);
@@ -271,19 +268,19 @@ AL_INLINE alf al_h(float g, alf ex)
  * it replaced 2 Gauss-Legendre nodes (5 exponentials, 9 divisions per segment; now 2
  * exponentials per segment; worst in test_table_kernel_matches_the_quadrature_kernel_on_whole_
  * frames, A / A_sc: 4.5e-4 / 1.67e-3 with Simpson, 3.0e-4 / 1.74e-3 with the 2 nodes). */
-AL_INLINE alf al_segment(__global const float *tab, float r, float xm, float em, alf beta,
+ALWAYS_INLINE alf al_segment(__global const float *tab, float r, float xm, float em, alf beta,
                          alf lb, alf x0, alf x1, alf ex0, alf ex1, const alf *sp, alf after)
 {
     const float sx = (AL_NX - 1) / (AL_X1 - AL_X0);
-    alf u = AL_AFTER((lb - AL_LB0) * ((AL_NB - 1) / (AL_LB1 - AL_LB0)), after);
+    alf u = AFTER((lb - AL_LB0) * ((AL_NB - 1) / (AL_LB1 - AL_LB0)), after);
     alf v0 = (x0 - AL_X0) * sx;
-    alf v1 = AL_AFTER((x1 - AL_X0) * sx, v0);
+    alf v1 = AFTER((x1 - AL_X0) * sx, v0);
     alf e0 = 0.5f * ((1.0f + r) * ex0 + (1.0f - r) / ex0);
-    alf e1 = 0.5f * ((1.0f + r) * ex1 + (1.0f - r) / AL_AFTER(ex1, e0));
+    alf e1 = 0.5f * ((1.0f + r) * ex1 + (1.0f - r) / AFTER(ex1, e0));
     alf F0 = al_fetch(tab, u, v0, 0) - beta * (x0 < xm ? e0 : em);
-    alf F1 = al_fetch(tab, u, AL_AFTER(v1, F0), 0) - beta * (x1 < xm ? e1 : em);
-    alf C0 = al_fetch(tab, u, AL_AFTER(v0, F1), 1) - beta * (x0 > xm ? e0 : em);
-    alf C1 = al_fetch(tab, u, AL_AFTER(v1, C0), 1) - beta * (x1 > xm ? e1 : em);
+    alf F1 = al_fetch(tab, u, AFTER(v1, F0), 0) - beta * (x1 < xm ? e1 : em);
+    alf C0 = al_fetch(tab, u, AFTER(v0, F1), 1) - beta * (x0 > xm ? e0 : em);
+    alf C1 = al_fetch(tab, u, AFTER(v1, C0), 1) - beta * (x1 > xm ? e1 : em);
     /* outside the table h ~ 2 p e^{-|x|}: ln F (r = 1, left) and ln C (right) go with slope +-1
      * (r is uniform: the outer choice is not per pixel) */
     F0 += r >= 1.0f ? (x0 < AL_X0 ? x0 - AL_X0 : 0.0f) : 0.0f;
@@ -294,7 +291,7 @@ AL_INLINE alf al_segment(__global const float *tab, float r, float xm, float em,
     alf tabled = big + al_log(1.0f - al_exp(small - big));
     alf mid = beta * 0.5f * ((1.0f + r) * sp[0] + (1.0f - r) * sp[1]);
     alf f0 = sp[2] * al_exp(mid - beta * e0);
-    alf f1 = sp[4] * al_exp(AL_AFTER(mid - beta * e1, f0));
+    alf f1 = sp[4] * al_exp(AFTER(mid - beta * e1, f0));
     alf direct = -mid + al_log((x1 - x0) * (1.0f / 6.0f) * (f0 + 4.0f * sp[3] + f1));
     return small - big <= -0.6931472f ? tabled : direct;
 }
@@ -302,12 +299,12 @@ AL_INLINE alf al_segment(__global const float *tab, float r, float xm, float em,
 /* One channel: ln of A (both legs in extinction st) and of A + A_sc (camera leg in
  * absorption sa) per unit of ss I / R, out through ld, lt. The channel's uniform values:
  * r = sa / st, xm = -atanh(r), em = sqrt(1 - r^2), off = its table's offset in floats. */
-AL_INLINE void al_channel(__global const float *tab, float st, float lst, float sa, float r, float xm,
+ALWAYS_INLINE void al_channel(__global const float *tab, float st, float lst, float sa, float r, float xm,
                           float em, int off, alf R, alf d1, alf x0, alf x1, alf ex0, alf ex1, alf lR,
                           const alf *sp, alf after, alf *ld, alf *lt)
 {
     alf beta = st * R;
-    alf lb = AL_AFTER(lR + lst, after);       /* ln beta, lst = ln st from the host */
+    alf lb = AFTER(lR + lst, after);       /* ln beta, lst = ln st from the host */
     lb = AL_LB0 + 0.5f * ((lb - AL_LB0) + AL_ABS(lb - AL_LB0));   /* beta below the table: its first row */
     alf d = -st * d1 + al_segment(tab, 1.0f, -1e30f, 0.0f, beta, lb, x0, x1, ex0, ex1, sp, lb);
     alf t = r < 1.0f ? -sa * d1 + al_segment(tab + off, r, xm, em, beta, lb, x0, x1, ex0, ex1, sp, d) : d;
@@ -317,7 +314,7 @@ AL_INLINE void al_channel(__global const float *tab, float st, float lst, float 
 
 #if AL_LANES == 8
 /* pixel_ray (density.h) of pixels i0 .. i0 + 7 of row j, depth dep */
-AL_INLINE float8 al_pixel_ray(const camera_t *c, int i0, int j, float8 dep, float8 *wx, float8 *wy, float8 *wz)
+ALWAYS_INLINE float8 al_pixel_ray(const camera_t *c, int i0, int j, float8 dep, float8 *wx, float8 *wy, float8 *wz)
 {
     float8 dx = ((float)i0 + (float8)(0.5f, 1.5f, 2.5f, 3.5f, 4.5f, 5.5f, 6.5f, 7.5f) - c->cx) / c->focal_px;
     float dy = -(j + 0.5f - c->cy) / c->focal_y;
@@ -362,35 +359,35 @@ AL_INLINE float8 al_pixel_ray(const camera_t *c, int i0, int j, float8 dep, floa
 #define AL_GEOMETRY                                                                            \
     AL_PIXELS                                                                                  \
     alf cx = wy * vz - wz * vy;                                                                \
-    alf cy = AL_AFTER(wz * vx - wx * vz, cx);                                                  \
-    alf cz = AL_AFTER(wx * vy - wy * vx, cy);                                                  \
-    alf d1 = AL_AFTER(wx * vx + wy * vy + wz * vz, cz);                                        \
+    alf cy = AFTER(wz * vx - wx * vz, cx);                                                  \
+    alf cz = AFTER(wx * vy - wy * vx, cy);                                                  \
+    alf d1 = AFTER(wx * vx + wy * vy + wz * vz, cz);                                        \
     alf R = AL_SQRT(cx * cx + cy * cy + cz * cz + rad2);                                       \
     alf ex0 = al_ex(-d1, R);                                                                   \
-    alf ex1 = al_ex(AL_AFTER(D - d1, ex0), R);                                                 \
+    alf ex1 = al_ex(AFTER(D - d1, ex0), R);                                                 \
     alf x0 = al_log(ex0);                                                                      \
-    alf x1 = al_log(AL_AFTER(ex1, x0));                                                        \
-    alf lR = al_log(AL_AFTER(R, x1));                                                          \
+    alf x1 = al_log(AFTER(ex1, x0));                                                        \
+    alf lR = al_log(AFTER(R, x1));                                                          \
     /* Simpson's rule on [x0, x1] where a table difference would lose its digits: e^x at the  \
      * middle (sqrt of the ends' product, clamped as al_h does), its inverse, h at the nodes;  \
      * h does not depend on the channel */                                                    \
     alf sp[5];                                                                                 \
     sp[0] = AL_SQRT((1e-15f + al_clamp(ex0 - 1e-15f, 1e15f)) * (1e-15f + al_clamp(ex1 - 1e-15f, 1e15f))); \
     sp[1] = 1.0f / sp[0];                                                                      \
-    sp[2] = al_h(g, AL_AFTER(ex0, sp[1]));                                                     \
-    sp[3] = al_h(g, AL_AFTER(sp[0], sp[2]));                                                   \
-    sp[4] = al_h(g, AL_AFTER(ex1, sp[3]));
+    sp[2] = al_h(g, AFTER(ex0, sp[1]));                                                     \
+    sp[3] = al_h(g, AFTER(sp[0], sp[2]));                                                   \
+    sp[4] = al_h(g, AFTER(ex1, sp[3]));
 
 /* The end the kernels share: the airlight of the three channels from their logs (ld, lt),
  * ln(ss I) per channel (lk), the gain; A_sc spread at the optical depth where the ray passes
  * the light (hf clamp(d1, 0, D)). */
 #define AL_STORE                                                                               \
     alf d0r = al_exp(lk0 + ld0);                                                               \
-    alf d1r = al_exp(AL_AFTER(lk1 + ld1, d0r));                                                \
-    alf d2r = al_exp(AL_AFTER(lk2 + ld2, d1r));                                                \
-    alf t0 = al_exp(AL_AFTER(lk0 + lt0, d2r));                                                 \
-    alf t1 = al_exp(AL_AFTER(lk1 + lt1, t0));                                                  \
-    alf t2 = al_exp(AL_AFTER(lk2 + lt2, t1));                                                  \
+    alf d1r = al_exp(AFTER(lk1 + ld1, d0r));                                                \
+    alf d2r = al_exp(AFTER(lk2 + ld2, d1r));                                                \
+    alf t0 = al_exp(AFTER(lk0 + lt0, d2r));                                                 \
+    alf t1 = al_exp(AFTER(lk1 + lt1, t0));                                                  \
+    alf t2 = al_exp(AFTER(lk2 + lt2, t1));                                                  \
     AL_STORE_RGB
 
 /* Grey media: one exponential each for A and A + A_sc, scaled per channel by the host's
@@ -399,19 +396,19 @@ AL_INLINE float8 al_pixel_ray(const camera_t *c, int i0, int j, float8 dep, floa
  * and the chain is the kernel's latency: 2 steps instead of 6 (-15 % of the kernel). */
 #define AL_STORE_GREY                                                                          \
     alf ed = al_exp(lkm + ld0);                                                                \
-    alf et = al_exp(AL_AFTER(lkm + lt0, ed));                                                  \
-    alf d0r = k0 * ed, d1r = AL_AFTER(k1 * ed, d0r), d2r = AL_AFTER(k2 * ed, d1r);             \
-    alf t0 = AL_AFTER(k0 * et, d2r), t1 = AL_AFTER(k1 * et, t0), t2 = AL_AFTER(k2 * et, t1);   \
+    alf et = al_exp(AFTER(lkm + lt0, ed));                                                  \
+    alf d0r = k0 * ed, d1r = AFTER(k1 * ed, d0r), d2r = AFTER(k2 * ed, d1r);             \
+    alf t0 = AFTER(k0 * et, d2r), t1 = AFTER(k1 * et, t0), t2 = AFTER(k2 * et, t1);   \
     AL_STORE_RGB
 
 #define AL_STORE_RGB                                                                           \
-    alf s0 = t0 - d0r, s1 = AL_AFTER(t1 - d1r, s0), s2 = AL_AFTER(t2 - d2r, s1);               \
+    alf s0 = t0 - d0r, s1 = AFTER(t1 - d1r, s0), s2 = AFTER(t2 - d2r, s1);               \
     s0 = 0.5f * (s0 + AL_ABS(s0));                                                             \
     s1 = 0.5f * (s1 + AL_ABS(s1));                                                             \
     s2 = 0.5f * (s2 + AL_ABS(s2));                                                             \
     s0 += (gn0 - 1.0f) * (d0r + s0);                                                           \
-    s1 = AL_AFTER(s1 + (gn1 - 1.0f) * (d1r + s1), s0);                                         \
-    s2 = AL_AFTER(s2 + (gn2 - 1.0f) * (d2r + s2), s1);                                         \
+    s1 = AFTER(s1 + (gn1 - 1.0f) * (d1r + s1), s0);                                         \
+    s2 = AFTER(s2 + (gn2 - 1.0f) * (d2r + s2), s1);                                         \
     alf sstar = hf * (0.5f * (d1 + AL_ABS(d1)) - 0.5f * ((d1 - D) + AL_ABS(d1 - D)));          \
     alf wp = sstar * (0.2126f * s0 + 0.7152f * s1 + 0.0722f * s2);                             \
     AL_PUT
@@ -457,13 +454,13 @@ __kernel void airlight_table(__global const float *depth, __global float4 *a_dir
  * does not dim a directional light: docs/lights.md). a_sc.w: the luminance-weighted optical
  * depth of its twice-scattered light. */
 /* int_0^D e^{-q s} ds and int_0^D s e^{-q s} ds, finite as q -> 0 */
-AL_INLINE float sun_int0(float q, float D)
+ALWAYS_INLINE float sun_int0(float q, float D)
 {
     float qd = q * D;
     return qd > 1e-3f ? one_minus_exp(qd) / q : D * (1.0f - 0.5f * qd);
 }
 
-AL_INLINE float sun_int1(float q, float D)
+ALWAYS_INLINE float sun_int1(float q, float D)
 {
     float qd = q * D;
     return qd > 1e-2f ? (one_minus_exp(qd) - qd * exp_poly(-qd)) / (q * q) : D * D * (0.5f - qd / 3.0f);

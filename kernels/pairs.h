@@ -23,15 +23,11 @@ __constant float UP_WO[2] = {0.75f, 0.25f};        /* odd x: taps i2, i2 + 1 */
 __constant float UP_WE[4] = {0.00260417f, 0.31510417f, 0.61197917f, 0.0703125f};
 __constant float UP_WO[4] = {0.0703125f, 0.61197917f, 0.31510417f, 0.00260417f};
 #endif
-/* v after prev (0 * prev is not folded without fast math): keeps LLVM's SLP pass from pairing
- * the channels' side-by-side steps into short vectors, which stop the loop vectoriser */
-#define CP_AFTER(v, prev) ((v) + 0.0f * (prev))
-#define PAIR_INLINE __attribute__((always_inline)) inline
 
 /* level k+1 (up, width w1) up-sampled at the pair's two pixels of row j: e (even x = 2 i2)
  * and o (odd): columns i2 - UP_NT / 2 .. i2 + UP_NT / 2, the even pixel's taps the first
  * UP_NT, the odd one's the last UP_NT; the rows and their weights are the row's own */
-PAIR_INLINE void pair_up(__global const float *up, int w1, int i2, int j, float *e0, float *e1, float *e2,
+ALWAYS_INLINE void pair_up(__global const float *up, int w1, int i2, int j, float *e0, float *e1, float *e2,
                          float *o0, float *o1, float *o2)
 {
     int y0 = (j >> 1) - UP_NT / 2 + (j & 1);
@@ -46,18 +42,18 @@ PAIR_INLINE void pair_up(__global const float *up, int w1, int i2, int j, float 
             float we = t < UP_NT ? UP_WE[t] : 0.0f, wo = t > 0 ? UP_WO[t - 1] : 0.0f;
             float q0 = row[4 * t], q1 = row[4 * t + 1], q2 = row[4 * t + 2];
             re0 += we * q0;
-            re1 = CP_AFTER(re1 + we * q1, re0);
-            re2 = CP_AFTER(re2 + we * q2, re1);
-            ro0 = CP_AFTER(ro0 + wo * q0, re2);
-            ro1 = CP_AFTER(ro1 + wo * q1, ro0);
-            ro2 = CP_AFTER(ro2 + wo * q2, ro1);
+            re1 = AFTER(re1 + we * q1, re0);
+            re2 = AFTER(re2 + we * q2, re1);
+            ro0 = AFTER(ro0 + wo * q0, re2);
+            ro1 = AFTER(ro1 + wo * q1, ro0);
+            ro2 = AFTER(ro2 + wo * q2, ro1);
         }
         a0 += wr * re0;
-        a1 = CP_AFTER(a1 + wr * re1, a0);
-        a2 = CP_AFTER(a2 + wr * re2, a1);
-        b0 = CP_AFTER(b0 + wr * ro0, a2);
-        b1 = CP_AFTER(b1 + wr * ro1, b0);
-        b2 = CP_AFTER(b2 + wr * ro2, b1);
+        a1 = AFTER(a1 + wr * re1, a0);
+        a2 = AFTER(a2 + wr * re2, a1);
+        b0 = AFTER(b0 + wr * ro0, a2);
+        b1 = AFTER(b1 + wr * ro1, b0);
+        b2 = AFTER(b2 + wr * ro2, b1);
     }
     *e0 = a0; *e1 = a1; *e2 = a2; *o0 = b0; *o1 = b1; *o2 = b2;
 }
@@ -65,7 +61,7 @@ PAIR_INLINE void pair_up(__global const float *up, int w1, int i2, int j, float 
 /* keep_px + u of pixel x of row j of a level (width w, height h; idx its index in `chain` and
  * `prep`; r0, r1, r2 the half image's rows j - 1, j, j + 1, clamped by the caller; edge the
  * level's edge tables) -> s */
-PAIR_INLINE void pair_keep(__global const float4 *chain, __global const float4 *prep, int idx, int x, int j,
+ALWAYS_INLINE void pair_keep(__global const float4 *chain, __global const float4 *prep, int idx, int x, int j,
                            int w, int h, __global const float *r0, __global const float *r1,
                            __global const float *r2, float a, __global const float *edge,
                            float u0, float u1, float u2, float *s0_, float *s1_, float *s2_)
@@ -77,11 +73,11 @@ PAIR_INLINE void pair_keep(__global const float4 *chain, __global const float4 *
     float h1 = a * (a * r0[4 * x - 3] + b * r0[4 * x + 1] + a * r0[4 * x + 5])
              + b * (a * r1[4 * x - 3] + b * r1[4 * x + 1] + a * r1[4 * x + 5])
              + a * (a * r2[4 * x - 3] + b * r2[4 * x + 1] + a * r2[4 * x + 5]);
-    h1 = CP_AFTER(h1, h0);
+    h1 = AFTER(h1, h0);
     float h2 = a * (a * r0[4 * x - 2] + b * r0[4 * x + 2] + a * r0[4 * x + 6])
              + b * (a * r1[4 * x - 2] + b * r1[4 * x + 2] + a * r1[4 * x + 6])
              + a * (a * r2[4 * x - 2] + b * r2[4 * x + 2] + a * r2[4 * x + 6]);
-    h2 = CP_AFTER(h2, h1);
+    h2 = AFTER(h2, h1);
     float v0, v1, v2, vw, p0, p1, p2, pw;
     load4(chain, idx, &v0, &v1, &v2, &vw);
     load4(prep, idx, &p0, &p1, &p2, &pw);
@@ -90,22 +86,22 @@ PAIR_INLINE void pair_keep(__global const float4 *chain, __global const float4 *
 #ifdef BORDER_OPEN
     float es = edge[x] * edge[w + j], eh = edge[w + h + x] * edge[2 * w + h + j];
     float s0 = h0 + (v0 - p0 - c0 / eh) * es;
-    float s1 = CP_AFTER(h1 + (v1 - p1 - c1 / eh) * es, s0);
-    float s2 = CP_AFTER(h2 + (v2 - p2 - c2 / eh) * es, s1);
+    float s1 = AFTER(h1 + (v1 - p1 - c1 / eh) * es, s0);
+    float s2 = AFTER(h2 + (v2 - p2 - c2 / eh) * es, s1);
 #else
     float s0 = h0 + v0 - p0 - c0;
-    float s1 = CP_AFTER(h1 + v1 - p1 - c1, s0);
-    float s2 = CP_AFTER(h2 + v2 - p2 - c2, s1);
+    float s1 = AFTER(h1 + v1 - p1 - c1, s0);
+    float s2 = AFTER(h2 + v2 - p2 - c2, s1);
 #endif
 #else
     float s0 = h0 + (1.0f - cw) * v0;
-    float s1 = CP_AFTER(h1 + (1.0f - cw) * v1, s0);
-    float s2 = CP_AFTER(h2 + (1.0f - cw) * v2, s1);
+    float s1 = AFTER(h1 + (1.0f - cw) * v1, s0);
+    float s2 = AFTER(h2 + (1.0f - cw) * v2, s1);
 #endif
     s0 += u0;
     *s0_ = s0;
-    *s1_ = CP_AFTER(s1 + u1, s0);
-    *s2_ = CP_AFTER(s2 + u2, *s1_);
+    *s1_ = AFTER(s1 + u1, s0);
+    *s2_ = AFTER(s2 + u2, *s1_);
 }
 
 /* the half image's rows around row j of a level of width w, height h */

@@ -73,10 +73,11 @@ inline float3 ray_at(const camera_t *cam, float qx, float qy, float *dlen)
  * the sky) */
 inline float pixel_z(const camera_t *cam, __global const float *depth, int width, int i, int j, float *D)
 {
-    float wx, wy, wz, dl;
+    float wx, wy, wz;
     *D = pixel_ray(cam, i, j, depth[j * width + i], &wx, &wy, &wz);
-    ray_at(cam, i + 0.5f, j + 0.5f, &dl);
-    return *D / dl;
+    /* the ray's length per metre of depth (ray_at's dlen), in scalars: epi_unwarp vectorises */
+    float dx = (i + 0.5f - cam->cx) / cam->focal_px, dy = (j + 0.5f - cam->cy) / cam->focal_y;
+    return *D / SQRT_(dx * dx + dy * dy + 1.0f);
 }
 
 /* set the visibility bits of [lo, hi] (in the integration variable): whole words at once */
@@ -342,15 +343,24 @@ inline int march_shares(__global const float *depth, const int width, const int 
     return 1;
 }
 
-/* a_dir = A, a_sc = gain (A + A_sc) - A (lights.cl): A -> fA A, A + A_sc -> fT (A + A_sc) */
-inline void apply_shares(__global float4 *a_dir, __global float4 *a_sc, int idx, float3 fA, float3 fT)
+/* a_dir = A, a_sc = gain (A + A_sc) - A (lights.cl): A -> fA A, A + A_sc -> fT (A + A_sc); in
+ * scalars, each channel after the last (AFTER), so that epi_unwarp vectorises */
+ALWAYS_INLINE void apply_shares(__global float4 *a_dir, __global float4 *a_sc, int idx, float fa0, float fa1,
+                                float fa2, float ft0, float ft1, float ft2)
 {
-    float4 od = a_dir[idx], os = a_sc[idx];
-    float3 dir = fA * od.xyz;
-    float3 sc = fmax(fT * (os.xyz + od.xyz) - dir, 0.0f);
-    float y0 = luminance(os.xyz), y1 = luminance(sc);
-    a_dir[idx] = (float4)(dir, od.w);
-    a_sc[idx] = (float4)(sc, y0 > 0.0f ? os.w * (y1 / y0) : 0.0f);
+    float d0, d1, d2, dw, s0, s1, s2, sw;
+    load4(a_dir, idx, &d0, &d1, &d2, &dw);
+    load4(a_sc, idx, &s0, &s1, &s2, &sw);
+    float n0 = fa0 * d0, n1 = AFTER(fa1 * d1, n0), n2 = AFTER(fa2 * d2, n1);
+    float c0 = AFTER(ft0 * (s0 + d0) - n0, n2);
+    float c1 = AFTER(ft1 * (s1 + d1) - n1, c0);
+    float c2 = AFTER(ft2 * (s2 + d2) - n2, c1);
+    c0 = c0 > 0.0f ? c0 : 0.0f;
+    c1 = c1 > 0.0f ? c1 : 0.0f;
+    c2 = c2 > 0.0f ? c2 : 0.0f;
+    float y0 = 0.2126f * s0 + 0.7152f * s1 + 0.0722f * s2, y1 = 0.2126f * c0 + 0.7152f * c1 + 0.0722f * c2;
+    store4(a_dir, idx, n0, n1, n2, dw);
+    store4(a_sc, idx, c0, c1, c2, y0 > 0.0f ? sw * (y1 / y0) : 0.0f);
 }
 
 /* render.lights.method: march, the reference: every pixel marched */
@@ -367,7 +377,7 @@ __kernel void shadow_march(__global const float *depth, __global float4 *a_dir, 
     float3 fA, fT;
     if (march_shares(depth, width, height, cam, m, prims, L, thickness, offscreen_shadowed, i + 0.5f, j + 0.5f,
                      &fA, &fT, 0, (float4)(0.0f)))
-        apply_shares(a_dir, a_sc, idx, fA, fT);
+        apply_shares(a_dir, a_sc, idx, fA.x, fA.y, fA.z, fT.x, fT.y, fT.z);
 }
 
 /* render.lights.method: epipolar (Intel's epipolar sampling): the shares are found at
@@ -522,14 +532,10 @@ inline float fast_atan2(float y, float x)
  * (thr / max(|dz|, thr))^4, thr 3 % of the pixel's depth, so that samples on another surface
  * hardly count. A pixel within 8 pixels of the light's image, or whose weights sum to less
  * than 1e-2, is flagged (march[idx] = 1) and marched by epi_march. Kept free of calls,
- * atomics and float3 values, with the march out of it and the channels chained by SH_AFTER,
+ * atomics and float3 values, with the march out of it and the channels chained by AFTER,
  * so that PoCL vectorises it: a call anywhere in a kernel, even on a branch a pixel in 10000
  * takes, or side-by-side steps that LLVM pairs kept the whole of it scalar (95 ms at 2 MPx,
  * now 33). A sample's .w of sh_t says whether nothing on its ray is in shadow (2). */
-/* v after prev (0 * prev is not folded without fast math): keeps LLVM's SLP pass from pairing
- * the channels' (or the samples') side-by-side steps into short vectors before PoCL builds
- * the loop over work-items, which such a value stops (kernels/lights.cl, AL_AFTER) */
-#define SH_AFTER(v, prev) ((v) + 0.0f * (prev))
 
 __kernel void epi_unwarp(__global const float *depth, __global float4 *a_dir, __global float4 *a_sc,
                          __global const float4 *sh_a, __global const float4 *sh_t,
@@ -556,7 +562,7 @@ __kernel void epi_unwarp(__global const float *depth, __global float4 *a_dir, __
     fk = fk < -4.0f ? -4.0f : (fk > ns + 4.0f ? ns + 4.0f : fk);
     int k0 = floor_i(fk);
     float tk = fk - k0;
-    fm = SH_AFTER(fm, tk);
+    fm = AFTER(fm, tk);
     fm = fm < -4.0f ? -4.0f : (fm > nm + 4.0f ? nm + 4.0f : fm);
     int m0 = floor_i(fm);
     float tm = fm - m0;
@@ -566,11 +572,8 @@ __kernel void epi_unwarp(__global const float *depth, __global float4 *a_dir, __
     int ok = r >= 8.0f && m0 >= 0 && m0 + 1 < nm && k0 >= 0 && k1 < ns;
     /* out of range: read sample 0 (weights unused) rather than branch around the reads */
     int kk0 = ok ? k0 : 0, kk1 = ok ? k1 : 0, mm0 = ok ? m0 : 0;
-    /* pixel_z without its float3 ray */
-    float wx, wy, wz;
-    float Dp = pixel_ray(&cam, i, j, depth[idx], &wx, &wy, &wz);
-    float qx = (px - cam.cx) / cam.focal_px, qy = (py - cam.cy) / cam.focal_y;
-    float zp = Dp / SQRT_(qx * qx + qy * qy + 1.0f), thr = 0.03f * zp;
+    float Dn;
+    float zp = pixel_z(&cam, depth, width, i, j, &Dn), thr = 0.03f * zp;
     float sum = 0.0f, fa0 = 0.0f, fa1 = 0.0f, fa2 = 0.0f, ft0 = 0.0f, ft1 = 0.0f, ft2 = 0.0f;
     int lit = 1;            /* all four samples unshadowed: the pixel keeps its airlight */
 #pragma unroll
@@ -580,33 +583,22 @@ __kernel void epi_unwarp(__global const float *depth, __global float4 *a_dir, __
         load4(sh_a, s, &a_0, &a_1, &a_2, &a_w);
         load4(sh_t, s, &t_0, &t_1, &t_2, &t_w);
         lit &= t_w == 2.0f;
-        float dz = __builtin_fabsf(SH_AFTER(a_w, sum) - zp);
+        float dz = __builtin_fabsf(AFTER(a_w, sum) - zp);
         float q = thr / (dz > thr ? dz : thr);
         float wgt = (t_w > 0.0f ? 1.0f : 0.0f) * ((c & 1) ? tk : 1.0f - tk) * ((c >> 1) ? tm : 1.0f - tm) * (q * q) * (q * q);
         sum += wgt;
         fa0 += wgt * a_0;
-        fa1 += SH_AFTER(wgt, fa0) * a_1;
-        fa2 += SH_AFTER(wgt, fa1) * a_2;
-        ft0 += SH_AFTER(wgt, fa2) * t_0;
-        ft1 += SH_AFTER(wgt, ft0) * t_1;
-        ft2 += SH_AFTER(wgt, ft1) * t_2;
+        fa1 += AFTER(wgt, fa0) * a_1;
+        fa2 += AFTER(wgt, fa1) * a_2;
+        ft0 += AFTER(wgt, fa2) * t_0;
+        ft1 += AFTER(wgt, ft0) * t_1;
+        ft2 += AFTER(wgt, ft1) * t_2;
     }
     ok = ok && sum >= 1e-2f;
     march[idx] = light && !ok;
     float inv = 1.0f / (sum > 0.0f ? sum : 1.0f);
-    /* apply_shares, in scalars, each channel after the last (SH_AFTER) */
-    float n0 = fa0 * inv * d0, n1 = SH_AFTER(fa1 * inv * d1, n0), n2 = SH_AFTER(fa2 * inv * d2, n1);
-    float c0 = SH_AFTER(ft0 * inv * (s0 + d0) - n0, n2);
-    float c1 = SH_AFTER(ft1 * inv * (s1 + d1) - n1, c0);
-    float c2 = SH_AFTER(ft2 * inv * (s2 + d2) - n2, c1);
-    c0 = c0 > 0.0f ? c0 : 0.0f;
-    c1 = c1 > 0.0f ? c1 : 0.0f;
-    c2 = c2 > 0.0f ? c2 : 0.0f;
-    float y0 = 0.2126f * s0 + 0.7152f * s1 + 0.0722f * s2, y1 = 0.2126f * c0 + 0.7152f * c1 + 0.0722f * c2;
-    if (light && ok && !lit) {
-        store4(a_dir, idx, n0, n1, n2, dw);
-        store4(a_sc, idx, c0, c1, c2, y0 > 0.0f ? sw * (y1 / y0) : 0.0f);
-    }
+    if (light && ok && !lit)
+        apply_shares(a_dir, a_sc, idx, fa0 * inv, fa1 * inv, fa2 * inv, ft0 * inv, ft1 * inv, ft2 * inv);
 }
 
 /* The pixels epi_unwarp flagged, marched themselves (marched[0] counts them). */
@@ -623,5 +615,5 @@ __kernel void epi_march(__global const float *depth, __global float4 *a_dir, __g
     float3 fA, fT;
     if (march_shares(depth, width, height, cam, m, prims, L, thickness, offscreen_shadowed, i + 0.5f, j + 0.5f,
                      &fA, &fT, 0, (float4)(0.0f)))
-        apply_shares(a_dir, a_sc, idx, fA, fT);
+        apply_shares(a_dir, a_sc, idx, fA.x, fA.y, fA.z, fT.x, fT.y, fT.z);
 }
