@@ -51,6 +51,32 @@ inline float exp_poly(float y)
     return z <= -127.0f ? 0.0f : p * as_float((ni + 127) << 23);
 }
 
+/* exp_poly and SQRT_ lane by lane on float8 (explicit SIMD where work-items stay scalar, and
+ * lights.cl's AL_LANES 8): the library's exp and sqrt on vectors are calls in PoCL */
+ALWAYS_INLINE float8 exp_poly8(float8 y)
+{
+    float8 z = y * 1.44269504f;
+    z = z < -127.0f ? -127.0f : z;
+    z = z > 128.0f ? 128.0f : z;
+    int8 ni = __builtin_convertvector(z + (z >= 0.0f ? (float8)(0.5f) : (float8)(-0.5f)), int8);
+    float8 g = (z - __builtin_convertvector(ni, float8)) * 0.69314718f;
+    float8 p = 1.0f + g * (1.0f + g * (0.5f + g * (1.0f / 6.0f + g * (1.0f / 24.0f
+               + g * (1.0f / 120.0f + g * (1.0f / 720.0f + g * (1.0f / 5040.0f)))))));
+    return z <= -127.0f ? (float8)(0.0f) : p * as_float8((ni + 127) << 23);
+}
+
+ALWAYS_INLINE float8 sqrt8(float8 v)
+{
+    return (float8)(SQRT_(v.s0), SQRT_(v.s1), SQRT_(v.s2), SQRT_(v.s3),
+                    SQRT_(v.s4), SQRT_(v.s5), SQRT_(v.s6), SQRT_(v.s7));
+}
+
+ALWAYS_INLINE float hsum8(float8 v)
+{
+    float4 h = v.lo + v.hi;
+    return (h.x + h.y) + (h.z + h.w);
+}
+
 /* 1 - e^-x for x >= 0, accurate in thin media where 1 - exp_poly(-x) would cancel: the
  * series to x^5 below 0.05 (error < 3e-11 relative), then at most 4e-6 relative. */
 inline float one_minus_exp(float x)

@@ -166,38 +166,21 @@ __kernel void airlight(__global const float *depth, __global float4 *a_dir, __gl
 #if AL_LANES == 8
 typedef float8 alf;
 typedef int8 ali;
+#define al_exp exp_poly8
 #define AL_ABS(v) as_float8(as_int8(v) & 0x7fffffff)
-/* lane by lane: the library's sqrt and vload8 on vectors are calls in PoCL; these compile to
- * one instruction */
-#define AL_SQRT(v) al_sqrt8(v)
+/* lane by lane: the library's sqrt and vload8 on vectors are calls in PoCL; sqrt8 (common.h)
+ * and these compile to one instruction */
+#define AL_SQRT(v) sqrt8(v)
 #define AL_INT(v) __builtin_convertvector((v), int8)
 #define AL_FLOAT(v) __builtin_convertvector((v), float8)
 #define AL_LOAD(p, k) ((float8)((p)[(k).s0], (p)[(k).s1], (p)[(k).s2], (p)[(k).s3],     \
                                 (p)[(k).s4], (p)[(k).s5], (p)[(k).s6], (p)[(k).s7]))
-ALWAYS_INLINE float8 al_sqrt8(float8 v)
-{
-    return (float8)(SQRT_(v.s0), SQRT_(v.s1), SQRT_(v.s2), SQRT_(v.s3),
-                    SQRT_(v.s4), SQRT_(v.s5), SQRT_(v.s6), SQRT_(v.s7));
-}
-
 ALWAYS_INLINE float8 al_load8(__global const float *p)
 {
     return (float8)(p[0], p[1], p[2], p[3], p[4], p[5], p[6], p[7]);
 }
 
-/* exp_poly and log_pos of common.h, lane by lane */
-ALWAYS_INLINE float8 al_exp(float8 y)
-{
-    float8 z = y * 1.44269504f;
-    z = z < -127.0f ? -127.0f : z;
-    z = z > 128.0f ? 128.0f : z;
-    int8 ni = AL_INT(z + (z >= 0.0f ? (float8)(0.5f) : (float8)(-0.5f)));
-    float8 g = (z - AL_FLOAT(ni)) * 0.69314718f;
-    float8 p = 1.0f + g * (1.0f + g * (0.5f + g * (1.0f / 6.0f + g * (1.0f / 24.0f
-               + g * (1.0f / 120.0f + g * (1.0f / 720.0f + g * (1.0f / 5040.0f)))))));
-    return z <= -127.0f ? (float8)(0.0f) : p * as_float8((ni + 127) << 23);
-}
-
+/* log_pos of common.h, lane by lane */
 ALWAYS_INLINE float8 al_log(float8 x)
 {
     int8 bits = as_int8(x);

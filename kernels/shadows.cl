@@ -149,24 +149,88 @@ inline float map_query(__global const float *tree, int lo, int hi, int largest)
     return r;
 }
 
-/* Intel's min/max test for the cells of a ray between integration variables t0 < t1: 0 if
- * every point there is lit by the slice's map, 1 if every one is behind an occluder, 2 if
- * neither is certain. The keys grow monotonically along the ray; the distance from a point
- * light is convex (smallest at the ray's foot s = d1, distance Rt), from the sun linear. */
-inline int map_range(__global const float *map, float4 mrange, float3 w, float3 u, float dl, int directional,
-                     float d1, float R, float Rt, float t0, float t1)
+/* a point of the ray at integration variable t (phi, or s for the sun) as the map sees it:
+ * (its ray parameter s, its key, its distance) */
+inline float3 map_point(float3 w, float3 u, float dl, int directional, float d1, float R, float t)
 {
-    float sa = directional ? t0 : d1 + R * native_tan(t0), sb = directional ? t1 : d1 + R * native_tan(t1);
-    float2 ka = plane_coords(sa * w, u, dl, directional), kb = plane_coords(sb * w, u, dl, directional);
-    float f0 = (minf(ka.x, kb.x) - mrange.x) / mrange.y, f1 = (maxf(ka.x, kb.x) - mrange.x) / mrange.y;
+    float s = directional ? t : d1 + R * native_tan(t);
+    float2 kd = plane_coords(s * w, u, dl, directional);
+    return (float3)(s, kd.x, kd.y);
+}
+
+/* Intel's min/max test for the cells of a ray between its points pa and pb (map_point, pa
+ * first): 0 if every point there is lit by the slice's map, 1 if every one is behind an
+ * occluder, 2 if neither is certain. The keys grow monotonically along the ray; the distance
+ * from a point light is convex (smallest at the ray's foot s = d1, distance Rt), from the sun
+ * linear. */
+inline int map_range(__global const float *map, float4 mrange, int directional, float d1, float Rt, float3 pa,
+                     float3 pb)
+{
+    float f0 = (minf(pa.y, pb.y) - mrange.x) / mrange.y, f1 = (maxf(pa.y, pb.y) - mrange.x) / mrange.y;
     if (!(f1 >= 0.0f) || !(f0 < SH_BINS)) return 0;                 /* off the map: lit */
     int inside = f0 >= 0.0f && f1 < SH_BINS;
     int b0 = (int)maxf(f0, 0.0f), b1 = (int)minf(f1, SH_BINS - 1.0f) + 1;
-    float dmax = maxf(ka.y, kb.y);
-    float dmin = !directional && sa < d1 && d1 < sb ? Rt : minf(ka.y, kb.y);
+    float dmax = maxf(pa.z, pb.z);
+    float dmin = !directional && pa.x < d1 && d1 < pb.x ? Rt : minf(pa.z, pb.z);
     if (dmax <= map_query(map, b0, b1, 0) * (1.0f + 1e-5f) + 1e-5f) return 0;
     if (inside && dmin > map_query(map + 2 * SH_BINS, b0, b1, 1) * (1.0f + 1e-5f) + 1e-5f) return 1;
     return 2;
+}
+
+/* The lit shares of march_shares where the medium is its homogeneous part alone (no other
+ * primitives): al_integrand in closed form, eight cells at once (explicit SIMD: the samples'
+ * work-items stay scalar). What all cells share (1 / R, the density, sigma_s, the intensity,
+ * HG's numerator) cancels in the shares. The cells' phi advance by rotation, eight cells per
+ * step: two sin / cos evaluations instead of 128. */
+ALWAYS_INLINE void shares_homogeneous(const lmedium_t *m, const light_t *L, float3 w, float3 lc, float d1, float R,
+                                      float Rt, float a0, float da, const uint *bits, float3 *fA, float3 *fT)
+{
+    const float8 lane = (float8)(0.5f, 1.5f, 2.5f, 3.5f, 4.5f, 5.5f, 6.5f, 7.5f);
+    float hf = m->homogeneous, g = m->g;
+    int directional = L->type == 2, spot = L->type == 1;
+    float kA0 = -hf * (m->sa.x + m->ss.x), kA1 = -hf * (m->sa.y + m->ss.y), kA2 = -hf * (m->sa.z + m->ss.z);
+    float kT0 = -hf * m->sa.x, kT1 = -hf * m->sa.y, kT2 = -hf * m->sa.z;
+    /* spot: the cosine to its axis at s is (q0 + s q1) / |x - light|, lc = camera - light */
+    float q0 = dot(lc, L->axis.xyz), q1 = dot(w, L->axis.xyz), sw = 1.0f / (L->cos_inner - L->cos_outer);
+    float8 ph = a0 + lane * da, sn = native_sin(ph), cs = native_cos(ph);
+    float rc = native_cos(8.0f * da), rs = native_sin(8.0f * da);
+    float8 tA0 = 0.0f, tA1 = 0.0f, tA2 = 0.0f, tT0 = 0.0f, tT1 = 0.0f, tT2 = 0.0f;
+    float8 lA0 = 0.0f, lA1 = 0.0f, lA2 = 0.0f, lT0 = 0.0f, lT1 = 0.0f, lT2 = 0.0f;
+    for (int k = 0; k < SH_N; k += 8) {
+        float8 s, lw, f;
+        if (directional) {
+            s = a0 + (lane + (float)k) * da;
+            lw = 0.0f;
+            f = 1.0f;
+        } else {
+            float8 rcs = 1.0f / cs;
+            s = d1 + R * sn * rcs;
+            lw = R * rcs;
+            float8 d = 1.0f + g * g + 2.0f * g * sn;
+            f = 1.0f / (d * sqrt8(d));
+            if (spot) {
+                float8 x = (q0 + s * q1) / sqrt8(Rt * Rt + (s - d1) * (s - d1));
+                float8 t = (x - L->cos_outer) * sw;
+                t = t < 0.0f ? 0.0f : (t > 1.0f ? 1.0f : t);
+                f *= t * t * (3.0f - 2.0f * t);
+            }
+            float8 c2 = cs * rc - sn * rs;
+            sn = sn * rc + cs * rs;
+            cs = c2;
+        }
+        float8 open;
+        for (int i = 0; i < 8; ++i) open[i] = 1.0f - popcount(CELL_BITS(bits, k + i)) * (1.0f / SH_SUB);
+        float8 a0_ = f * exp_poly8(kA0 * (lw + s)), a1_ = f * exp_poly8(kA1 * (lw + s)), a2_ = f * exp_poly8(kA2 * (lw + s));
+        float8 t0_ = f * exp_poly8(kA0 * lw + kT0 * s), t1_ = f * exp_poly8(kA1 * lw + kT1 * s),
+               t2_ = f * exp_poly8(kA2 * lw + kT2 * s);
+        tA0 += a0_; tA1 += a1_; tA2 += a2_; tT0 += t0_; tT1 += t1_; tT2 += t2_;
+        lA0 += open * a0_; lA1 += open * a1_; lA2 += open * a2_;
+        lT0 += open * t0_; lT1 += open * t1_; lT2 += open * t2_;
+    }
+    float3 totA = (float3)(hsum8(tA0), hsum8(tA1), hsum8(tA2)), totT = (float3)(hsum8(tT0), hsum8(tT1), hsum8(tT2));
+    float3 litA = (float3)(hsum8(lA0), hsum8(lA1), hsum8(lA2)), litT = (float3)(hsum8(lT0), hsum8(lT1), hsum8(lT2));
+    *fA = select((float3)(1.0f), litA / totA, totA > 0.0f);
+    *fT = select((float3)(1.0f), litT / totT, totT > 0.0f);
 }
 
 /* The lit shares of the airlight's integrand (fA: camera leg in extinction, fT: in
@@ -218,21 +282,28 @@ inline int march_shares(__global const float *depth, const int width, const int 
          * halved while undecided, a single undecided sub-cell tested at its middle */
         float3 u = directional ? v : v / dl;
         float sub = da / SH_SUB;
+        /* a stack of ranges with their end points, each point computed once (a split's
+         * middle serves both halves) */
         int lo_[32], hi_[32], sp = 1;
+        float3 pl_[32], ph_[32];
         lo_[0] = 0;
         hi_[0] = SH_N * SH_SUB;
+        pl_[0] = map_point(w, u, dl, directional, d1, R, a0);
+        ph_[0] = map_point(w, u, dl, directional, d1, R, a0 + SH_N * SH_SUB * sub);
         while (sp > 0) {
             --sp;
             int k0 = lo_[sp], k1 = hi_[sp];
-            int st = map_range(map, mrange, w, u, dl, directional, d1, R, Rt, a0 + k0 * sub, a0 + k1 * sub);
+            float3 pa = pl_[sp], pb = ph_[sp];
+            int st = map_range(map, mrange, directional, d1, Rt, pa, pb);
             if (st == 2 && k1 - k0 == 1)
                 st = map_blocked(map, mrange, c, w, u, dl, directional, d1, R, a0 + (k0 + 0.5f) * sub);
             if (st == 1) {
                 set_bits(bits, k0, k1 - 1);
             } else if (st == 2) {
                 int km = (k0 + k1) / 2;
-                lo_[sp] = km; hi_[sp++] = k1;
-                lo_[sp] = k0; hi_[sp++] = km;
+                float3 pm = map_point(w, u, dl, directional, d1, R, a0 + km * sub);
+                lo_[sp] = km; hi_[sp] = k1; pl_[sp] = pm; ph_[sp++] = pb;
+                lo_[sp] = k0; hi_[sp] = km; pl_[sp] = pa; ph_[sp++] = pm;
             }
         }
         off = mrange.w > 0.0f;
@@ -323,6 +394,10 @@ inline int march_shares(__global const float *depth, const int width, const int 
         return 1;
     }
 
+    if (m.nprims == 0) {
+        shares_homogeneous(&m, &L, w, c - L.pos.xyz, d1, R, Rt, a0, da, bits, fA, fT);
+        return 1;
+    }
     /* the lit share of the integrand, camera leg in extinction (A) and in absorption (all) */
     float3 st = m.sa.xyz + m.ss.xyz;
     float3 litA = (float3)(0.0f), totA = litA, litT = litA, totT = litA;
