@@ -181,7 +181,7 @@ inline int map_range(__global const float *map, float4 mrange, int directional, 
  * primitives): al_integrand in closed form, eight cells at once (explicit SIMD: the samples'
  * work-items stay scalar). What all cells share (1 / R, the density, sigma_s, the intensity,
  * HG's numerator) cancels in the shares. The cells' phi advance by rotation, eight cells per
- * step: two sin / cos evaluations instead of 128. */
+ * step: sin and cos of the first eight and of one step, not of all 64. */
 ALWAYS_INLINE void shares_homogeneous(const lmedium_t *m, const light_t *L, float3 w, float3 lc, float d1, float R,
                                       float Rt, float a0, float da, const uint *bits, float3 *fA, float3 *fT)
 {
@@ -191,7 +191,8 @@ ALWAYS_INLINE void shares_homogeneous(const lmedium_t *m, const light_t *L, floa
     float kA0 = -hf * (m->sa.x + m->ss.x), kA1 = -hf * (m->sa.y + m->ss.y), kA2 = -hf * (m->sa.z + m->ss.z);
     float kT0 = -hf * m->sa.x, kT1 = -hf * m->sa.y, kT2 = -hf * m->sa.z;
     /* spot: the cosine to its axis at s is (q0 + s q1) / |x - light|, lc = camera - light */
-    float q0 = dot(lc, L->axis.xyz), q1 = dot(w, L->axis.xyz), sw = 1.0f / (L->cos_inner - L->cos_outer);
+    float q0 = dot(lc, L->axis.xyz), q1 = dot(w, L->axis.xyz);
+    float sw = spot ? 1.0f / (L->cos_inner - L->cos_outer) : 0.0f;     /* lights.py: inner > outer */
     float8 ph = a0 + lane * da, sn = native_sin(ph), cs = native_cos(ph);
     float rc = native_cos(8.0f * da), rs = native_sin(8.0f * da);
     float8 tA0 = 0.0f, tA1 = 0.0f, tA2 = 0.0f, tT0 = 0.0f, tT1 = 0.0f, tT2 = 0.0f;
