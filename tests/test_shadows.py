@@ -135,3 +135,17 @@ def test_closed_form_shares_of_homogeneous_media_match_the_generic_integrand():
                 shares.append(np.where(free > 0, airlight(z, spec, *sets, *medium) / np.where(free > 0, free, 1), 1))
             assert shares[0].min() < 0.97, (spec, method, "the case has to have shadows")
             assert np.abs(shares[0] - shares[1]).max() <= 1e-4, (spec, method, np.abs(shares[0] - shares[1]).max())
+
+
+def test_epipolar_dense_zone_is_15_percent_of_the_image_and_at_most_64_pixels():
+    """The samples four times as dense around the light's image: out to 15 % of the longer
+    side on small images (256 x 192: 38.4 px, which the 1 % above needs: 13 px gave 2 %), at
+    most lights.DENSE_PX (64) on large ones (1920 x 1080: 0.23 % from the march, as with 128 px)."""
+    from fogcli import make_config
+    from fogcli.lights import DENSE_PX, epipolar_layout
+
+    for w, h, zone in ((256, 192, 0.15 * 256), (1920, 1080, DENSE_PX)):
+        cfg = make_config(None, sets=["lights=[{type: point, position: [0, 0, -10], intensity: 1}]"])
+        _, _, _, _, r0, rb, h1, h2, m1, nm, _, full, _ = epipolar_layout(cfg, cfg.lights[0], w, h, 512, 16)
+        assert full and r0 == 0.0 and h1 == h2 / 4, (w, h)
+        assert zone <= rb < zone + h1, (w, h, rb)

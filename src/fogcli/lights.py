@@ -100,6 +100,9 @@ def gain(cfg: Config, light) -> np.ndarray:
     return np.maximum(out, 1.0)
 
 
+DENSE_PX = 64.0      # the epipolar samples' dense zone around the light's image, at most (pixels)
+
+
 def epipolar_layout(cfg: Config, light, width: int, height: int, slices: int, step: int) -> tuple:
     """The samples of render.lights.method: epipolar (kernels/shadows.cl): (ex, ey) the light's
     image (its antipode for a light behind the camera; 1e4 pixels out along the epipolar lines
@@ -134,10 +137,13 @@ def epipolar_layout(cfg: Config, light, width: int, height: int, slices: int, st
     ns = int(min(slices, 2 * (width + height)))
     step = max(2, min(step, round(max(width, height) / 16)))
     da = span / ns if full else span / max(ns - 1, 1)
-    # four times as dense within 15 % of the image's size of e (Intel's sample: the share
-    # changes fastest near the light's image)
+    # four times as dense near the light's image, where the shares change fastest: within 15 %
+    # of the image's longer side (Intel's sample: 0.3 NDC) and at most DENSE_PX (at 1920 x 1080
+    # the error against the march is 0.23 % with 64 or 128 px, 0.20 % with 288 px, 1.6 % with
+    # none; 64 px instead of 288 saves a third of the samples; small images need their 15 %:
+    # at 256 x 192, 38 px, 0.95 %, and 13 px, 2.0 %)
     h1 = step / 4.0
-    m1 = int(math.ceil(max(0.15 * max(width, height) - r0, 0.0) / h1))
+    m1 = int(math.ceil(max(min(0.15 * max(width, height), DENSE_PX) - r0, 0.0) / h1))
     rb = r0 + m1 * h1
     nm = m1 + int(math.ceil(max(r_max - rb, 0.0) / step)) + 2
     front = bool(z < 0 and abs(z) * far > np.hypot(*g))      # e is the light's own image
