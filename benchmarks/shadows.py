@@ -196,6 +196,47 @@ def epipolar_kernels(h: int, w: int, name: str) -> dict:
     return best
 
 
+def visibility_agreement(h: int, w: int, names=tuple(CASES), thickness: float = 0.05, tol: float = 0.01) -> dict:
+    """Per case, the epipolar samples' visibility from their slices' shadow maps (min/max
+    trees) against each sample walking its own line pixel by pixel as the march does (the
+    same kernel built with SH_WALK): (samples in the frame, share of them with the same
+    verdict, something in shadow or not; share whose lit share differs by at most `tol`;
+    mean difference of the lit share)."""
+    import pyopencl as cl
+
+    from fogcli.pipeline import get_plan
+    from fogcli.runtime import Runtime, get_runtime
+
+    z = facade_scene(h, w)
+    rgb = np.zeros((h, w, 3), np.float32)
+    program = Runtime.program
+    out = {}
+    for name in names:
+        cfg = fogcli.make_config(None, sets=[*MEDIUM, f"lights=[{CASES[name][0]}]", "render.lights.shadows=screen",
+                                             f"render.lights.thickness={thickness}"])
+        got = []
+        for walk in (False, True):
+            Runtime.program = (lambda self, n, **d: program(self, n, **d, SH_WALK=1) if n == "shadows"  # noqa: E731
+                               else program(self, n, **d)) if walk else program
+            try:
+                fogcli.apply(rgb, z, cfg)
+            finally:
+                Runtime.program = program
+            rt = get_runtime(None)
+            plan = get_plan(rt, w, h, cfg, ())
+            n = plan._epi[0]
+            a, t = np.empty((n, 4), np.float32), np.empty((n, 4), np.float32)
+            cl.enqueue_copy(rt.queue, a, plan._epi[2])
+            cl.enqueue_copy(rt.queue, t, plan._epi[3]).wait()
+            got.append((a, t))
+        (a0, t0), (a1, t1) = got
+        inside = t0[:, 3] > 0
+        d = np.abs(a0[inside, 1] - a1[inside, 1])
+        out[name] = (int(inside.sum()), float((t0[inside, 3] == t1[inside, 3]).mean()), float((d <= tol).mean()),
+                     float(d.mean()))
+    return out
+
+
 def on_top(h: int, w: int, name: str, reps: int = 3) -> tuple[float, float, float]:
     """Kernel ms of the whole pipeline (every stage) on the facade scene with the medium alone
     and with the one shadowed light `name` (thickness 0.05 m), best of `reps` runs taken
@@ -238,6 +279,9 @@ def main() -> int:
     big = epipolar_vs_march(1080, 1920, names=("point behind a quad", "sun from the side"), slices=(256, 1024))
     stage_ms = epipolar_kernels(1080, 1920, "point behind a quad")
     plain, lit, unit = on_top(1080, 1920, "point behind a quad")
+    agree = {**visibility_agreement(192, 256),
+             **{f"{n}, 1920 x 1080": v for n, v in
+                visibility_agreement(1080, 1920, names=("point behind a quad", "sun from the side")).items()}}
     cold, warm = copies(1080, 1920)
     row = lambda n, v: (f"| {n} | {v[0]:.2%} | {v[1]:.0f} | {v[2]:.0f} | {v[1] / v[2]:.1f}x | "  # noqa: E731
                         f"{v[3]:.2%} |")
@@ -272,6 +316,14 @@ def main() -> int:
              "|---|---|---|---|",
              *[f"| {n} | " + " | ".join(f"{e:.2%} / {t:.0f}" for _, (e, t) in sorted(
                  {**v[4], LightsRender().slices: (v[0], v[2])}.items())) + " |" for n, v in big.items()], "",
+             "Visibility at the samples: from their slices' shadow maps (the default) against each sample",
+             "walking its own line pixel by pixel as the march does, at the same samples (the kernel built",
+             "with SH_WALK): the share of samples in the frame with the same verdict (something in shadow",
+             "or not), and with lit shares within 0.01 of each other:", "",
+             "| light | samples | same verdict | share within 0.01 | mean difference |",
+             "|---|---|---|---|---|",
+             *[f"| {n} (256 x 192) | {v[0]} | {v[1]:.2%} | {v[2]:.2%} | {v[3]:.1e} |" if "1920" not in n else
+               f"| {n} | {v[0]} | {v[1]:.2%} | {v[2]:.2%} | {v[3]:.1e} |" for n, v in agree.items()], "",
              f"Cost at 1920 x 1080 of one shadowed point light: epipolar {big['point behind a quad'][2]:.0f} ms = "
              f"{big['point behind a quad'][2] / cold:.0f} numpy copies of the image ({cold:.1f} ms, as "
              f"docs/performance.md counts them; {big['point behind a quad'][2] / warm:.0f} warm copies of {warm:.1f} ms), "

@@ -277,7 +277,14 @@ inline int march_shares(__global const float *depth, const int width, const int 
     float gy = (cam.cy - py) * (-vc.z) - cam.focal_y * vc.y;
     float glen = hypot(gx, gy);
     int off = 0;
-    if (map) {
+    if (glen <= 1e-6f * (fabs(vc.z) * (width + height) + cam.focal_px * hypot(vc.x, vc.y)) || Rt <= 1e-6f * dl) {
+        /* the light on this pixel's ray: its segments run along the ray itself, past the
+         * pixel's own surface when the light is behind it (no map sees that: a slice's
+         * samples at the light's image take this too) */
+        float b = surface_bias(D, thickness);
+        if (!directional && d1 > D + b && d1 - bl > D + b && D < cam.max_depth)
+            for (int k = 0; k < SH_WORDS; ++k) bits[k] = ~0u;
+    } else if (map) {
         /* a sample on a slice: its slice's shadow map (epi_maps) tells the visibility. Intel's
          * min/max trees: ranges of sub-cells decided by the map's bounds over their keys,
          * halved while undecided, a single undecided sub-cell tested at its middle */
@@ -309,12 +316,6 @@ inline int march_shares(__global const float *depth, const int width, const int 
         }
         off = mrange.w > 0.0f;
         if (off && offscreen_shadowed)
-            for (int k = 0; k < SH_WORDS; ++k) bits[k] = ~0u;
-    } else if (glen <= 1e-6f * (fabs(vc.z) * (width + height) + cam.focal_px * hypot(vc.x, vc.y)) || Rt <= 1e-6f * dl) {
-        /* the light on this pixel's ray: its segments run along the ray itself, past the
-         * pixel's own surface when the light is behind it */
-        float b = surface_bias(D, thickness);
-        if (!directional && d1 > D + b && d1 - bl > D + b && D < cam.max_depth)
             for (int k = 0; k < SH_WORDS; ++k) bits[k] = ~0u;
     } else {
         float ux = gx / glen, uy = gy / glen;
@@ -583,8 +584,15 @@ __kernel void epi_samples(__global const float *depth, __global float4 *sh_a, __
         return;
     }
     float3 fA, fT;
+#ifdef SH_WALK
+    /* benchmarks/shadows.py: each sample walks its line pixel by pixel as the march does, for
+     * the agreement of the maps' visibility with the march's */
+    __global const float *map = 0;
+#else
+    __global const float *map = maps + (size_t)k * 4 * SH_BINS;
+#endif
     int shadowed = march_shares(depth, width, height, cam, m, prims, L, thickness, offscreen_shadowed, px, py,
-                                &fA, &fT, maps + (size_t)k * 4 * SH_BINS, ranges[k]);
+                                &fA, &fT, map, ranges[k]);
     float Dn;
     sh_a[s] = (float4)(fA, pixel_z(&cam, depth, width, (int)px, (int)py, &Dn));
     sh_t[s] = (float4)(fT, shadowed ? 1.0f : 2.0f);      /* .w: 0 outside, 2 nothing in shadow */

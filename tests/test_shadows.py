@@ -149,3 +149,15 @@ def test_epipolar_dense_zone_is_15_percent_of_the_image_and_at_most_64_pixels():
         _, _, _, _, r0, rb, h1, h2, m1, nm, _, full, _ = epipolar_layout(cfg, cfg.lights[0], w, h, 512, 16)
         assert full and r0 == 0.0 and h1 == h2 / 4, (w, h)
         assert zone <= rb < zone + h1, (w, h, rb)
+
+
+def test_samples_visibility_from_the_maps_agrees_with_walking_their_lines():
+    """The epipolar samples read their visibility from their slices' shadow maps; built with
+    SH_WALK each walks its own line pixel by pixel as the march does. At 256 x 192, five lights:
+    >= 99.5 % of the samples in the frame have the same verdict and lit shares within 0.01
+    (measured 99.84-100 %; the samples at the light's own image disagreed on 6 % of them
+    until the light-on-the-ray case came before the maps)."""
+    from shadows import visibility_agreement
+
+    for name, (n, same, close, _) in visibility_agreement(192, 256).items():
+        assert n > 5000 and same >= 0.995 and close >= 0.995, (name, n, same, close)
