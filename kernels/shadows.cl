@@ -598,18 +598,61 @@ __kernel void epi_samples(__global const float *depth, __global float4 *sh_a, __
     sh_t[s] = (float4)(fT, shadowed ? 1.0f : 2.0f);      /* .w: 0 outside, 2 nothing in shadow */
 }
 
+/* SH_LANES 8 (CPUs with AVX2 and no AVX-512, as lights.cl's AL_LANES): epi_unwarp on float8,
+ * eight pixels of a row per work-item. Its sample reads are gathers, which LLVM does not emit
+ * for those CPUs, and PoCL ran it scalar there (~97 ms at 2 MPx against 33 on AVX-512);
+ * written on float8 it is vector code whatever the vectoriser decides, a read one load per
+ * lane. Per-pixel values are shf / shi; a comparison is 1 in a scalar and -1 in a vector
+ * lane, so truth is tested as != 0. */
+#ifndef SH_LANES
+#define SH_LANES 1
+#endif
+#if SH_LANES == 8
+typedef float8 shf;
+typedef int8 shi;
+#define SH_F(v) __builtin_convertvector((v), float8)
+#define SH_I(v) __builtin_convertvector((v), int8)
+#define SH_SQRT(v) sqrt8(v)
+#define SH_FABS(v) as_float8(as_int8(v) & 0x7fffffff)
+#define SH_LANE0 ((int8)(0, 1, 2, 3, 4, 5, 6, 7))
+#define SH_TRUE ((int8)(-1))
+/* lane l's float o of float4 element k[l] of f (k: element indices) */
+#define SH_READ(f, k, o) ((float8)((f)[4 * (k).s0 + (o)], (f)[4 * (k).s1 + (o)], (f)[4 * (k).s2 + (o)],      \
+                                   (f)[4 * (k).s3 + (o)], (f)[4 * (k).s4 + (o)], (f)[4 * (k).s5 + (o)],      \
+                                   (f)[4 * (k).s6 + (o)], (f)[4 * (k).s7 + (o)]))
+#define SH_READ1(f, k) ((float8)((f)[(k).s0], (f)[(k).s1], (f)[(k).s2], (f)[(k).s3], (f)[(k).s4], (f)[(k).s5], \
+                                 (f)[(k).s6], (f)[(k).s7]))
+#else
+typedef float shf;
+typedef int shi;
+#define SH_F(v) ((float)(v))
+#define SH_I(v) ((int)(v))
+#define SH_SQRT(v) SQRT_(v)
+#define SH_FABS(v) __builtin_fabsf(v)
+#define SH_LANE0 0
+#define SH_TRUE 1
+#define SH_READ(f, k, o) ((f)[4 * (k) + (o)])
+#define SH_READ1(f, k) ((f)[k])
+#endif
+
 /* atan2 to 2e-6 rad (an odd degree-11 polynomial of atan on [0, 1]): the slice index needs
  * far less than a slice's 6e-3 rad, and the library's atan2, a call per pixel, was a sixth
  * of the unwarp's time */
-inline float fast_atan2(float y, float x)
+ALWAYS_INLINE shf fast_atan2(shf y, shf x)
 {
-    float ax = __builtin_fabsf(x), ay = __builtin_fabsf(y), mx = maxf(ax, ay);
-    float a = mx > 0.0f ? minf(ax, ay) / mx : 0.0f, q = a * a;
-    float r = a * (((((-0.0117212f * q + 0.05265332f) * q - 0.11643287f) * q + 0.19354346f) * q - 0.33262347f) * q
-                   + 0.99997726f);
+    shf ax = SH_FABS(x), ay = SH_FABS(y), mx = ax > ay ? ax : ay, mn = ax > ay ? ay : ax;
+    shf a = mx > 0.0f ? mn / mx : 0.0f, q = a * a;
+    shf r = a * (((((-0.0117212f * q + 0.05265332f) * q - 0.11643287f) * q + 0.19354346f) * q - 0.33262347f) * q
+                 + 0.99997726f);
     r = ay > ax ? 1.57079633f - r : r;
     r = x < 0.0f ? 3.14159265f - r : r;
     return y < 0.0f ? -r : r;
+}
+
+ALWAYS_INLINE shi sh_floor(shf v)
+{
+    shi i = SH_I(v);
+    return v < SH_F(i) ? i - 1 : i;
 }
 
 /* Every pixel from the four samples around it: Intel's unwarp, bilinear weights times
@@ -620,7 +663,6 @@ inline float fast_atan2(float y, float x)
  * so that PoCL vectorises it: a call anywhere in a kernel, even on a branch a pixel in 10000
  * takes, or side-by-side steps that LLVM pairs kept the whole of it scalar (95 ms at 2 MPx,
  * now 33). A sample's .w of sh_t says whether nothing on its ray is in shadow (2). */
-
 __kernel void epi_unwarp(__global const float *depth, __global float4 *a_dir, __global float4 *a_sc,
                          __global const float4 *sh_a, __global const float4 *sh_t,
                          const int width, const int height, const camera_t cam,
@@ -629,47 +671,59 @@ __kernel void epi_unwarp(__global const float *depth, __global float4 *a_dir, __
                          const int m1, const int nm, const int ns,
                          const int full_circle, __global uchar *march)
 {
-    int i = get_global_id(0), j = get_global_id(1);
-    if (i >= width || j >= height) return;
-    int idx = j * width + i;
-    float d0, d1, d2, dw, s0, s1, s2, sw;
-    load4(a_dir, idx, &d0, &d1, &d2, &dw);
-    load4(a_sc, idx, &s0, &s1, &s2, &sw);
-    int light = d0 + d1 + d2 + s0 + s1 + s2 > 0.0f;           /* no light here: nothing to shadow */
-    float px = i + 0.5f, py = j + 0.5f;
-    float dx = px - ex, dy = py - ey, r = SQRT_(dx * dx + dy * dy);
-    float rel = fast_atan2(dy, dx) - a0;
+    int i0 = SH_LANES * get_global_id(0), j = get_global_id(1);
+    if (i0 >= width || j >= height) return;
+    /* the lanes past the row's end read its last pixel and store nothing */
+    shi i = i0 + SH_LANE0;
+#if SH_LANES == 8
+    i = i < width - 1 ? i : width - 1;
+#endif
+    shi idx = j * width + i;
+    __global const float *fd = (__global const float *)a_dir, *fs = (__global const float *)a_sc;
+    shf d0 = SH_READ(fd, idx, 0), d1 = SH_READ(fd, idx, 1), d2 = SH_READ(fd, idx, 2);
+    shf s0 = SH_READ(fs, idx, 0), s1 = SH_READ(fs, idx, 1), s2 = SH_READ(fs, idx, 2);
+    shi light = d0 + d1 + d2 + s0 + s1 + s2 > 0.0f;           /* no light here: nothing to shadow */
+    shf px = SH_F(i) + 0.5f;
+    float py = j + 0.5f;
+    shf dx = px - ex;
+    float dy = py - ey;
+    shf r = SH_SQRT(dx * dx + dy * dy);
+    shf rel = fast_atan2(dy, dx) - a0;
     const float two_pi = 2.0f * M_PI_F;
-    rel = full_circle ? rel - two_pi * (float)floor_i(rel / two_pi) : rel;
-    float fk = rel / da, fm = r < rb ? (r - r0) / h1 : m1 + (r - rb) / h2;
+    rel = full_circle ? rel - two_pi * SH_F(sh_floor(rel / two_pi)) : rel;
+    shf fk = rel / da, fm = r < rb ? (r - r0) / h1 : m1 + (r - rb) / h2;
     /* clamped before the conversion: far outside the slices fk can exceed the int range */
     fk = fk < -4.0f ? -4.0f : (fk > ns + 4.0f ? ns + 4.0f : fk);
-    int k0 = floor_i(fk);
-    float tk = fk - k0;
+    shi k0 = sh_floor(fk);
+    shf tk = fk - SH_F(k0);
     fm = AFTER(fm, tk);
     fm = fm < -4.0f ? -4.0f : (fm > nm + 4.0f ? nm + 4.0f : fm);
-    int m0 = floor_i(fm);
-    float tm = fm - m0;
-    int k1 = k0 + 1;
+    shi m0 = sh_floor(fm);
+    shf tm = fm - SH_F(m0);
+    shi k1 = k0 + 1;
     k0 = full_circle ? (k0 % ns + ns) % ns : k0;
     k1 = full_circle ? (k1 % ns + ns) % ns : k1;
-    int ok = r >= 8.0f && m0 >= 0 && m0 + 1 < nm && k0 >= 0 && k1 < ns;
+    shi ok = r >= 8.0f && m0 >= 0 && m0 + 1 < nm && k0 >= 0 && k1 < ns;
     /* out of range: read sample 0 (weights unused) rather than branch around the reads */
-    int kk0 = ok ? k0 : 0, kk1 = ok ? k1 : 0, mm0 = ok ? m0 : 0;
-    float Dn;
-    float zp = pixel_z(&cam, depth, width, i, j, &Dn), thr = 0.03f * zp;
-    float sum = 0.0f, fa0 = 0.0f, fa1 = 0.0f, fa2 = 0.0f, ft0 = 0.0f, ft1 = 0.0f, ft2 = 0.0f;
-    int lit = 1;            /* all four samples unshadowed: the pixel keeps its airlight */
+    shi kk0 = ok ? k0 : 0, kk1 = ok ? k1 : 0, mm0 = ok ? m0 : 0;
+    /* the pixel's depth along the view axis (pixel_z, on the lanes) */
+    shf qx = (SH_F(i) + 0.5f - cam.cx) / cam.focal_px;
+    float qy = (j + 0.5f - cam.cy) / cam.focal_y;
+    shf dlen = SH_SQRT(qx * qx + qy * qy + 1.0f);
+    shf dist = SH_READ1(depth, idx) * (cam.depth_is_z ? dlen : 1.0f);
+    shf zp = (dist < cam.max_depth ? dist : cam.max_depth) / dlen, thr = 0.03f * zp;
+    shf sum = 0.0f, fa0 = 0.0f, fa1 = 0.0f, fa2 = 0.0f, ft0 = 0.0f, ft1 = 0.0f, ft2 = 0.0f;
+    shi lit = SH_TRUE;      /* all four samples unshadowed: the pixel keeps its airlight */
+    __global const float *fa = (__global const float *)sh_a, *ft = (__global const float *)sh_t;
 #pragma unroll
     for (int c = 0; c < 4; ++c) {
-        int s = ((c & 1) ? kk1 : kk0) * nm + mm0 + (c >> 1);
-        float a_0, a_1, a_2, a_w, t_0, t_1, t_2, t_w;
-        load4(sh_a, s, &a_0, &a_1, &a_2, &a_w);
-        load4(sh_t, s, &t_0, &t_1, &t_2, &t_w);
+        shi s = ((c & 1) ? kk1 : kk0) * nm + mm0 + (c >> 1);
+        shf a_0 = SH_READ(fa, s, 0), a_1 = SH_READ(fa, s, 1), a_2 = SH_READ(fa, s, 2), a_w = SH_READ(fa, s, 3);
+        shf t_0 = SH_READ(ft, s, 0), t_1 = SH_READ(ft, s, 1), t_2 = SH_READ(ft, s, 2), t_w = SH_READ(ft, s, 3);
         lit &= t_w == 2.0f;
-        float dz = __builtin_fabsf(AFTER(a_w, sum) - zp);
-        float q = thr / (dz > thr ? dz : thr);
-        float wgt = (t_w > 0.0f ? 1.0f : 0.0f) * ((c & 1) ? tk : 1.0f - tk) * ((c >> 1) ? tm : 1.0f - tm) * (q * q) * (q * q);
+        shf dz = SH_FABS(AFTER(a_w, sum) - zp);
+        shf q = thr / (dz > thr ? dz : thr);
+        shf wgt = (t_w > 0.0f ? 1.0f : 0.0f) * ((c & 1) ? tk : 1.0f - tk) * ((c >> 1) ? tm : 1.0f - tm) * (q * q) * (q * q);
         sum += wgt;
         fa0 += wgt * a_0;
         fa1 += AFTER(wgt, fa0) * a_1;
@@ -679,10 +733,23 @@ __kernel void epi_unwarp(__global const float *depth, __global float4 *a_dir, __
         ft2 += AFTER(wgt, ft1) * t_2;
     }
     ok = ok && sum >= 1e-2f;
-    march[idx] = light && !ok;
-    float inv = 1.0f / (sum > 0.0f ? sum : 1.0f);
-    if (light && ok && !lit)
+    shi flag = light && !ok, apply = light && ok && !lit;
+    shf inv = 1.0f / (sum > 0.0f ? sum : 1.0f);
+#if SH_LANES == 8
+#pragma unroll
+    for (int l = 0; l < 8; ++l) {
+        int o = j * width + i0 + l;
+        if (i0 + l < width)
+            march[o] = flag[l] != 0;
+        if (i0 + l < width && apply[l])
+            apply_shares(a_dir, a_sc, o, fa0[l] * inv[l], fa1[l] * inv[l], fa2[l] * inv[l],
+                         ft0[l] * inv[l], ft1[l] * inv[l], ft2[l] * inv[l]);
+    }
+#else
+    march[idx] = flag;
+    if (apply)
         apply_shares(a_dir, a_sc, idx, fa0 * inv, fa1 * inv, fa2 * inv, ft0 * inv, ft1 * inv, ft2 * inv);
+#endif
 }
 
 /* The pixels epi_unwarp flagged, marched themselves (marched[0] counts them). */

@@ -522,7 +522,7 @@ class Plan:
                                             *device_quad(), ls)
             t.add("lights", ev)
             if self.cfg.render.lights.shadows == "screen":      # built once per process (runtime.program)
-                k_shadows = self.rt.program("shadows", **defines(self.cfg), SH_BINS=SH_BINS)
+                k_shadows = self.rt.program("shadows", **defines(self.cfg), SH_BINS=SH_BINS, SH_LANES=self.lanes)
                 sh = self.cfg.render.lights
                 sh_args = (cam, lm, device_quad()[0], ls, np.float32(sh.thickness), np.int32(sh.offscreen == "shadowed"))
                 if sh.method == "march":
@@ -600,7 +600,7 @@ class Plan:
                                     cam_, ls, thick, *lay[:4], np.int32(ns), np.int32(not inside)))
         t.add("shadows", k.epi_samples(q, *self.rt.nd(nm, ns), self.depth, sh_a, sh_t, np.int32(self.w),
                                        np.int32(self.h), *sh_args, *lay, maps, ranges))
-        t.add("shadows", k.epi_unwarp(q, *self.rt.nd(self.w, self.h), self.depth, *dst, sh_a, sh_t, np.int32(self.w),
+        t.add("shadows", k.epi_unwarp(q, *self.rt.nd(-(-self.w // self.lanes), self.h), self.depth, *dst, sh_a, sh_t, np.int32(self.w),
                                       np.int32(self.h), cam_, *lay, np.int32(full), self.epi_flags))
         t.add("shadows", k.epi_march(q, *self.rt.nd(self.w, self.h), self.depth, *dst, np.int32(self.w),
                                      np.int32(self.h), *sh_args, self.epi_flags, counter))
