@@ -322,14 +322,14 @@ def main() -> int:
              "or not), and with lit shares within 0.01 of each other:", "",
              "| light | samples | same verdict | share within 0.01 | mean difference |",
              "|---|---|---|---|---|",
-             *[f"| {n} (256 x 192) | {v[0]} | {v[1]:.2%} | {v[2]:.2%} | {v[3]:.1e} |" if "1920" not in n else
-               f"| {n} | {v[0]} | {v[1]:.2%} | {v[2]:.2%} | {v[3]:.1e} |" for n, v in agree.items()], "",
+             *[f"| {n}{'' if '1920' in n else ' (256 x 192)'} | {v[0]} | {v[1]:.2%} | {v[2]:.2%} | {v[3]:.1e} |"
+               for n, v in agree.items()], "",
              f"Cost at 1920 x 1080 of one shadowed point light: epipolar {big['point behind a quad'][2]:.0f} ms = "
              f"{big['point behind a quad'][2] / cold:.0f} numpy copies of the image ({cold:.1f} ms, as "
              f"docs/performance.md counts them; {big['point behind a quad'][2] / warm:.0f} warm copies of {warm:.1f} ms), "
              f"the march {big['point behind a quad'][1] / 1e3:.0f} s; per kernel: "
              + ", ".join(f"{k} {v:.0f} ms" for k, v in stage_ms.items()) + ".", "",
-             f"On top of the default pipeline (every stage's kernel time, the same scene with and without the",
+             "On top of the default pipeline (every stage's kernel time, the same scene with and without the",
              f"shadowed light, best of 3 taken alternately): {plain:.0f} ms -> {lit:.0f} ms, the light with its shadows "
              f"{lit - plain:.0f} ms = {(lit - plain) / unit:.0f} numpy copies ({unit:.1f} ms, measured between those runs) "
              f"= {(lit - plain) / plain:.1f}x the pipeline without it.", "", END]

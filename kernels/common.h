@@ -65,6 +65,10 @@ ALWAYS_INLINE float8 exp_poly8(float8 y)
     return z <= -127.0f ? (float8)(0.0f) : p * as_float8((ni + 127) << 23);
 }
 
+/* p[k.s0] .. p[k.s7] as a float8: one load per lane (LLVM emits no gathers for AVX2 CPUs) */
+#define GATHER8(p, k) ((float8)((p)[(k).s0], (p)[(k).s1], (p)[(k).s2], (p)[(k).s3],                    \
+                                (p)[(k).s4], (p)[(k).s5], (p)[(k).s6], (p)[(k).s7]))
+
 ALWAYS_INLINE float8 sqrt8(float8 v)
 {
     return (float8)(SQRT_(v.s0), SQRT_(v.s1), SQRT_(v.s2), SQRT_(v.s3),

@@ -173,8 +173,7 @@ typedef int8 ali;
 #define AL_SQRT(v) sqrt8(v)
 #define AL_INT(v) __builtin_convertvector((v), int8)
 #define AL_FLOAT(v) __builtin_convertvector((v), float8)
-#define AL_LOAD(p, k) ((float8)((p)[(k).s0], (p)[(k).s1], (p)[(k).s2], (p)[(k).s3],     \
-                                (p)[(k).s4], (p)[(k).s5], (p)[(k).s6], (p)[(k).s7]))
+#define AL_LOAD(p, k) GATHER8(p, k)
 ALWAYS_INLINE float8 al_load8(__global const float *p)
 {
     return (float8)(p[0], p[1], p[2], p[3], p[4], p[5], p[6], p[7]);

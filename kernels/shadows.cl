@@ -617,11 +617,8 @@ typedef int8 shi;
 #define SH_LANE0 ((int8)(0, 1, 2, 3, 4, 5, 6, 7))
 #define SH_TRUE ((int8)(-1))
 /* lane l's float o of float4 element k[l] of f (k: element indices) */
-#define SH_READ(f, k, o) ((float8)((f)[4 * (k).s0 + (o)], (f)[4 * (k).s1 + (o)], (f)[4 * (k).s2 + (o)],      \
-                                   (f)[4 * (k).s3 + (o)], (f)[4 * (k).s4 + (o)], (f)[4 * (k).s5 + (o)],      \
-                                   (f)[4 * (k).s6 + (o)], (f)[4 * (k).s7 + (o)]))
-#define SH_READ1(f, k) ((float8)((f)[(k).s0], (f)[(k).s1], (f)[(k).s2], (f)[(k).s3], (f)[(k).s4], (f)[(k).s5], \
-                                 (f)[(k).s6], (f)[(k).s7]))
+#define SH_READ(f, k, o) GATHER8(f, 4 * (k) + (o))
+#define SH_READ1(f, k) GATHER8(f, k)
 #else
 typedef float shf;
 typedef int shi;
