@@ -19,13 +19,14 @@ typedef struct {
 } medium_t;
 
 #ifdef EMISSION_LAMBERT
-/* Camera-space point of pixel (i, j), clamped to the image; unclamped depth (surfaces) */
+/* Camera-space point of pixel (i, j), clamped to the image (inner: known to be inside);
+ * unclamped depth (surfaces) */
 __attribute__((always_inline)) inline void cam_point(const camera_t *c, __global const float *depth, int w, int h,
-                                                     int i, int j,
+                                                     int i, int j, int inner,
                       float *x, float *y, float *z)
 {
-    i = clampi_(i, 0, w - 1);
-    j = clampi_(j, 0, h - 1);
+    i = inner ? i : clampi_(i, 0, w - 1);
+    j = inner ? j : clampi_(j, 0, h - 1);
     float dx = (i + 0.5f - c->cx) / c->focal_px, dy = -(j + 0.5f - c->cy) / c->focal_y;
     float dlen = SQRT_(dx * dx + dy * dy + 1.0f);
     float s = depth[j * w + i] * (c->depth_is_z ? 1.0f : 1.0f / dlen);   /* planar depth */
@@ -35,19 +36,20 @@ __attribute__((always_inline)) inline void cam_point(const camera_t *c, __global
 /* |cos| between the surface normal and the line to the camera. The normal comes from the
  * depth map with, along each axis, the one-sided difference whose depth step is smaller,
  * so that a depth edge does not tilt the surfaces on either side of it. Sky and anything
- * that is not finite count as facing the camera. */
+ * that is not finite count as facing the camera. inner (a constant): all four neighbours
+ * are inside the image. */
 __attribute__((always_inline)) inline float view_cosine(const camera_t *c, __global const float *depth, int w, int h,
-                                                        int i, int j)
+                                                        int i, int j, int inner)
 {
     float px, py, pz, ax, ay, az, bx, by, bz;
-    cam_point(c, depth, w, h, i, j, &px, &py, &pz);
-    cam_point(c, depth, w, h, i + 1, j, &ax, &ay, &az);
-    cam_point(c, depth, w, h, i - 1, j, &bx, &by, &bz);
-    int fwd = (i == 0) || (i < w - 1 && absf_(az - pz) < absf_(pz - bz));
+    cam_point(c, depth, w, h, i, j, inner, &px, &py, &pz);
+    cam_point(c, depth, w, h, i + 1, j, inner, &ax, &ay, &az);
+    cam_point(c, depth, w, h, i - 1, j, inner, &bx, &by, &bz);
+    int fwd = inner ? absf_(az - pz) < absf_(pz - bz) : (i == 0) || (i < w - 1 && absf_(az - pz) < absf_(pz - bz));
     float ux = fwd ? ax - px : px - bx, uy = fwd ? ay - py : py - by, uz = fwd ? az - pz : pz - bz;
-    cam_point(c, depth, w, h, i, j + 1, &ax, &ay, &az);
-    cam_point(c, depth, w, h, i, j - 1, &bx, &by, &bz);
-    fwd = (j == 0) || (j < h - 1 && absf_(az - pz) < absf_(pz - bz));
+    cam_point(c, depth, w, h, i, j + 1, inner, &ax, &ay, &az);
+    cam_point(c, depth, w, h, i, j - 1, inner, &bx, &by, &bz);
+    fwd = inner ? absf_(az - pz) < absf_(pz - bz) : (j == 0) || (j < h - 1 && absf_(az - pz) < absf_(pz - bz));
     float vx = fwd ? ax - px : px - bx, vy = fwd ? ay - py : py - by, vz = fwd ? az - pz : pz - bz;
     if (w == 1) { ux = 1.0f; uy = 0.0f; uz = 0.0f; }
     if (h == 1) { vx = 0.0f; vy = 1.0f; vz = 0.0f; }
@@ -68,7 +70,21 @@ __kernel void view_cosines(__global const float *depth, __global float *cosv, co
     float wx, wy, wz;
     float dist = pixel_ray(&cam, i, j, depth[j * width + i], &wx, &wy, &wz);
     /* sky and anything at max_depth: a dome facing the camera */
-    float v = view_cosine(&cam, depth, width, height, i, j);     /* evaluated everywhere: no conditional loads */
+    float v = view_cosine(&cam, depth, width, height, i, j, 0);  /* evaluated everywhere: no conditional loads */
+    cosv[j * width + i] = dist < cam.max_depth ? v : 1.0f;
+}
+
+/* view_cosines' interior (every pixel whose four neighbours are inside the image), on whole
+ * work-groups of the rectangle pipeline.inner_region gives: no clamped reads, so the loads
+ * are linear in the work-item and PoCL vectorises it (view_cosines' clamped neighbour reads
+ * are gathers). */
+__kernel void view_cosines_inner(__global const float *depth, __global float *cosv, const int width,
+                                 const int height, const camera_t cam)
+{
+    int i = get_global_id(0), j = get_global_id(1);
+    float wx, wy, wz;
+    float dist = pixel_ray(&cam, i, j, depth[j * width + i], &wx, &wy, &wz);
+    float v = view_cosine(&cam, depth, width, height, i, j, 1);
     cosv[j * width + i] = dist < cam.max_depth ? v : 1.0f;
 }
 #endif

@@ -343,7 +343,8 @@ def _view_cosines(cfg, depth):
 
 @pytest.mark.parametrize("w,h", [(37, 19), (64, 8), (5, 40)])
 def test_view_cosines_match_oracle(rt, rng, w, h):
-    """view_cosines (on whole work-groups and the checked strips) against the oracle on a
+    """view_cosines (view_cosines_inner on the interior's whole work-groups where the frame
+    holds one, the checked per-pixel kernel on the strips around it) against the oracle on a
     depth map of tilted steps, every pixel including the edges; 1e-4 absolute (float32)."""
     yy, xx = np.mgrid[0:h, 0:w]
     depth = (5.0 + 0.05 * xx + 0.03 * yy + 2.0 * ((xx // 7 + yy // 5) % 2)

@@ -462,9 +462,12 @@ class Plan:
         self.optical_depth(t)
         whole, checked = self.k_pre_whole, self.k_pre_prog
         if self.lambert:
-            t.add("preprocess", self.rt.launch2d((whole.view_cosines, checked.view_cosines), self.w, self.h,
-                                                 self.depth, self.cosines, np.int32(self.w), np.int32(self.h),
-                                                 camera_struct(self.cfg, self.w, self.h)))
+            lx, ly = self.rt.local2d         # the interior: pixels whose four neighbours are in the image
+            nx, ny = (self.w - 2) // lx * lx, (self.h - 2) // ly * ly
+            self._launch_inner(t, "preprocess", (1, 1 + nx, 1, 1 + ny) if nx > 0 and ny > 0 else None,
+                               whole.view_cosines_inner, (whole.view_cosines, checked.view_cosines), self.w, self.h,
+                               (self.depth, self.cosines, np.int32(self.w), np.int32(self.h),
+                                camera_struct(self.cfg, self.w, self.h)))
         t.add("preprocess", self.rt.launch2d(
             (whole.preprocess, checked.preprocess), self.w, self.h, self.image, self.depth, self.direct,
             self.chain, self.spread, self.medium, self.trans, np.int32(self.w), np.int32(self.h),
@@ -746,17 +749,23 @@ class Plan:
                            args)
 
     def _launch_pairs(self, t: Timings, region, pairs, kernels, w: int, h: int, args: tuple) -> None:
-        """A w x h level through its two-pixel kernel (`pairs`, pairs.h) on `region` [x0, x1) x
-        [y0, y1), whole work-groups, and the per-pixel kernel (checked) on the frame around it;
-        without a region, the per-pixel kernels alone (launch2d)."""
+        """A w x h level through its two-pixel kernel (`pairs`, pairs.h) on `region`, the
+        per-pixel kernel around it (_launch_inner)."""
+        self._launch_inner(t, "composite", region, pairs, kernels, w, h, args, per=2)
+
+    def _launch_inner(self, t: Timings, stage: str, region, inner, kernels, w: int, h: int, args: tuple,
+                      per: int = 1) -> None:
+        """A w x h kernel through `inner` on `region` [x0, x1) x [y0, y1) (whole work-groups,
+        `per` pixels of a row per work-item) and the checked per-pixel kernel (kernels[1]) on
+        the four strips around it; without a region, the per-pixel kernels alone (launch2d)."""
         if region is None:
-            t.add("composite", self.rt.launch2d(kernels, w, h, *args))
+            t.add(stage, self.rt.launch2d(kernels, w, h, *args))
             return
         (x0, x1, y0, y1), q = region, self.rt.queue
-        t.add("composite", pairs(q, ((x1 - x0) // 2, y1 - y0), self.rt.local2d, *args, global_offset=(x0 // 2, y0)))
+        t.add(stage, inner(q, ((x1 - x0) // per, y1 - y0), self.rt.local2d, *args, global_offset=(x0 // per, y0)))
         for gx, gy, ox, oy in ((w, y0, 0, 0), (w, h - y1, 0, y1), (x0, y1 - y0, 0, y0), (w - x1, y1 - y0, x1, y0)):
             if gx > 0 and gy > 0:     # exact sizes: no pixel twice (the separated chain's pass adds)
-                t.add("composite", kernels[1](q, (gx, gy), None, *args, global_offset=(ox, oy)))
+                t.add(stage, kernels[1](q, (gx, gy), None, *args, global_offset=(ox, oy)))
 
     def extend(self, t: Timings) -> bool:
         """render.border: extend. The frame's edge continued `border_margin` past each side:
