@@ -130,6 +130,13 @@ def airlight(z: np.ndarray, light: str, *sets: str) -> np.ndarray:
     return planes["airlight.G"].astype(np.float64)
 
 
+def shadowed(name: str, thickness: float = 0.05, *sets: str):
+    """The config of the facade scene's medium with light CASES[name], its screen shadows at
+    `thickness` and any further settings."""
+    return fogcli.make_config(None, sets=[*MEDIUM, f"lights=[{CASES[name][0]}]", "render.lights.shadows=screen",
+                                          f"render.lights.thickness={thickness}", *sets])
+
+
 def against_geometry(h: int, w: int, names=tuple(CASES), thicknesses=(1.0,)) -> dict:
     """Per case: (share of the unshadowed airlight the exact shadows remove, relative L1 of
     the airlight with screen-space shadows against the exact geometric ones per thickness)."""
@@ -162,9 +169,8 @@ def epipolar_vs_march(h: int, w: int, names=tuple(CASES), thickness: float = 0.0
     for name in names:
         res = {}
         for method, sl in (("march", None), ("epipolar", None), *(("epipolar", s) for s in slices)):
-            cfg = fogcli.make_config(None, sets=[*MEDIUM, f"lights=[{CASES[name][0]}]", "render.lights.shadows=screen",
-                                                 f"render.lights.thickness={thickness}", f"render.lights.method={method}",
-                                                 *([f"render.lights.slices={sl}"] if sl else [])])
+            cfg = shadowed(name, thickness, f"render.lights.method={method}",
+                           *([f"render.lights.slices={sl}"] if sl else []))
             best = None
             for _ in range(1 if method == "march" else 2):     # the first epipolar run builds its kernels
                 t = Timings()
@@ -184,8 +190,7 @@ def epipolar_kernels(h: int, w: int, name: str) -> dict:
     """Kernel ms of the epipolar method's stages (its slices' maps, the samples, the unwarp,
     the march of the pixels the unwarp left) and of the unshadowed airlight, best of 3 runs."""
     z = facade_scene(h, w)
-    cfg = fogcli.make_config(None, sets=[*MEDIUM, f"lights=[{CASES[name][0]}]", "render.lights.shadows=screen",
-                                         "render.lights.thickness=0.05"])
+    cfg = shadowed(name)
     best = None
     for _ in range(3):
         t = Timings()
@@ -212,8 +217,7 @@ def visibility_agreement(h: int, w: int, names=tuple(CASES), thickness: float = 
     program = Runtime.program
     out = {}
     for name in names:
-        cfg = fogcli.make_config(None, sets=[*MEDIUM, f"lights=[{CASES[name][0]}]", "render.lights.shadows=screen",
-                                             f"render.lights.thickness={thickness}"])
+        cfg = shadowed(name, thickness)
         got = []
         for walk in (False, True):
             Runtime.program = (lambda self, n, **d: program(self, n, **d, SH_WALK=1) if n == "shadows"  # noqa: E731
@@ -244,9 +248,7 @@ def on_top(h: int, w: int, name: str, reps: int = 3) -> tuple[float, float, floa
     docs/performance.md measured between them (the least of its rounds)."""
     z = facade_scene(h, w)
     rgb = np.zeros((h, w, 3), np.float32)
-    cfgs = [fogcli.make_config(None, sets=MEDIUM),
-            fogcli.make_config(None, sets=[*MEDIUM, f"lights=[{CASES[name][0]}]", "render.lights.shadows=screen",
-                                           "render.lights.thickness=0.05"])]
+    cfgs = [fogcli.make_config(None, sets=MEDIUM), shadowed(name)]
     best = [math.inf, math.inf, math.inf]
     for _ in range(reps + 1):                   # the first round builds the kernels
         for i, cfg in enumerate(cfgs):
