@@ -334,22 +334,22 @@ def conservation_tables(sizes: list[tuple[int, int]], taps, cubic: bool,
     T = len(taps)
     parts, offs, o = [], [0], 0
 
+    # bincount adds in the order of its input, here (output pixel, tap) as a loop over both
+    # would: the same sums, in microseconds instead of 60 ms a frame size at 2 MPx
     def reduce_norm(n_src: int, n_dst: int) -> np.ndarray:
-        got = np.zeros(n_src)
-        for x in range(n_dst):
-            for t in range(T):
-                s = 2 * x - T // 2 + 1 + t
-                if 0 <= s < n_src:
-                    got[s] += taps[t]
-        return 0.5 / got
+        s = 2 * np.arange(n_dst)[:, None] - T // 2 + 1 + np.arange(T)[None, :]
+        w = np.broadcast_to(taps, s.shape)
+        ok = (s >= 0) & (s < n_src)
+        return 0.5 / np.bincount(s[ok], w[ok], minlength=n_src)
+
+    up_w = np.asarray(UP_BSPLINE if cubic else UP_TENT, np.float64)
 
     def up_norm(n_in: int, n_out: int) -> np.ndarray:
-        got = np.zeros(n_in)
-        for j0, w in up2_taps(n_out, cubic):
-            for t, wt in enumerate(w):
-                if open_border and not 0 <= j0 + t < n_in:
-                    continue
-                got[min(max(j0 + t, 0), n_in - 1)] += wt
+        y = np.arange(n_out)
+        j = ((y >> 1) - (2 if cubic else 1) + (y & 1))[:, None] + np.arange(up_w.shape[1])[None, :]
+        w = up_w[y & 1]
+        ok = (j >= 0) & (j < n_in) if open_border else np.ones(j.shape, bool)
+        got = np.bincount(np.clip(j[ok], 0, n_in - 1), w[ok], minlength=n_in)
         return 2.0 / np.maximum(got, 1e-12)
 
     for k in range(1, len(sizes)):

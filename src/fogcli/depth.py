@@ -36,12 +36,18 @@ def scale_of(raw: np.ndarray, cam: Camera) -> float:
 
 def decode(raw: np.ndarray, cam: Camera, source: str, width: int) -> np.ndarray:
     """Metric depth (z for z/disparity/inverse, ray length for distance); NaN = no value."""
-    v = np.asarray(raw, np.float64)
+    raw = np.asarray(raw)
+    # float32 holds every value of a half, float32 or 8/16-bit file exactly; wider types are
+    # decoded in float64 so that their extremes land on the same side of the limits
+    narrow = raw.dtype in (np.float16, np.float32) or (np.issubdtype(raw.dtype, np.integer) and raw.dtype.itemsize <= 2)
+    v = np.array(raw, np.float32 if narrow else np.float64)     # a copy: the passes below are in place
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         if cam.encoding == "cityscapes":           # (p - 1) / 256, p = 0: no measurement
             v = np.where(v > 0, (v - 1.0) / 256.0, np.nan)
         else:
-            v = v * scale_of(raw, cam)
+            scale = scale_of(raw, cam)
+            if scale != 1.0:
+                v *= scale
         if cam.depth == "disparity":
             v = np.where(v > 0, cam.baseline * cam.focal(width) / v, np.nan)
         elif cam.depth == "inverse":
@@ -53,10 +59,10 @@ def decode(raw: np.ndarray, cam: Camera, source: str, width: int) -> np.ndarray:
                 raise UserError(f"{source}: inverse depth is constant ({lo:g}): no relative depth to map to near..far")
             t = (v - lo) / (hi - lo)
             v = 1.0 / (1.0 / cam.far + t * (1.0 / cam.near - 1.0 / cam.far))
-        else:
-            v = np.where(v > 0, v, np.nan)
-        v = np.where(v > MAX_METRIC, np.inf, np.where(v < MIN_DEPTH, np.nan, v))   # -inf, tiny: holes
-    return v.astype(np.float32)
+        v = v.astype(np.float32, copy=False)
+        v[~(v >= MIN_DEPTH)] = np.nan             # zero, negative, -inf, tiny, NaN: holes
+        v[v > MAX_METRIC] = np.inf                # beyond 1e7 m: sky
+    return v
 
 
 def notes(raw: np.ndarray, cam: Camera, metric: np.ndarray, source: str) -> list[str]:
@@ -67,12 +73,15 @@ def notes(raw: np.ndarray, cam: Camera, metric: np.ndarray, source: str) -> list
             and cam.depth in ("z", "distance"):
         out.append(f"{source}: {raw.dtype} depth read as millimetres (camera.depth_scale: auto); "
                    "set camera.depth_scale if the unit differs (TUM RGB-D: 0.0002)")
-    ok = metric[np.isfinite(metric)]
-    if ok.size and cam.encoding == "linear" and cam.depth in ("z", "distance"):
+    if cam.encoding != "linear" or cam.depth not in ("z", "distance"):
+        return out
+    sample = metric.ravel()[::max(1, metric.size // 250_000)]   # a median for a warning: 1/8 of 2 MPx will do
+    ok = sample[np.isfinite(sample)]
+    if ok.size:
         med = float(np.median(ok))
         # whole numbers in the thousands: millimetre codes stored as they came from a sensor
-        vals = np.asarray(raw, np.float64)[np.isfinite(metric)]
-        if med > 0.5 * cam.max_depth and np.array_equal(vals, np.round(vals)) and len(np.unique(vals[:4096])) >= 16:
+        vals = np.asarray(raw, np.float64)[np.isfinite(metric)] if med > 0.5 * cam.max_depth else None
+        if vals is not None and np.array_equal(vals, np.round(vals)) and len(np.unique(vals[:4096])) >= 16:
             out.append(f"{source}: median depth {med:.4g} m (whole numbers, beyond half of camera.max_depth "
                        f"{cam.max_depth:g} m) looks like millimetres: set camera.depth_scale=0.001")
     return out

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import contextlib
 import functools
+import math
 import os
 import re
 import sys
@@ -285,7 +286,8 @@ def read_image(path: str | Path, layer: str | None = None, view: str | None = No
     sel_names = [names[i] for i in keep]
     if len(parts) == 1 and view:
         sel_names = [n[len(view) + 1:] if n.startswith(view + ".") else n for n in sel_names]
-    px = px[:, :, keep]
+    if keep != list(range(len(names))):
+        px = px[:, :, keep]
     orig = [names[i] for i in keep]       # the file's names of the columns of px
     if layer and not by_name:
         # a channel layer (Blender ViewLayer.Combined, Nuke diffuse): its R, G, B, A
@@ -332,10 +334,12 @@ def read_image(path: str | Path, layer: str | None = None, view: str | None = No
             rgb_idx = [i if i != a_idx else rgb_idx[0] for i in rgb_idx]
     rgb = np.ascontiguousarray(px[:, :, rgb_idx], dtype=np.float32)
     rgb = _to_linear(rgb, spec, fmt_name)
-    if not np.isfinite(rgb).all():
+    # max and min propagate NaN and keep inf: two passes without temporaries tell both
+    hi, lo = float(rgb.max(initial=0.0)), float(rgb.min(initial=0.0))
+    big = max(hi, -lo)
+    if not (math.isfinite(hi) and math.isfinite(lo)):
         bad = int((~np.isfinite(rgb)).any(axis=2).sum())
         raise UserError(f"{path}: {bad} pixel(s) hold NaN or infinite colour values")
-    big = float(np.abs(rgb).max(initial=0.0))
     if big > MAX_RADIANCE:
         raise UserError(f"{path}: colour values up to {big:.3g}; scene-linear radiance above "
                         f"{MAX_RADIANCE:.0e} is not supported (would overflow the float sums)")
