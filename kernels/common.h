@@ -431,9 +431,17 @@ inline float lut_at(__global const float *lut, int base, float lp)
     int i = lut_pos(lut, lp, &f);
     return lut_get(lut, base, i, f);
 }
-inline int lut_updown(int k, int ch, int q) { return 4 + ((k * 3 + ch) * 2 + q) * APSF_NP; }
-inline int lut_ratio(int nlev, int ch) { return 4 + nlev * 6 * APSF_NP + ch * APSF_NP; }
-inline int lut_shape(int nlev, int j, int ch) { return 4 + nlev * 6 * APSF_NP + 3 * APSF_NP + (j * 3 + ch) * APSF_NP; }
+/* A grey medium (-D MEDIUM_GREY: the same absorption and scattering in R, G, B) has three
+ * equal rows per table entry: every channel reads channel 0's, so the compiler keeps one
+ * gather where there were three */
+#ifdef MEDIUM_GREY
+#define LUT_CH(c) 0
+#else
+#define LUT_CH(c) (c)
+#endif
+inline int lut_updown(int k, int ch, int q) { return 4 + ((k * 3 + LUT_CH(ch)) * 2 + q) * APSF_NP; }
+inline int lut_ratio(int nlev, int ch) { return 4 + nlev * 6 * APSF_NP + LUT_CH(ch) * APSF_NP; }
+inline int lut_shape(int nlev, int j, int ch) { return 4 + nlev * 6 * APSF_NP + 3 * APSF_NP + (j * 3 + LUT_CH(ch)) * APSF_NP; }
 
 #ifdef EMISSION_LAMBERT
 /* Lambertian over isotropic scattered energy at the view cosine cosv, per channel, at the
@@ -452,8 +460,8 @@ inline void lambert_at(__global const float *lut, int nlev, int li, float lf, fl
     float f = u - (float)ci;
     int base = lut_shape(nlev, APSF_J, 0) + ci * 3 * APSF_NP;   /* just after the Gaussians' weights */
     *w0 = lambert_ch(lut, base, li, lf, f);
-    *w1 = lambert_ch(lut, base + APSF_NP, li, lf, f);
-    *w2 = lambert_ch(lut, base + 2 * APSF_NP, li, lf, f);
+    *w1 = lambert_ch(lut, base + LUT_CH(1) * APSF_NP, li, lf, f);
+    *w2 = lambert_ch(lut, base + LUT_CH(2) * APSF_NP, li, lf, f);
 }
 #endif
 

@@ -127,7 +127,12 @@ __kernel void preprocess(__global const float4 *image, __global const float *dep
      * across work-items only without builtin calls and float3 arithmetic */
     float L[3], alpha;
     load4(image, idx, &L[0], &L[1], &L[2], &alpha);
+#ifdef MEDIUM_GREY
+    /* the same expressions in every channel: computed once */
+    float sa[3] = {m.sa.x, m.sa.x, m.sa.x}, ss[3] = {m.ss.x, m.ss.x, m.ss.x};
+#else
     float sa[3] = {m.sa.x, m.sa.y, m.sa.z}, ss[3] = {m.ss.x, m.ss.y, m.ss.z};
+#endif
     float le[3] = {m.emission.x, m.emission.y, m.emission.z};
     float la[3] = {m.ambient.x, m.ambient.y, m.ambient.z};
     float at[3], sc[3], med[3], tr[3];
@@ -224,7 +229,12 @@ __kernel void coverage(__global float4 *direct, __global const float *P_empty, c
     float wx, wy, wz;
     float dist = pixel_ray(&m.cam, i, j, empty_depth, &wx, &wy, &wz);
     float P = m.homogeneous * dist + (has_p ? P_empty[idx] : 0.0f);
+#ifdef MEDIUM_GREY
+    /* the same expressions in every channel: computed once */
+    float sa[3] = {m.sa.x, m.sa.x, m.sa.x}, ss[3] = {m.ss.x, m.ss.x, m.ss.x};
+#else
     float sa[3] = {m.sa.x, m.sa.y, m.sa.z}, ss[3] = {m.ss.x, m.ss.y, m.ss.z};
+#endif
     float lum[3] = {0.2126f, 0.7152f, 0.0722f};
     float r[3] = {1.0f, 1.0f, 1.0f};
 #ifdef PSF_APSF

@@ -355,3 +355,28 @@ def test_view_cosines_match_oracle(rt, rng, w, h):
     plan.preprocess(tm)
     got = _download(plan, plan.cosines, 1)
     np.testing.assert_allclose(got, _view_cosines(cfg, depth), atol=1e-4)
+
+
+def test_grey_media_build_matches_the_per_channel_build(monkeypatch):
+    """Fog, haze and smoke have the same coefficients in R, G, B: their programs are built
+    with MEDIUM_GREY (one channel's table reads and exponentials serve three). The output is
+    the per-channel build's, bit for bit; a medium that differs in any channel is not grey."""
+    from fogcli import apply, pipeline
+    from fogcli.api import make_config
+    from fogcli.scenes import scene
+
+    rgb, z, fov = scene(96, 64, seed=22, night=True)
+    sets = [f"camera.fov={fov}", "medium.density=[{type: homogeneous, factor: 0.5}, "
+            "{type: sphere, factor: 2.0, center: [0, 0, -15], radius: 4}]"]
+    cfg = make_config("fog", sets=sets)
+    assert pipeline.defines(cfg).get("MEDIUM_GREY") == 1
+    for other in ("sea", make_config("fog", sets=["medium.absorption=[0.001, 0.001, 0.0010001]"])):
+        assert "MEDIUM_GREY" not in pipeline.defines(make_config(other) if isinstance(other, str) else other)
+    grey = apply(rgb, z, cfg, aovs=("scattered",), return_aovs=True)
+    real = pipeline.defines
+    monkeypatch.setattr(pipeline, "defines", lambda c: {k: v for k, v in real(c).items() if k != "MEDIUM_GREY"})
+    per_channel = apply(rgb, z, cfg, aovs=("scattered",), return_aovs=True)
+    assert np.array_equal(grey[0], per_channel[0])
+    for k in grey[1]:
+        assert np.array_equal(grey[1][k], per_channel[1][k]), k
+    assert grey[0].std() > 0

@@ -69,6 +69,9 @@ def defines(cfg: Config) -> dict:
                      APSF_J=len(load_table()["sigma_u"]))
     if open_border(cfg):
         d["BORDER_OPEN"] = 1
+    m = cfg.medium
+    if len(set(m.absorption)) == 1 and len(set(m.scattering)) == 1:
+        d["MEDIUM_GREY"] = 1      # fog, haze, smoke: one channel's table reads and exponentials serve all three
     return d
 
 
