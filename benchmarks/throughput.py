@@ -40,6 +40,7 @@ def make_frames(folder: Path, n: int, w: int, h: int) -> None:
 
 def run_mode(src: Path, out: Path, extra: list[str]) -> dict:
     env = dict(os.environ, PYTHONPATH=str(ROOT / "src"))
+    env.pop("PYTHONDONTWRITEBYTECODE", None)    # as installed: fogcli's bytecode compiled once, not per worker
     if extra and extra[0] == "one-thread":         # PoCL and OpenImageIO on one thread per process
         extra = extra[1:]
         env.update(POCL_MAX_PTHREAD_COUNT="1", OPENIMAGEIO_THREADS="1")
@@ -89,6 +90,7 @@ def profile(frame: Path, single: bool) -> dict:
 
 def profile_in_subprocess(frame: Path, single: bool) -> dict:
     env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(ROOT / "src"), str(ROOT / "tests")]))
+    env.pop("PYTHONDONTWRITEBYTECODE", None)
     if single:
         env["POCL_MAX_PTHREAD_COUNT"] = "1"
     r = subprocess.run([sys.executable, __file__, "--profile", str(frame)] + (["--single"] if single else []),

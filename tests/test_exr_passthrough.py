@@ -176,3 +176,40 @@ def test_exr_without_colour_is_refused(tmp_path, names):
     p = tmp_path / "nocolour.exr"
     write_img(p, np.full((8, 9, len(names)), 3.0), names)
     assert_one_line_error(*run("apply", p, "--depth", p, "-o", tmp_path / "o.exr")[:2], "no colour channels")
+
+
+@pytest.mark.parametrize("zfmt", ["half", "float"])
+def test_kept_pixels_write_what_a_second_decode_writes(tmp_path, zfmt):
+    """A small EXR's channels are kept from the read (Frame.pixels) instead of decoded again
+    for the output, and an all-half part is handed to the writer as half: the file is the
+    one the strip reader and the writer's own conversion make, beyond-half values included."""
+    import dataclasses
+    import warnings
+
+    from fogcli.exr import write_passthrough
+    from fogcli.inputs import read_image
+
+    names = ["R", "G", "B", "A", "Z"]
+    src = tmp_path / "in.exr"
+    d = _data(names, seed=3)
+    out = oiio.ImageOutput.create(str(src))
+    assert out.open(str(src), _spec(names, lambda n: zfmt if n == "Z" else "half")) and out.write_image(d)
+    out.close()
+    frame = read_image(src)
+    assert frame.pixels is not None and frame.pixels.shape == (H, W, 5)
+    rgb = frame.rgb * 1.5
+    rgb[0, :3] = [1e5, -1e6, 65519.0]          # beyond half: inf, -inf; the last rounds to the largest half
+    files = []
+    for kept in (frame.pixels, None):
+        f = dataclasses.replace(frame, pixels=kept)
+        path = tmp_path / f"out_{kept is None}.exr"
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")      # no numpy overflow warning on the way
+            write_passthrough(path, str(path), f, rgb, frame.alpha, {}, "auto", "auto")
+        files.append(_read_all(path))
+    (spec_a, a), (spec_b, b) = files[0][0], files[1][0]
+    assert _formats(spec_a) == _formats(spec_b) == {n: zfmt if n == "Z" else "half" for n in names}
+    for n in names:
+        assert np.array_equal(a[n], b[n]), n
+    assert np.array_equal(a["Z"], d[:, :, 4].astype(np.float16 if zfmt == "half" else np.float32))
+    assert a["R"][0, 0] == np.inf and a["G"][0, 0] == -np.inf and a["B"][0, 0] == 65504.0

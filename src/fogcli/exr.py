@@ -103,7 +103,15 @@ def write_passthrough(path: Path, tmp: str, frame, rgb: np.ndarray, alpha: np.nd
                 ok = ok and out.open(tmp, o, "AppendSubimage")
             if not ok:
                 break
-            for y0, y1, px in _strip_reader(inp, i, spec, nch, read_fmt):
+            kept = frame.pixels if i == frame.part and read_fmt == "float" else None
+            if kept is not None and kept.shape == (spec.height, spec.width, nch):
+                strips = ((y0, min(y0 + STRIP, spec.y + spec.height), kept[y0 - spec.y:y0 - spec.y + STRIP])
+                          for y0 in range(spec.y, spec.y + spec.height, STRIP))
+            else:
+                strips = _strip_reader(inp, i, spec, nch, read_fmt)
+            # all half: handed over as half (numpy converts faster than the writer does)
+            as_half = all(str(f) == "half" for f in o.channelformats)
+            for y0, y1, px in strips:
                 r0, r1 = y0 - spec.y, y1 - spec.y
                 if replace or extra:
                     px = np.array(px, copy=True)
@@ -111,7 +119,12 @@ def write_passthrough(path: Path, tmp: str, frame, rgb: np.ndarray, alpha: np.nd
                         px[:, :, c] = plane[r0:r1]
                     if extra:
                         px = np.concatenate([px] + [p[r0:r1, :, None].astype(px.dtype) for p in extra], axis=2)
-                if not out.write_scanlines(y0, y1, spec.z, np.ascontiguousarray(px)):
+                if as_half:
+                    with np.errstate(over="ignore"):      # beyond 65504: inf, as the writer's own conversion
+                        px = px.astype(np.float16)
+                else:
+                    px = np.ascontiguousarray(px)
+                if not out.write_scanlines(y0, y1, spec.z, px):
                     ok = False
                     break
         err = out.geterror()

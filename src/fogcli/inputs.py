@@ -48,6 +48,12 @@ class Frame:
     alpha_name: str | None = None
     view_prefix: str = ""           # "right." when a non-default view of a single-part file
     pixel_type: str = "float"       # the colour channels' type in the file (half, float, uint8...)
+    # every channel of the part as read (float32, exact for half and float files of up to
+    # KEEP_CHANNELS channels): the EXR output copies the others from here, not from a second decode
+    pixels: np.ndarray | None = None
+
+
+KEEP_CHANNELS = 8
 
 
 def check_regular(path: Path, what: str = "an image file") -> None:
@@ -280,7 +286,7 @@ def read_image(path: str | Path, layer: str | None = None, view: str | None = No
     with_rgb = [p for p in chosen if _colour_channels(list(p[1].channelnames))[0]]
     colour_part = (by_name or with_rgb or chosen)[0]    # a depth-only part may come first
     sub, spec = colour_part[0], colour_part[1]
-    px = _read_pixels(inp, path, "float", sub)
+    px = whole = _read_pixels(inp, path, "float", sub)
     names = list(spec.channelnames)
     keep = _view_channels(names, spec, view, path) if len(parts) == 1 else list(range(len(names)))
     sel_names = [names[i] for i in keep]
@@ -349,12 +355,13 @@ def read_image(path: str | Path, layer: str | None = None, view: str | None = No
         alpha = np.clip(np.nan_to_num(px[:, :, a_idx], nan=1.0, posinf=1.0, neginf=0.0), 0.0, 1.0)
         alpha = np.ascontiguousarray(alpha, dtype=np.float32)
     formats = [str(t) for t in spec.channelformats] if len(spec.channelformats) else [fmt_name] * len(names)
+    keep_all = is_exr and len(names) <= KEEP_CHANNELS and all(f in ("half", "float") for f in formats)
     prefix = view + "." if (len(parts) == 1 and view and any(n.startswith(view + ".") for n in names)) else ""
     return Frame(path, rgb, alpha, depth, (spec.x, spec.y),
                  (spec.full_x, spec.full_y, spec.full_width, spec.full_height), attributes, is_exr,
                  part=sub, rgb_names=tuple(orig[i] for i in rgb_idx),
                  alpha_name=orig[a_idx] if a_idx is not None else None, view_prefix=prefix,
-                 pixel_type=formats[names.index(orig[rgb_idx[0]])])
+                 pixel_type=formats[names.index(orig[rgb_idx[0]])], pixels=whole if keep_all else None)
 
 
 @_decoding
