@@ -37,14 +37,14 @@ def _builds(monkeypatch):
 def test_second_runtime_loads_the_binary(cache, monkeypatch):
     seen = _builds(monkeypatch)
     a = runtime.Runtime()
-    a.program("pyramid", **D4)
+    a.program("pyramid", **D4).build()
     files = sorted(cache.glob("pyramid-*.bin"))
     assert len(files) == 1 and files[0].stat().st_size > 1000 and len(seen) == 1
     b = runtime.Runtime()                  # a new context, as in a new process
-    b.program("pyramid", **D4)
+    b.program("pyramid", **D4).build()
     assert len(seen) == 1                  # no second build from source
     # other options: another binary
-    b.program("pyramid", **D2)
+    b.program("pyramid", **D2).build()
     assert len(seen) == 2 and len(list(cache.glob("pyramid-*.bin"))) == 2
     # another compile target (a PoCL setting): another key, whatever the device's name says
     p = b.binary_path("pyramid", "src", ["-D", "A=1"])
@@ -53,13 +53,25 @@ def test_second_runtime_loads_the_binary(cache, monkeypatch):
     assert b.binary_path("pyramid", "src", ["-D", "A=2"]) != b.binary_path("pyramid", "src", ["-D", "A=1"])
 
 
+def test_programs_are_built_at_their_first_launch(cache, monkeypatch):
+    """A plan names every program variant it might launch; only those launched are built."""
+    seen = _builds(monkeypatch)
+    rt = runtime.Runtime()
+    prog = rt.program("composite", **D4)
+    k = prog.composite_source
+    assert seen == [] and not list(cache.glob("*.bin"))
+    assert k.function_name == "composite_source" and len(seen) == 1   # the first use builds
+    rt.program("composite", **D4).composite.function_name
+    assert len(seen) == 1                                             # once per program
+
+
 def test_damaged_binary_is_rebuilt(cache, monkeypatch):
     seen = _builds(monkeypatch)
-    runtime.Runtime().program("composite", **D4)
+    runtime.Runtime().program("composite", **D4).build()
     (path,) = cache.glob("composite-*.bin")
     good = path.read_bytes()
     path.write_bytes(b"not a binary" * 10)
-    runtime.Runtime().program("composite", **D4)
+    runtime.Runtime().program("composite", **D4).build()
     assert len(seen) == 2 and path.read_bytes()[:64] == good[:64] and len(path.read_bytes()) > 1000
     assert not list(cache.glob("*.tmp"))
 

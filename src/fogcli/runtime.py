@@ -97,16 +97,50 @@ def choose(devices, spec: str | None, origin: str = "--device"):
 
 
 class _Kernels:
-    """Kernels of one program, each retrieved once (a retrieval is a new cl.Kernel)."""
+    """Kernels of one program, each retrieved once (a retrieval is a new cl.Kernel). The
+    program is built when a kernel of it is first launched: a plan names every variant it
+    might launch, and a frame of the default pipeline launches six of its eight (a build
+    from the binary cache costs 5-15 ms of every process)."""
 
-    def __init__(self, cl, program):
-        self._cl, self._program, self._cache = cl, program, {}
+    def __init__(self, cl, build):
+        self._cl, self._build, self._program, self._cache = cl, build, None, {}
 
     def __getattr__(self, name):
+        if name.startswith("_"):
+            raise AttributeError(name)
         k = self._cache.get(name)
         if k is None:
-            k = self._cache[name] = self._cl.Kernel(self._program, name)
+            k = self._cache[name] = _Kernel(self, name)
         return k
+
+    def build(self) -> "_Kernels":
+        """The program now (the binary cache's tests; a launch does it by itself)."""
+        if self._program is None:
+            self._program = self._build()
+        return self
+
+    def kernel(self, name: str):
+        return self._cl.Kernel(self.build()._program, name)
+
+
+class _Kernel:
+    """One kernel, retrieved (and its program built) at its first launch."""
+
+    __slots__ = ("_owner", "_name", "_k")
+
+    def __init__(self, owner: _Kernels, name: str):
+        self._owner, self._name, self._k = owner, name, None
+
+    def _get(self):
+        if self._k is None:
+            self._k = self._owner.kernel(self._name)
+        return self._k
+
+    def __call__(self, *args, **kwargs):
+        return self._get()(*args, **kwargs)
+
+    def __getattr__(self, attr):
+        return getattr(self._get(), attr)
 
 
 class Runtime:
@@ -177,7 +211,7 @@ class Runtime:
                 opts += ["-D", "FOGCLI_POCL=1"]
             for k, v in sorted(defines.items()):
                 opts += ["-D", f"{k}={v}"]
-            prog = _Kernels(self.cl, self._build(name, src, opts))
+            prog = _Kernels(self.cl, lambda name=name, src=src, opts=opts: self._build(name, src, opts))
             self._programs[key] = prog
         return prog
 
