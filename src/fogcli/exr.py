@@ -1,8 +1,10 @@
 """EXR output that a compositing pipeline can take back: every part, view and channel of
 the input EXR that fogcli does not produce is copied through with its pixel type, data and
 display windows and attributes; the colour (and alpha) that fogcli read are replaced by its
-result and the AOVs are added to that part. Pixels are streamed in strips of scanlines
-(or tile rows), so copying through costs no more memory than a strip."""
+result and the AOVs are added to that part. The processed part's channels come from the
+pixels read for the frame when it kept them (up to inputs.KEEP_CHANNELS half/float
+channels); every other part is streamed from the input in strips of scanlines (or tile
+rows), so copying a many-channel file through costs no more memory than a strip."""
 from __future__ import annotations
 
 from pathlib import Path
