@@ -346,6 +346,104 @@ def simulate(g: float, tau, photons: int, seed: int, *, axes: int = 2, r_max: fl
                  np.concatenate(esc_mu))
 
 
+def simulate_far(g: float, tau, photons: int, seed: int, *, r_max: float | None = None, rr_order: int = 30,
+                 rr_keep: float = 0.5, max_order: int | None = None, batch: int = 50_000, th_edges=None,
+                 x_edges=None) -> Tally:
+    """The same quantity as `simulate` from a sphere-crossing estimator (issue 8's large-tau
+    noise; not yet what the table is built from: benchmarks/apsf_crossing_probe.py).
+
+    The medium is infinite and homogeneous and the source isotropic, so the radiance at
+    distance d depends on d and on the angle to the radial direction only: the whole sphere
+    of radius d is the detector. A photon crossing it with radial cosine mu (its direction
+    against the outward normal) scores w / |mu| in the theta = acos(mu) bin (a camera there
+    looking at the source sees it at that angle from the source; mu < 0: the back bins),
+    with the path length to the crossing in the excess histogram as `simulate` does. The
+    flight from the source is not scored (unscattered light is excluded). Emission is
+    isotropic, the first flight exponential and there is no weight window: every direction
+    is a camera, so none is preferred. Every photon that reaches distance d scores there,
+    where the point estimator needs a vertex within r_cut of one of two camera points: at
+    tau >= 5, ~100x less variance for the same time (the probe's numbers, session 12).
+    Small angles get few crossings (a bin's share of the sphere's directions), and 1/|mu|
+    has a logarithmically divergent variance at grazing crossings (the last forward bin).
+    max_order: score only the flights after the first max_order scatterings."""
+    tau = np.asarray(tau, np.float64)
+    th_edges = theta_edges() if th_edges is None else th_edges
+    x_edges = excess_edges() if x_edges is None else x_edges
+    r_max = float(3 * tau.max()) if r_max is None else r_max
+    nT, nb, nx = len(tau), len(th_edges) - 1, len(x_edges) - 1
+    lx0, lx1 = math.log(x_edges[1]), math.log(x_edges[-1])
+    x_scale = (nx - 1) / (lx1 - lx0)
+    m = [np.zeros(nT * nb * nx) for _ in range(3)]
+    e = [np.zeros(nT * N_MU * nx) for _ in range(3)]
+    rng = np.random.default_rng(seed)
+    esc_w, esc_l, esc_mu = [np.zeros(0)], [np.zeros(0)], [np.zeros(0)]
+    done = 0
+    while done < photons:
+        n = min(batch, photons - done)
+        done += n
+        mu = 2 * rng.random(n) - 1
+        phi = 2 * math.pi * rng.random(n)
+        st = np.sqrt(1 - mu * mu)
+        d = np.stack([st * np.cos(phi), st * np.sin(phi), mu], 1)
+        d0 = d.copy()
+        pos = np.zeros((n, 3))
+        length = np.zeros(n)
+        w = np.ones(n)
+        order = 0
+        buf_m, buf_e = [], []
+        while len(w):
+            step = -np.log1p(-rng.random(len(w)))
+            if order > 0:
+                # crossings of each sphere on the flight pos -> pos + step d: |pos + t d| = R
+                b = np.einsum("ij,ij->i", pos, d)
+                c0 = np.einsum("ij,ij->i", pos, pos)
+                for k, R in enumerate(tau):
+                    disc = b * b - (c0 - R * R)
+                    sq = np.sqrt(np.maximum(disc, 0.0))
+                    for t in (-b - sq, -b + sq):
+                        hit = np.nonzero((disc > 0) & (t > 0) & (t <= step))[0]
+                        if not len(hit):
+                            continue
+                        th = t[hit]
+                        p = pos[hit] + th[:, None] * d[hit]
+                        cm = np.clip(np.einsum("ij,ij->i", p, d[hit]) / R, -1.0, 1.0)
+                        val = w[hit] / np.maximum(np.abs(cm), 1e-12)
+                        ex = np.maximum(length[hit] + th - R, 0.0)
+                        ix = np.where(ex < x_edges[1], 0,
+                                      np.clip(np.floor((np.log(np.maximum(ex, 1e-300)) - lx0) * x_scale) + 1,
+                                              1, nx - 1)).astype(np.int64)
+                        ib = np.clip(np.searchsorted(th_edges, np.arccos(cm), side="right") - 1, 0, nb - 1)
+                        buf_m.append(((k * nb + ib) * nx + ix, val, ex))
+                        fw = cm > 0
+                        mu0 = np.einsum("ij,ij->i", d0[hit[fw]], p[fw]) / R      # emission against the camera's direction
+                        im = np.clip(((mu0 + 1) * (N_MU / 2)).astype(np.int64), 0, N_MU - 1)
+                        buf_e.append(((k * N_MU + im) * nx + ix[fw], val[fw], ex[fw]))
+            if max_order is not None and order >= max_order:
+                break
+            pos += step[:, None] * d
+            length += step
+            order += 1
+            keep = np.einsum("ij,ij->i", pos, pos) < r_max * r_max
+            esc_w.append(w[~keep])
+            esc_l.append(length[~keep])
+            esc_mu.append(d0[~keep, 2])
+            if order == rr_order and rr_keep < 1:
+                keep &= rng.random(len(w)) < rr_keep
+                w = w / rr_keep
+            pos, d, d0, length, w = pos[keep], d[keep], d0[keep], length[keep], w[keep]
+            d = rotate(d, hg_sample(rng, g, len(w)), rng)
+        for buf, acc in ((buf_m, m), (buf_e, e)):
+            if buf:
+                idx, val, ex = (np.concatenate(c) for c in zip(*buf))
+                vx = val * ex
+                for k, wk in enumerate((val, vx, vx * ex)):
+                    acc[k] += np.bincount(idx, wk, minlength=len(acc[k]))
+    # per photon of unit power the crossings sum to 4 pi d^2 L dOmega, and f = L 4 pi d^2
+    return Tally(g, tau, th_edges, x_edges, photons, np.stack([a.reshape(nT, nb, nx) for a in m]),
+                 np.stack([a.reshape(nT, N_MU, nx) for a in e]), np.full(nT, 1.0 / photons), {"estimator": "crossing"},
+                 r_max, np.concatenate(esc_w), np.concatenate(esc_l), 1, np.concatenate(esc_mu))
+
+
 def merge(tallies: list[Tally]) -> Tally:
     """Photon-weighted mean of runs with the same grid (e.g. several seeds)."""
     t0 = tallies[0]
