@@ -5,9 +5,12 @@ q = sqrt((1 - a) / a) of the log ratio and of the shape; linear in g and log tau
 * albedo: one tally serves every albedo, so the grid albedos and the midpoints between them
   come from the same photons (g = 0, 0.5, 0.85, 0.95: the table's own runs, its seed and photons;
   --scale 0.25 takes the first quarter of them);
-* g: single scattering by quadrature (exact) at the grid g and the midpoints, tau < 1.
+* g: single scattering by quadrature (exact) at the grid g and the midpoints, tau < 1;
+* tau >= 5, albedo and tau: the sphere-crossing estimator (apsf_mc.simulate_far), whose noise
+  there is 10-100x below the table's point estimator's, with cameras at the grid taus and the
+  midpoints between them in one tally (the table itself is still the point estimator's).
 
-    PYTHONPATH=src python benchmarks/apsf_grid_check.py [--doc docs/apsf-table.md]   # ~5 min, 2 cores
+    PYTHONPATH=src python benchmarks/apsf_grid_check.py [--doc docs/apsf-table.md]   # ~10 min, 2 cores
 
 benchmarks/apsf_interpolation.py is the full study (tau, seeds, other schemes) on the grid it
 was run with; this script checks the grid make_apsf_table.py ships now.
@@ -28,6 +31,7 @@ from fogcli import apsf, apsf_mc as mc  # noqa: E402
 
 G_CHECK = (0.0, 0.5, 0.85, 0.95)
 RANGES = ((0.01, 1.0), (1.0, 5.0), (5.0, 31.0))
+FAR_PHOTONS = 60_000      # a g and seed, for the large-tau check (~5 min on 2 cores for the four g, two seeds)
 
 
 def albedo_run(g: float, scale: float = 1.0):
@@ -60,6 +64,32 @@ def albedo_errors(ratio, shape, th_edges):
                     linear=(energy(ri_lin), shape_err(si_lin)))
 
 
+def far_run(g: float, photons: int, seed: int = M.SEED):
+    """The sphere-crossing estimator (apsf_mc.simulate_far) at the grid taus >= 5 and the
+    geometric midpoints between them, the table's albedos and their midpoints: one tally, so
+    every midpoint (in albedo and in tau) comes from the same photons as its neighbours."""
+    grid = M.TAU[M.TAU >= 5.0]
+    taus = np.sort(np.concatenate([grid, np.sqrt(grid[:-1] * grid[1:])]))
+    t = mc.simulate_far(g, taus, photons, seed, r_max=M.R_MAX, rr_order=M.rr_order_for(g))
+    r = M.reduce_tally(t, np.concatenate([M.ALBEDO, 0.5 * (M.ALBEDO[:-1] + M.ALBEDO[1:])]))
+    return g, r["ratio"], r["shape"], t.th_edges
+
+
+def tau_errors(ratio, shape, th_edges):
+    """Each odd tau (a geometric midpoint) against the runtime's interpolation between its
+    neighbours (linear in log tau: their mean), at the grid albedos: (energy, shape) (A, T)."""
+    na = len(M.ALBEDO)
+    r, s = ratio[:na], shape[:na]
+    ri = 0.5 * (r[:, :-2:2] + r[:, 2::2])
+    si = 0.5 * (s[:, :-2:2] + s[:, 2::2])
+    rd, sd = r[:, 1::2], s[:, 1::2]
+    ok = rd > 1e-250
+    with np.errstate(divide="ignore", invalid="ignore"):
+        rl = np.sqrt(r[:, :-2:2] * r[:, 2::2])       # log ratio linear in log tau: not shipped
+        return (np.where(ok, np.abs(ri / rd - 1), np.nan), np.where(ok, mc.ring_error(th_edges, si, sd), np.nan),
+                np.where(ok, np.abs(rl / rd - 1), np.nan))
+
+
 def g_errors(th_edges, taus=(0.03, 0.1, 0.3, 0.7), albedo=1.0):
     te = np.asarray(th_edges, np.float64)
     nf = int(np.searchsorted(te, math.pi / 2 + 1e-12))
@@ -82,7 +112,8 @@ def g_errors(th_edges, taus=(0.03, 0.1, 0.3, 0.7), albedo=1.0):
 
 def fmt(x):
     x = np.asarray(x)[np.isfinite(x)]
-    return f"{100 * np.percentile(x, 90):.2f} / {100 * x.max():.2f}" if x.size else "-"
+    pc = lambda v: f"{100 * v:.2f}" if 100 * v < 1000 else f"{100 * v:.1e}"  # noqa: E731
+    return f"{pc(np.percentile(x, 90))} / {pc(x.max())}" if x.size else "-"
 
 
 def main() -> int:
@@ -129,6 +160,26 @@ def report(scale: float) -> None:
     for key, name in (("clipped", "shape clipped at 0 and renormalised"), ("linear", "linear in q (the scheme before)")):
         E2, S2 = (np.stack([e[key][i] for e in errs]) for i in (0, 1))
         print(f"| all albedos, {name}: not shipped | {cells(E2) if key == 'linear' else ''} | {cells(S2)} |")
+    with mp.get_context("spawn").Pool(2) as pool:
+        two = pool.starmap(far_run, [(g, FAR_PHOTONS, M.SEED + k) for g in G_CHECK for k in (0, 1)])
+    # the two seeds' mean is checked; half their difference at the tau midpoints is its noise
+    far = [(a[0], 0.5 * (a[1] + b[1]), 0.5 * (a[2] + b[2]), a[3]) for a, b in zip(two[::2], two[1::2])]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        NE = np.stack([np.abs(a[1] - b[1])[:len(M.ALBEDO), 1::2] / (a[1] + b[1])[:len(M.ALBEDO), 1::2]
+                       for a, b in zip(two[::2], two[1::2])])
+    amids = 0.5 * (M.ALBEDO[:-1] + M.ALBEDO[1:])
+    fa = [albedo_errors(ratio[:, ::2], shape[:, ::2], th)["shipped"] for _, ratio, shape, th in far]
+    ft = [tau_errors(ratio, shape, th) for _, ratio, shape, th in far]
+    FE, FS = np.stack([e for e, _ in fa]), np.stack([s for _, s in fa])     # (g, albedo mids, grid taus >= 5)
+    TE, TS, TL = (np.stack([x[i] for x in ft]) for i in range(3))           # (g, grid albedos, tau mids)
+    print(f"\n| tau >= 5, sphere-crossing estimator ({FAR_PHOTONS} photons a g, the same photons for a midpoint and "
+          "its neighbours; two seeds, their mean checked) | albedo midpoints: energy | shape | tau midpoints: energy | "
+          "shape | the same, log ratio linear in log tau (not shipped): energy | noise of the tau midpoints' energy "
+          "(se of the mean) |\n|---|---|---|---|---|---|---|")
+    for name, am, ag in (("all albedos", amids > 0, M.ALBEDO > 0), ("albedo < 0.3", amids < 0.3, M.ALBEDO < 0.3),
+                         ("albedo 0.3-0.8", (amids >= 0.3) & (amids < 0.8), (M.ALBEDO >= 0.3) & (M.ALBEDO < 0.8)),
+                         ("albedo >= 0.8", amids >= 0.8, M.ALBEDO >= 0.8)):
+        print(f"| {name} | {fmt(FE[:, am])} | {fmt(FS[:, am])} | {fmt(TE[:, ag])} | {fmt(TS[:, ag])} | {fmt(TL[:, ag])} | {fmt(NE[:, ag])} |")
     ge, gs = g_errors(runs[0][3])
     print("\n| g midpoints, single scattering (exact), tau 0.03-0.7 | energy | shape |\n|---|---|---|")
     print(f"| every interval of G | {fmt(ge)} | {fmt(gs)} |")
