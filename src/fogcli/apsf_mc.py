@@ -181,6 +181,18 @@ class Tally:
     esc_mu: np.ndarray = field(default_factory=lambda: np.zeros(0))
 
 
+def _add_scores(pairs) -> None:
+    """Each buffer's scores (index, value, excess path) into its tally's sums of value x
+    excess^k, k = 0, 1, 2 (the moments absorption_factor reads); the buffers are emptied."""
+    for buf, acc in pairs:
+        if buf:
+            idx, val, ex = (np.concatenate(c) for c in zip(*buf))
+            vx = val * ex
+            for k, wk in enumerate((val, vx, vx * ex)):
+                acc[k] += np.bincount(idx, wk, minlength=len(acc[k]))
+            buf.clear()
+
+
 def simulate(g: float, tau, photons: int, seed: int, *, axes: int = 2, r_max: float | None = None,
              r_cut: float = 8.0, rr_order: int = 30, rr_keep: float = 0.5, max_order: int | None = None,
              eps_frac: float = 0.1, eps_max: float = 0.6, batch: int = 50_000, th_edges=None, x_edges=None,
@@ -221,13 +233,7 @@ def simulate(g: float, tau, photons: int, seed: int, *, axes: int = 2, r_max: fl
     nbuf = 0
 
     def flush():
-        for buf, acc in ((buf_m, m), (buf_e, e)):
-            if buf:
-                idx, val, ex = (np.concatenate(c) for c in zip(*buf))
-                vx = val * ex
-                for k, wk in enumerate((val, vx, vx * ex)):
-                    acc[k] += np.bincount(idx, wk, minlength=len(acc[k]))
-                buf.clear()
+        _add_scores(((buf_m, m), (buf_e, e)))
 
     done = 0
     while done < photons:
@@ -432,12 +438,7 @@ def simulate_far(g: float, tau, photons: int, seed: int, *, r_max: float | None 
                 w = w / rr_keep
             pos, d, d0, length, w = pos[keep], d[keep], d0[keep], length[keep], w[keep]
             d = rotate(d, hg_sample(rng, g, len(w)), rng)
-        for buf, acc in ((buf_m, m), (buf_e, e)):
-            if buf:
-                idx, val, ex = (np.concatenate(c) for c in zip(*buf))
-                vx = val * ex
-                for k, wk in enumerate((val, vx, vx * ex)):
-                    acc[k] += np.bincount(idx, wk, minlength=len(acc[k]))
+        _add_scores(((buf_m, m), (buf_e, e)))
     # per photon of unit power the crossings sum to 4 pi d^2 L dOmega, and f = L 4 pi d^2
     return Tally(g, tau, th_edges, x_edges, photons, np.stack([a.reshape(nT, nb, nx) for a in m]),
                  np.stack([a.reshape(nT, N_MU, nx) for a in e]), np.full(nT, 1.0 / photons), {"estimator": "crossing"},
