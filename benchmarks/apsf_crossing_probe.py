@@ -58,6 +58,7 @@ def tau_step() -> int:
     import multiprocessing as mp
 
     import make_apsf_table as M
+    from apsf_grid_check import tau_errors
 
     with mp.get_context("spawn").Pool(2) as pool:
         res = pool.starmap(tau_step_run, [(g, M.SEED + k) for g in (0.0, 0.5, 0.85, 0.95) for k in (0, 1)])
@@ -65,18 +66,17 @@ def tau_step() -> int:
     pct = lambda x: f"{100 * np.nanpercentile(np.concatenate(x), 90):.2f} / {100 * np.nanmax(np.concatenate(x)):.2f}"  # noqa: E731
     print("tau >= 5, albedo >= 0.8, p90 / max in %: energy (ratio linear in log tau, as shipped) | energy (log "
           "ratio linear in log tau) | shape | noise of the midpoints' energy")
-    for step, name in ((4, "grid step"), (2, "step halved")):
+    for step, name in ((2, "grid step"), (1, "step halved")):
         e_lin, e_log, e_sh, noise = [], [], [], []
         for a, b in zip(res[::2], res[1::2]):
-            r, s, th = 0.5 * (a[0] + b[0]), 0.5 * (a[1] + b[1]), a[2]
-            lo = np.arange(0, r.shape[1] - step, step)
-            hi, mid = lo + step, lo + step // 2
-            rd = r[:, mid]
+            # this grid's nodes and midpoints alternating, as apsf_grid_check.tau_errors takes them
+            r, s, th = 0.5 * (a[0] + b[0])[:, ::step], 0.5 * (a[1] + b[1])[:, ::step], a[2]
+            lin, shp, log = tau_errors(r, s, th)
+            e_lin.append(lin[keep].ravel())
+            e_log.append(log[keep].ravel())
+            e_sh.append(shp[keep].ravel())
             with np.errstate(divide="ignore", invalid="ignore"):
-                e_lin.append(np.abs(0.5 * (r[:, lo] + r[:, hi]) / rd - 1)[keep].ravel())
-                e_log.append(np.abs(np.sqrt(r[:, lo] * r[:, hi]) / rd - 1)[keep].ravel())
-                noise.append((np.abs(a[0] - b[0]) / (a[0] + b[0]))[:, mid][keep].ravel())
-            e_sh.append(mc.ring_error(th, 0.5 * (s[:, lo] + s[:, hi]), s[:, mid])[keep].ravel())
+                noise.append((np.abs(a[0] - b[0]) / (a[0] + b[0]))[:, ::step][:, 1::2][keep].ravel())
         print(f"{name}: {pct(e_lin)} | {pct(e_log)} | {pct(e_sh)} | {pct(noise)}")
     return 0
 

@@ -18,6 +18,15 @@ typedef struct {
     int has_p;          /* the density stage left the other primitives' P in spread0 */
 } medium_t;
 
+/* Per-channel absorption and scattering of medium M as arrays A[3], S[3]; in a grey medium
+ * (-D MEDIUM_GREY) every channel's are channel 0's, so the three channels' expressions are
+ * the same and the compiler computes them once */
+#ifdef MEDIUM_GREY
+#define MEDIUM_RATES(M, A, S) float A[3] = {(M).sa.x, (M).sa.x, (M).sa.x}, S[3] = {(M).ss.x, (M).ss.x, (M).ss.x}
+#else
+#define MEDIUM_RATES(M, A, S) float A[3] = {(M).sa.x, (M).sa.y, (M).sa.z}, S[3] = {(M).ss.x, (M).ss.y, (M).ss.z}
+#endif
+
 #ifdef EMISSION_LAMBERT
 /* Camera-space point of pixel (i, j), clamped to the image (inner: known to be inside);
  * unclamped depth (surfaces) */
@@ -127,12 +136,7 @@ __kernel void preprocess(__global const float4 *image, __global const float *dep
      * across work-items only without builtin calls and float3 arithmetic */
     float L[3], alpha;
     load4(image, idx, &L[0], &L[1], &L[2], &alpha);
-#ifdef MEDIUM_GREY
-    /* the same expressions in every channel: computed once */
-    float sa[3] = {m.sa.x, m.sa.x, m.sa.x}, ss[3] = {m.ss.x, m.ss.x, m.ss.x};
-#else
-    float sa[3] = {m.sa.x, m.sa.y, m.sa.z}, ss[3] = {m.ss.x, m.ss.y, m.ss.z};
-#endif
+    MEDIUM_RATES(m, sa, ss);
     float le[3] = {m.emission.x, m.emission.y, m.emission.z};
     float la[3] = {m.ambient.x, m.ambient.y, m.ambient.z};
     float at[3], sc[3], med[3], tr[3];
@@ -229,12 +233,7 @@ __kernel void coverage(__global float4 *direct, __global const float *P_empty, c
     float wx, wy, wz;
     float dist = pixel_ray(&m.cam, i, j, empty_depth, &wx, &wy, &wz);
     float P = m.homogeneous * dist + (has_p ? P_empty[idx] : 0.0f);
-#ifdef MEDIUM_GREY
-    /* the same expressions in every channel: computed once */
-    float sa[3] = {m.sa.x, m.sa.x, m.sa.x}, ss[3] = {m.ss.x, m.ss.x, m.ss.x};
-#else
-    float sa[3] = {m.sa.x, m.sa.y, m.sa.z}, ss[3] = {m.ss.x, m.ss.y, m.ss.z};
-#endif
+    MEDIUM_RATES(m, sa, ss);
     float lum[3] = {0.2126f, 0.7152f, 0.0722f};
     float r[3] = {1.0f, 1.0f, 1.0f};
 #ifdef PSF_APSF

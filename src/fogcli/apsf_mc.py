@@ -181,6 +181,24 @@ class Tally:
     esc_mu: np.ndarray = field(default_factory=lambda: np.zeros(0))
 
 
+def _excess_bin(ex: np.ndarray, x_edges: np.ndarray) -> np.ndarray:
+    """Bin of each excess path in excess_edges: [0, x0), then log-spaced; the last is open."""
+    nx = len(x_edges) - 1
+    lx0, lx1 = math.log(x_edges[1]), math.log(x_edges[-1])
+    x_scale = (nx - 1) / (lx1 - lx0)
+    return np.where(ex < x_edges[1], 0,
+                    np.clip(np.floor((np.log(np.maximum(ex, 1e-300)) - lx0) * x_scale) + 1, 1, nx - 1)).astype(np.int64)
+
+
+def _theta_bin(theta: np.ndarray, th_edges: np.ndarray) -> np.ndarray:
+    return np.clip(np.searchsorted(th_edges, theta, side="right") - 1, 0, len(th_edges) - 2)
+
+
+def _mu_bin(mu0: np.ndarray) -> np.ndarray:
+    """Bin of the emission cosine (against the camera's direction) among N_MU over [-1, 1]."""
+    return np.clip(((mu0 + 1) * (N_MU / 2)).astype(np.int64), 0, N_MU - 1)
+
+
 def _add_scores(pairs) -> None:
     """Each buffer's scores (index, value, excess path) into its tally's sums of value x
     excess^k, k = 0, 1, 2 (the moments absorption_factor reads); the buffers are emptied."""
@@ -220,8 +238,6 @@ def simulate(g: float, tau, photons: int, seed: int, *, axes: int = 2, r_max: fl
     axis_cams = [np.arange(nT) if i < axes else np.nonzero(far)[0] for i in range(len(axis_list))]
     n_axes = np.where(far, len(axis_list), axes)
     eps = np.minimum(eps_frac * tau, eps_max)
-    lx0, lx1 = math.log(x_edges[1]), math.log(x_edges[-1])
-    x_scale = (nx - 1) / (lx1 - lx0)
     m = [np.zeros(nT * nb * nx) for _ in range(3)]
     e = [np.zeros(nT * N_MU * nx) for _ in range(3)]
     rng = np.random.default_rng(seed)
@@ -291,14 +307,12 @@ def simulate(g: float, tau, photons: int, seed: int, *, axes: int = 2, r_max: fl
                 att = np.where(inb, 3.0 / (ep * ep), 1.0 / np.maximum(r * r, 1e-300)) * np.exp(-rl)
                 val = w[gv] * hg_phase(cmu, g) * att
                 ex = np.maximum(length[gv] + rl - dd, 0.0)
-                ix = np.where(ex < x_edges[1], 0,
-                              np.clip(np.floor((np.log(np.maximum(ex, 1e-300)) - lx0) * x_scale) + 1,
-                                      1, nx - 1)).astype(np.int64)
-                ib = np.clip(np.searchsorted(th_edges, theta, side="right") - 1, 0, nb - 1)
+                ix = _excess_bin(ex, x_edges)
+                ib = _theta_bin(theta, th_edges)
                 buf_m.append(((it * nb + ib) * nx + ix, val, ex))
                 fw = theta < math.pi / 2
                 mu0 = sgn * d0[gv[fw], ax]
-                im = np.clip(((mu0 + 1) * (N_MU / 2)).astype(np.int64), 0, N_MU - 1)
+                im = _mu_bin(mu0)
                 buf_e.append(((it[fw] * N_MU + im) * nx + ix[fw], val[fw], ex[fw]))
                 nbuf += len(iv)
             if nbuf > 3_000_000:       # bincount over the big tally only on large chunks
@@ -377,8 +391,6 @@ def simulate_far(g: float, tau, photons: int, seed: int, *, r_max: float | None 
     x_edges = excess_edges() if x_edges is None else x_edges
     r_max = float(3 * tau.max()) if r_max is None else r_max
     nT, nb, nx = len(tau), len(th_edges) - 1, len(x_edges) - 1
-    lx0, lx1 = math.log(x_edges[1]), math.log(x_edges[-1])
-    x_scale = (nx - 1) / (lx1 - lx0)
     m = [np.zeros(nT * nb * nx) for _ in range(3)]
     e = [np.zeros(nT * N_MU * nx) for _ in range(3)]
     rng = np.random.default_rng(seed)
@@ -415,14 +427,12 @@ def simulate_far(g: float, tau, photons: int, seed: int, *, r_max: float | None 
                         cm = np.clip(np.einsum("ij,ij->i", p, d[hit]) / R, -1.0, 1.0)
                         val = w[hit] / np.maximum(np.abs(cm), 1e-12)
                         ex = np.maximum(length[hit] + th - R, 0.0)
-                        ix = np.where(ex < x_edges[1], 0,
-                                      np.clip(np.floor((np.log(np.maximum(ex, 1e-300)) - lx0) * x_scale) + 1,
-                                              1, nx - 1)).astype(np.int64)
-                        ib = np.clip(np.searchsorted(th_edges, np.arccos(cm), side="right") - 1, 0, nb - 1)
+                        ix = _excess_bin(ex, x_edges)
+                        ib = _theta_bin(np.arccos(cm), th_edges)
                         buf_m.append(((k * nb + ib) * nx + ix, val, ex))
                         fw = cm > 0
                         mu0 = np.einsum("ij,ij->i", d0[hit[fw]], p[fw]) / R      # emission against the camera's direction
-                        im = np.clip(((mu0 + 1) * (N_MU / 2)).astype(np.int64), 0, N_MU - 1)
+                        im = _mu_bin(mu0)
                         buf_e.append(((k * N_MU + im) * nx + ix[fw], val[fw], ex[fw]))
             if max_order is not None and order >= max_order:
                 break
@@ -513,7 +523,7 @@ def profiles(t: Tally, albedo, relative: bool = False, background: bool = True):
             # its forward half, split by emission cosine (cameras on +z and -z: both signs)
             h = np.zeros((len(t.tau), N_MU))
             for sgn in (1.0, -1.0):
-                im = np.clip(((sgn * t.esc_mu + 1) * (N_MU / 2)).astype(np.int64), 0, N_MU - 1)
+                im = _mu_bin(sgn * t.esc_mu)
                 for k in range(len(t.tau)):
                     h[k] += np.bincount(im, wl[k], minlength=N_MU)
             h /= np.maximum(h.sum(1, keepdims=True), 1e-300)

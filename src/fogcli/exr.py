@@ -24,13 +24,17 @@ def _fmt(t) -> str:
     return str(t)
 
 
-def _strip_reader(inp, sub: int, spec, nch: int, fmt: str):
+def _strip_reader(inp, sub: int, spec, nch: int, fmt: str, kept: np.ndarray | None = None):
     """Yields (y0, y1, pixels (y1-y0, w, nch)) over the part's data window; tile rows for
-    tiled files (OpenEXR refuses scanline access to them)."""
+    tiled files (OpenEXR refuses scanline access to them). kept: the part's pixels as the
+    frame read them (Frame.pixels), sliced instead of decoded again."""
     ys, ye = spec.y, spec.y + spec.height
     step = spec.tile_height if spec.tile_width else STRIP
     for y0 in range(ys, ye, step):
         y1 = min(y0 + step, ye)
+        if kept is not None:
+            yield y0, y1, kept[y0 - ys:y1 - ys]
+            continue
         if spec.tile_width:
             px = inp.read_tiles(sub, 0, spec.x, spec.x + spec.width, y0, y1, spec.z, spec.z + max(spec.depth, 1),
                                 0, nch, fmt)
@@ -106,14 +110,11 @@ def write_passthrough(path: Path, tmp: str, frame, rgb: np.ndarray, alpha: np.nd
             if not ok:
                 break
             kept = frame.pixels if i == frame.part and read_fmt == "float" else None
-            if kept is not None and kept.shape == (spec.height, spec.width, nch):
-                strips = ((y0, min(y0 + STRIP, spec.y + spec.height), kept[y0 - spec.y:y0 - spec.y + STRIP])
-                          for y0 in range(spec.y, spec.y + spec.height, STRIP))
-            else:
-                strips = _strip_reader(inp, i, spec, nch, read_fmt)
+            if kept is not None and kept.shape != (spec.height, spec.width, nch):
+                kept = None
             # all half: handed over as half (numpy converts faster than the writer does)
             as_half = all(str(f) == "half" for f in o.channelformats)
-            for y0, y1, px in strips:
+            for y0, y1, px in _strip_reader(inp, i, spec, nch, read_fmt, kept):
                 r0, r1 = y0 - spec.y, y1 - spec.y
                 if replace or extra:
                     px = np.array(px, copy=True)
