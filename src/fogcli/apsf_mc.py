@@ -391,6 +391,8 @@ def simulate_far(g: float, tau, photons: int, seed: int, *, r_max: float | None 
     x_edges = excess_edges() if x_edges is None else x_edges
     r_max = float(3 * tau.max()) if r_max is None else r_max
     nT, nb, nx = len(tau), len(th_edges) - 1, len(x_edges) - 1
+    order_k = np.argsort(tau, kind="stable")          # sphere radii ascending, and their camera index
+    radii = tau[order_k]
     m = [np.zeros(nT * nb * nx) for _ in range(3)]
     e = [np.zeros(nT * N_MU * nx) for _ in range(3)]
     rng = np.random.default_rng(seed)
@@ -412,28 +414,39 @@ def simulate_far(g: float, tau, photons: int, seed: int, *, r_max: float | None 
         while len(w):
             step = -np.log1p(-rng.random(len(w)))
             if order > 0:
-                # crossings of each sphere on the flight pos -> pos + step d: |pos + t d| = R
+                # the spheres this flight crosses, pos -> pos + step d (|pos + t d| = R, 0 < t <= step):
+                # inwards every R between the flight's closest point and |pos|, outwards every R
+                # between the closest point and the flight's end. Radii sorted, so each range is
+                # two searchsorted bounds and the work is per crossing, not per sphere and flight.
                 b = np.einsum("ij,ij->i", pos, d)
                 c0 = np.einsum("ij,ij->i", pos, pos)
-                for k, R in enumerate(tau):
-                    disc = b * b - (c0 - R * R)
-                    sq = np.sqrt(np.maximum(disc, 0.0))
-                    for t in (-b - sq, -b + sq):
-                        hit = np.nonzero((disc > 0) & (t > 0) & (t <= step))[0]
-                        if not len(hit):
-                            continue
-                        th = t[hit]
-                        p = pos[hit] + th[:, None] * d[hit]
-                        cm = np.clip(np.einsum("ij,ij->i", p, d[hit]) / R, -1.0, 1.0)
-                        val = w[hit] / np.maximum(np.abs(cm), 1e-12)
-                        ex = np.maximum(length[hit] + th - R, 0.0)
-                        ix = _excess_bin(ex, x_edges)
-                        ib = _theta_bin(np.arccos(cm), th_edges)
-                        buf_m.append(((k * nb + ib) * nx + ix, val, ex))
-                        fw = cm > 0
-                        mu0 = np.einsum("ij,ij->i", d0[hit[fw]], p[fw]) / R      # emission against the camera's direction
-                        im = _mu_bin(mu0)
-                        buf_e.append(((k * N_MU + im) * nx + ix[fw], val[fw], ex[fw]))
+                tc = np.clip(-b, 0.0, step)
+                r_min = np.sqrt(np.maximum(c0 - 2 * tc * (-b) + tc * tc, 0.0))
+                r_end = np.sqrt(np.maximum(c0 + 2 * step * b + step * step, 0.0))
+                lo = np.searchsorted(radii, r_min, "right")
+                bounds = ((lo, np.searchsorted(radii, np.sqrt(c0), "left"), -1.0),
+                          (lo, np.searchsorted(radii, r_end, "right"), 1.0))
+                for lo_k, hi_k, sgn in bounds:
+                    cnt = np.maximum(hi_k - lo_k, 0)
+                    if not cnt.any():
+                        continue
+                    hit = np.repeat(np.arange(len(w)), cnt)
+                    ks = np.repeat(lo_k - np.cumsum(cnt) + cnt, cnt) + np.arange(cnt.sum())
+                    R = radii[ks]
+                    bh = b[hit]
+                    th = -bh + sgn * np.sqrt(np.maximum(bh * bh - c0[hit] + R * R, 0.0))
+                    p = pos[hit] + th[:, None] * d[hit]
+                    cm = np.clip(np.einsum("ij,ij->i", p, d[hit]) / R, -1.0, 1.0)
+                    val = w[hit] / np.maximum(np.abs(cm), 1e-12)
+                    ex = np.maximum(length[hit] + th - R, 0.0)
+                    ix = _excess_bin(ex, x_edges)
+                    ib = _theta_bin(np.arccos(cm), th_edges)
+                    kk = order_k[ks]
+                    buf_m.append(((kk * nb + ib) * nx + ix, val, ex))
+                    fw = cm > 0
+                    mu0 = np.einsum("ij,ij->i", d0[hit[fw]], p[fw]) / R[fw]     # emission against the camera's direction
+                    im = _mu_bin(mu0)
+                    buf_e.append(((kk[fw] * N_MU + im) * nx + ix[fw], val[fw], ex[fw]))
             if max_order is not None and order >= max_order:
                 break
             pos += step[:, None] * d
