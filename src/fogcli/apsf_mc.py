@@ -421,7 +421,7 @@ def simulate_far(g: float, tau, photons: int, seed: int, *, r_max: float | None 
                 b = np.einsum("ij,ij->i", pos, d)
                 c0 = np.einsum("ij,ij->i", pos, pos)
                 tc = np.clip(-b, 0.0, step)
-                r_min = np.sqrt(np.maximum(c0 - 2 * tc * (-b) + tc * tc, 0.0))
+                r_min = np.sqrt(np.maximum(c0 + 2 * tc * b + tc * tc, 0.0))
                 r_end = np.sqrt(np.maximum(c0 + 2 * step * b + step * step, 0.0))
                 lo = np.searchsorted(radii, r_min, "right")
                 bounds = ((lo, np.searchsorted(radii, np.sqrt(c0), "left"), -1.0),
@@ -431,6 +431,7 @@ def simulate_far(g: float, tau, photons: int, seed: int, *, r_max: float | None 
                     if not cnt.any():
                         continue
                     hit = np.repeat(np.arange(len(w)), cnt)
+                    # lo_k[i], lo_k[i] + 1, ..., hi_k[i] - 1 for each photon i, concatenated
                     ks = np.repeat(lo_k - np.cumsum(cnt) + cnt, cnt) + np.arange(cnt.sum())
                     R = radii[ks]
                     bh = b[hit]
