@@ -1,6 +1,6 @@
-"""Probe for issue 8 (not yet part of the table or of any doc): the forward-hemisphere
-scattered light at large tau from the sphere-crossing estimator (apsf_mc.simulate_far)
-against the point estimator the table is built with (apsf_mc.simulate), two seeds each;
+"""Probe for issue 8 that chose the table's estimators (make_apsf_table.T_FAR): the
+forward-hemisphere scattered light at large tau from the sphere-crossing estimator
+(apsf_mc.simulate_far) against the point estimator (apsf_mc.simulate), two seeds each;
 prints, per albedo and tau, the mean energy (relative form, no r_max background), the
 seed-to-seed noise of the energy |a/b - 1| / sqrt(2) and of the shape (ring L1 of the
 normalised Gaussian weights between the seeds / sqrt(2), as docs/apsf-table.md measures).
@@ -12,7 +12,8 @@ normalised Gaussian weights between the seeds / sqrt(2), as docs/apsf-table.md m
 0.5, 0.85, 0.95, 60000 photons, two seeds, their mean) with cameras at the grid taus >= 5 and
 at the quarter points between them (geometric), reduced like the table (make_apsf_table's
 reduce_tally): the error of interpolating a midpoint from its neighbours with the grid step
-and with the step halved, the ratio linear in log tau (as shipped) or its log, and the shape;
+and with the step halved, the ratio linear in log tau (the scheme before) or its log (shipped),
+and the shape;
 albedo >= 0.8; the seeds' difference at the midpoints is the noise.
 
 Session 12, g 0.9, tau 5-28, albedo 0.8-0.99, Intel Xeon (2 cores): crossing, 20000 photons,
@@ -64,14 +65,14 @@ def tau_step() -> int:
         res = pool.starmap(tau_step_run, [(g, M.SEED + k) for g in (0.0, 0.5, 0.85, 0.95) for k in (0, 1)])
     keep = M.ALBEDO >= 0.8
     pct = lambda x: f"{100 * np.nanpercentile(np.concatenate(x), 90):.2f} / {100 * np.nanmax(np.concatenate(x)):.2f}"  # noqa: E731
-    print("tau >= 5, albedo >= 0.8, p90 / max in %: energy (ratio linear in log tau, as shipped) | energy (log "
-          "ratio linear in log tau) | shape | noise of the midpoints' energy")
+    print("tau >= 5, albedo >= 0.8, p90 / max in %: energy (ratio linear in log tau, the scheme before) | "
+          "energy (log ratio linear in log tau, shipped) | shape | noise of the midpoints' energy")
     for step, name in ((2, "grid step"), (1, "step halved")):
         e_lin, e_log, e_sh, noise = [], [], [], []
         for a, b in zip(res[::2], res[1::2]):
             # this grid's nodes and midpoints alternating, as apsf_grid_check.tau_errors takes them
             r, s, th = 0.5 * (a[0] + b[0])[:, ::step], 0.5 * (a[1] + b[1])[:, ::step], a[2]
-            lin, shp, log = tau_errors(r, s, th)
+            log, shp, lin = tau_errors(r, s, th)
             e_lin.append(lin[keep].ravel())
             e_log.append(log[keep].ravel())
             e_sh.append(shp[keep].ravel())

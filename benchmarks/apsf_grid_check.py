@@ -5,15 +5,17 @@ q = sqrt((1 - a) / a) of the log ratio and of the shape; linear in g and log tau
 * albedo: one tally serves every albedo, so the grid albedos and the midpoints between them
   come from the same photons (g = 0, 0.5, 0.85, 0.95: the table's own runs, its seed and photons;
   --scale 0.25 takes the first quarter of them);
+* tau, from the shipped table itself: its curvature along log tau (curvature_errors);
 * g: single scattering by quadrature (exact) at the grid g and the midpoints, tau < 1;
-* tau >= 5, albedo and tau: the sphere-crossing estimator (apsf_mc.simulate_far), whose noise
-  there is 10-100x below the table's point estimator's, with cameras at the grid taus and the
-  midpoints between them in one tally (the table itself is still the point estimator's).
+* tau >= 5, albedo and tau: the sphere-crossing estimator (apsf_mc.simulate_far, the one the
+  table uses from tau 0.3 on) with cameras at the grid taus and the geometric midpoints between
+  them in one tally, two seeds; the runtime interpolates the log ratio linearly in log tau
+  (fogcli.apsf.log_along_tau) and the shape linearly.
 
     PYTHONPATH=src python benchmarks/apsf_grid_check.py [--doc docs/apsf-table.md]   # ~10 min, 2 cores
 
-benchmarks/apsf_interpolation.py is the full study (tau, seeds, other schemes) on the grid it
-was run with; this script checks the grid make_apsf_table.py ships now.
+It checks the grid make_apsf_table.py ships (an earlier, wider study of the 30-tau grid,
+benchmarks/apsf_interpolation.py, is in git history).
 """
 from __future__ import annotations
 
@@ -35,10 +37,10 @@ FAR_PHOTONS = 60_000      # a g and seed, for the large-tau check (~5 min on 2 c
 
 
 def albedo_run(g: float, scale: float = 1.0):
-    t = M.run_g(g, M.photons_for(g, scale), M.SEED)
+    runs = M.run_g(g, scale, M.SEED)
     mids = 0.5 * (M.ALBEDO[:-1] + M.ALBEDO[1:])
-    r = M.reduce_tally(t, np.concatenate([M.ALBEDO, mids]))
-    return g, r["ratio"], r["shape"], t.th_edges
+    r = M.reduce_runs(runs, np.concatenate([M.ALBEDO, mids]))
+    return g, r["ratio"], r["shape"], runs[0].th_edges
 
 
 def albedo_errors(ratio, shape, th_edges):
@@ -77,17 +79,46 @@ def far_run(g: float, photons: int, seed: int = M.SEED):
 
 def tau_errors(ratio, shape, th_edges):
     """Each odd tau (a geometric midpoint) against the runtime's interpolation between its
-    neighbours (linear in log tau: their mean), at the grid albedos: (energy, shape) (A, T)."""
+    neighbours (log ratio and shape linear in log tau: the ratios' geometric mean and the
+    shapes' mean), at the grid albedos: (energy, shape, energy with the ratio itself linear in
+    log tau, the scheme before) (A, T)."""
     na = len(M.ALBEDO)
     r, s = ratio[:na], shape[:na]
-    ri = 0.5 * (r[:, :-2:2] + r[:, 2::2])
+    ri = np.sqrt(r[:, :-2:2] * r[:, 2::2])
     si = 0.5 * (s[:, :-2:2] + s[:, 2::2])
     rd, sd = r[:, 1::2], s[:, 1::2]
     ok = rd > 1e-250
     with np.errstate(divide="ignore", invalid="ignore"):
-        rl = np.sqrt(r[:, :-2:2] * r[:, 2::2])       # log ratio linear in log tau: not shipped
+        rl = 0.5 * (r[:, :-2:2] + r[:, 2::2])
         return (np.where(ok, np.abs(ri / rd - 1), np.nan), np.where(ok, mc.ring_error(th_edges, si, sd), np.nan),
                 np.where(ok, np.abs(rl / rd - 1), np.nan))
+
+
+def curvature_errors(path=ROOT / "src/fogcli/data/apsf.npz"):
+    """The shipped table's own midpoint error along tau, from its curvature: between nodes i and
+    i + 1 (log-tau step h) linear interpolation misses by h^2 f'' / 8, f'' the three-node second
+    derivative in log tau (of the log ratio; of the shape). A wide stencil on the table's full
+    photon count: its noise is about 0.3 of one entry's, where the midpoint check above carries
+    the noise of three entries of a smaller run. (energy, shape) (G, A, interior taus)."""
+    d = np.load(path)
+    x = np.log(d["tau"].astype(np.float64))
+    h0, h1 = np.diff(x)[:-1], np.diff(x)[1:]
+    c = h1 ** 2 / 8 * 2 / (h0 * h1 * (h0 + h1))
+
+    def miss(f):
+        return c * (h0 * f[..., 2:] - (h0 + h1) * f[..., 1:-1] + h1 * f[..., :-2])
+
+    ratio = d["ratio"].astype(np.float64)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        lr = np.where(ratio > 1e-250, np.log(np.maximum(ratio, 1e-300)), np.nan)
+        energy = np.abs(np.expm1(miss(lr)))
+        w = d["weights"].astype(np.float64)
+        s = w / np.maximum(w.sum(-1, keepdims=True), 1e-300)
+        ds = np.moveaxis(miss(np.moveaxis(s, -1, 0)), 0, -1)            # (G, A, T - 2, K)
+        sm = s[:, :, 1:-1]
+        ok = np.isfinite(energy) & (w[:, :, 1:-1].sum(-1) > 0)     # float32 weights underflow before the ratio
+        shape = np.where(ok, mc.ring_error(d["theta_edges"].astype(np.float64), sm + ds, sm), np.nan)
+    return energy, shape, d["energy"][:, :, 1:-1].astype(np.float64), d["tau"][1:-1], d["albedo"], d["g"]
 
 
 def g_errors(th_edges, taus=(0.03, 0.1, 0.3, 0.7), albedo=1.0):
@@ -174,12 +205,24 @@ def report(scale: float) -> None:
     TE, TS, TL = (np.stack([x[i] for x in ft]) for i in range(3))           # (g, grid albedos, tau mids)
     print(f"\n| tau >= 5, sphere-crossing estimator ({FAR_PHOTONS} photons a g, the same photons for a midpoint and "
           "its neighbours; two seeds, their mean checked) | albedo midpoints: energy | shape | tau midpoints: energy | "
-          "shape | the same, log ratio linear in log tau (not shipped): energy | noise of the tau midpoints' energy "
+          "shape | the same, ratio linear in log tau (the scheme before): energy | noise of the tau midpoints' energy "
           "(se of the mean) |\n|---|---|---|---|---|---|---|")
     for name, am, ag in (("all albedos", amids > 0, M.ALBEDO > 0), ("albedo < 0.3", amids < 0.3, M.ALBEDO < 0.3),
                          ("albedo 0.3-0.8", (amids >= 0.3) & (amids < 0.8), (M.ALBEDO >= 0.3) & (M.ALBEDO < 0.8)),
                          ("albedo >= 0.8", amids >= 0.8, M.ALBEDO >= 0.8)):
         print(f"| {name} | {fmt(FE[:, am])} | {fmt(FS[:, am])} | {fmt(TE[:, ag])} | {fmt(TS[:, ag])} | {fmt(TL[:, ag])} | {fmt(NE[:, ag])} |")
+    ce, cs, cen, ctau, calb, cg = curvature_errors()
+    far_t = ctau >= 5.0
+    print("\n| tau >= 5, the shipped table's curvature (h^2 f''/8 between neighbouring taus, its full photons) | "
+          "energy | shape | worst g (energy p90) | energy, weighted by the entries' scattered energy |\n|---|---|---|---|---|")
+    for name, am in (("all albedos", calb > 0), ("albedo < 0.3", calb < 0.3), ("albedo 0.3-0.8", (calb >= 0.3) & (calb < 0.8)),
+                     ("albedo >= 0.8", calb >= 0.8)):
+        E, S, W = ce[:, am][..., far_t], cs[:, am][..., far_t], cen[:, am][..., far_t]
+        ok = np.isfinite(E)
+        wmean = float((E[ok] * W[ok]).sum() / W[ok].sum())
+        p90 = [np.nanpercentile(E[k], 90) if np.isfinite(E[k]).any() else np.nan for k in range(len(cg))]
+        kw = int(np.nanargmax(p90))
+        print(f"| {name} | {fmt(E)} | {fmt(S)} | g {cg[kw]:g}: {100 * p90[kw]:.2f} | {100 * wmean:.2f} |")
     ge, gs = g_errors(runs[0][3])
     print("\n| g midpoints, single scattering (exact), tau 0.03-0.7 | energy | shape |\n|---|---|---|")
     print(f"| every interval of G | {fmt(ge)} | {fmt(gs)} |")

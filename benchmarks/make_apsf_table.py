@@ -24,16 +24,29 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "src"))
 from fogcli import apsf_mc as mc  # noqa: E402
 
-# 0.15, 0.4, 0.95 and the albedos below 0.3 were added where benchmarks/apsf_interpolation.py
-# measured more than 1 % interpolation error (docs/apsf-table.md); the other entries keep
-# their photons (one seed per g)
+# 0.15, 0.4, 0.95 and the albedos below 0.3 were added where a study of the earlier 30-tau grid
+# (benchmarks/apsf_interpolation.py, removed with that grid; in git history) measured more than
+# 1 % interpolation error; benchmarks/apsf_grid_check.py measures this grid
 G = np.array([0.0, 0.15, 0.3, 0.4, 0.5, 0.6, 0.7, 0.75, 0.8, 0.85, 0.88, 0.9, 0.92, 0.94, 0.95, 0.96])
 ALBEDO = np.array([0.02, 0.035, 0.05, 0.075, 0.1, 0.15, 0.2, 0.25, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.85,
                    0.9, 0.95, 0.98, 0.99, 0.995, 0.999, 1.0])
-TAU = np.geomspace(0.01, 30.0, 30)
+T_FAR = 0.3                    # entries at tau >= T_FAR come from the sphere-crossing estimator
+
+
+def tau_grid() -> np.ndarray:
+    """The 30 log-spaced taus of the first tables (0.01 to 30, a factor 1.318 a step) stay
+    nodes; the step is halved from 0.83 and quartered from 4.3, where the energy ratio bends
+    in log tau (benchmarks/apsf_grid_check.py: log ratio linear in log tau at tau >= 5 was
+    off by 4.3 % at p90 with the old step, 1.9 % with it halved): 57 taus."""
+    lb = np.log(np.geomspace(0.01, 30.0, 30))
+    return np.exp(np.concatenate([lb[:17], np.linspace(lb[16], lb[22], 13)[1:], np.linspace(lb[22], lb[29], 29)[1:]]))
+
+
+TAU = tau_grid()
 SEED = 20261201
 R_MAX = 2 * TAU[-1]            # photons dropped beyond (their light added in diffusion theory)
 SECONDS_PER_G = 75.0           # photon counts are set for about this per g on one core
+SECONDS_FAR = 60.0             # the same for the sphere-crossing runs
 
 
 def photons_for(g: float, scale: float) -> int:
@@ -44,6 +57,13 @@ def photons_for(g: float, scale: float) -> int:
     return max(1000, int(round(SECONDS_PER_G * 1e3 / ms * scale, -3)))
 
 
+def far_photons_for(g: float, scale: float) -> int:
+    """Photon count of the sphere-crossing run per g (measured about 0.2 + 0.95 (1 - g)^1.2
+    ms per photon with cameras at 40 taus from 1 to 30: every photon diffuses to r_max)."""
+    ms = 0.2 + 0.95 * (1 - g) ** 1.2
+    return max(1000, int(round(SECONDS_FAR * 1e3 / ms * scale, -3)))
+
+
 def rr_order_for(g: float) -> int:
     """Russian roulette (keep 1/2) after this many scatterings, a bound on the time of the
     longest diffusers only (the weight window of apsf_mc does the work): forward phases need
@@ -51,13 +71,36 @@ def rr_order_for(g: float) -> int:
     return int(120 / math.sqrt(1 - g))
 
 
-def run_g(g: float, photons: int, seed: int, tau=TAU, r_max=R_MAX):
-    return mc.simulate(g, tau, photons, seed, r_max=r_max, rr_order=rr_order_for(g))
+def run_g(g: float, scale: float, seed: int, tau=TAU, r_max=R_MAX) -> list:
+    """The tallies of one g: the point estimator for the cameras at tau < T_FAR, the
+    sphere-crossing estimator (apsf_mc.simulate_far) at tau >= T_FAR, where its noise is
+    3-20x lower for the same time (benchmarks/apsf_crossing_probe.py; at g 0.9, tau 0.2-3,
+    its energy noise is 0.1-2 % with 20000 photons against 0.4-14 % with 60000 point
+    photons). Either may be absent when no tau falls in its range."""
+    tau = np.asarray(tau, np.float64)
+    runs = []
+    if (tau < T_FAR).any():
+        runs.append(mc.simulate(g, tau[tau < T_FAR], photons_for(g, scale), seed, r_max=r_max,
+                                rr_order=rr_order_for(g)))
+    if (tau >= T_FAR).any():
+        runs.append(mc.simulate_far(g, tau[tau >= T_FAR], far_photons_for(g, scale), seed, r_max=r_max,
+                                    rr_order=rr_order_for(g)))
+    return runs
 
 
-def _timed_run(g: float, n: int):
+def _timed_run(g: float, scale: float):
     t0 = time.time()
-    return run_g(g, n, SEED), time.time() - t0
+    return run_g(g, scale, SEED), time.time() - t0
+
+
+def _reduced(g: float, scale: float, seed: int, tau, albedo) -> dict:
+    return reduce_runs(run_g(g, scale, seed, tau=tau), albedo)
+
+
+def reduce_runs(runs: list, albedo=ALBEDO) -> dict:
+    """reduce_tally of each estimator's run, joined along tau (ascending: point, then crossing)."""
+    parts = [reduce_tally(t, albedo) for t in runs]
+    return {k: np.concatenate([p[k] for p in parts], axis=1) for k in parts[0]}
 
 
 def thin(tau, albedo):
@@ -98,7 +141,30 @@ def ring_l1(th_edges, sa, sb):
 
 
 def pct(x, q):
-    return float(np.percentile(np.asarray(x).ravel(), q))
+    """Percentile over the entries that are numbers (a ratio that underflows float32 on both
+    seeds, albedo 0.02 at large tau, gives 0 / 0)."""
+    return float(np.nanpercentile(np.asarray(x, np.float64).ravel(), q))
+
+
+def single_scatter_rows(th_edges, scale: float) -> list:
+    """(g, albedo, tau, MC / quadrature) of the single-scattered energy over the whole sphere,
+    each tau with the estimator its table entry comes from and the table's r_max (a smaller
+    one drops photons whose first flight passes it and adds their diffusion light, which is
+    not single scattering)."""
+    rows = []
+    ks = [int(np.argmin(np.abs(TAU - v))) for v in (0.01, 0.091, 0.83, 4.34)]
+    dom = 2 * math.pi * (np.cos(th_edges[:-1]) - np.cos(th_edges[1:]))
+    thc = np.sqrt(th_edges[:-1] * th_edges[1:])
+    thc[0] = th_edges[1] / 2
+    for g in (0.0, 0.9):
+        for k in ks:
+            sim = mc.simulate if TAU[k] < T_FAR else mc.simulate_far
+            t = sim(g, TAU[k:k + 1], int(100_000 * max(scale, 0.2)), SEED + 7, max_order=1, r_max=R_MAX)
+            f, _ = mc.profiles(t, [1.0, 0.3])
+            for i, a in enumerate((1.0, 0.3)):
+                q = mc.single_scatter(thc, TAU[k], g, a, n=2000) @ dom
+                rows.append((g, a, TAU[k], f[i, 0] @ dom / q))
+    return rows
 
 
 def main(argv=None) -> int:
@@ -126,17 +192,17 @@ def main(argv=None) -> int:
     from concurrent.futures import ProcessPoolExecutor
 
     with ProcessPoolExecutor(max_workers=args.jobs, mp_context=multiprocessing.get_context("spawn")) as pool:
-        runs = {g: pool.submit(_timed_run, g, photons_for(g, scale)) for g in G}
+        runs = {g: pool.submit(_timed_run, g, scale) for g in G}
         for g in G:
             t, sec = runs[g].result()
             secs.append(sec)
-            res[g] = reduce_tally(t)
+            res[g] = reduce_runs(t)
             tallies[g] = t
-            photons.append(photons_for(g, scale))
-            print(f"g={g:.2f}: {photons[-1]} photons, {secs[-1]:.0f} s, {t.stats}", flush=True)
+            photons.append((photons_for(g, scale), far_photons_for(g, scale)))
+            print(f"g={g:.2f}: {photons[-1]} photons (point, crossing), {secs[-1]:.0f} s, {t[0].stats}", flush=True)
     t_table = time.time() - t_start
     stack = {k: np.stack([res[g][k] for g in G]) for k in res[G[0]]}
-    th_edges = tallies[G[0]].th_edges
+    th_edges = tallies[G[0]][0].th_edges
     tab = dict(g=G, albedo=ALBEDO, tau=TAU, ratio=stack["ratio"], shape=stack["shape"])
 
     # ---- write ----
@@ -149,7 +215,7 @@ def main(argv=None) -> int:
             sigma_u=mc.SIGMA_U.astype(f32), weights=stack["weights"].astype(f32),
             energy=stack["energy"].astype(f32), energy_sphere=stack["energy_sphere"].astype(f32),
             ratio=stack["ratio"].astype(f32), emit_mu=stack["emit_mu"].astype(f32),
-            theta_edges=th_edges.astype(f32), profile=stack["profile"].astype(f32),
+            theta_edges=th_edges.astype(f32), t_far=np.float32(T_FAR),
             photons=np.array(photons, np.int64), seed=np.int64(SEED),
             fit_error=stack["fit_error"].astype(f32), r_max=np.float32(R_MAX),
             rr_order=np.array([rr_order_for(g) for g in G], np.int64))
@@ -157,25 +223,22 @@ def main(argv=None) -> int:
 
 
     # ---- checks ----
-    # 1. single scattering against quadrature (estimator check, independent of the table)
-    ss_rows = []
-    for g in (0.0, 0.9):
-        t = mc.simulate(g, TAU, int(100_000 * max(scale, 0.2)), SEED + 7, max_order=1)
-        f, _ = mc.profiles(t, [1.0, 0.3])
-        dom = 2 * math.pi * (np.cos(th_edges[:-1]) - np.cos(th_edges[1:]))
-        thc = np.sqrt(th_edges[:-1] * th_edges[1:])
-        thc[0] = th_edges[1] / 2
-        for k in (0, 8, 16, 22):
-            for i, a in enumerate((1.0, 0.3)):
-                q = mc.single_scatter(thc, TAU[k], g, a, n=2000) @ dom
-                ss_rows.append((g, a, TAU[k], f[i, k] @ dom / q))
+    # the runs of checks 2 and 4 go to the pool while check 1 runs here
+    noise_g = (0.0, 0.8, 0.96)
+    g_off = (0.65, 0.87)
+    a_off = np.array([0.15, 0.45, 0.75, 0.875, 0.925, 0.97, 0.997])
+    tau_off = np.sqrt(TAU[:-1] * TAU[1:])[1::3]
+    pool = ProcessPoolExecutor(max_workers=args.jobs, mp_context=multiprocessing.get_context("spawn"))
+    noise_runs = {g: pool.submit(_reduced, g, scale, SEED + 1, TAU, ALBEDO) for g in noise_g}
+    off_runs = {g: pool.submit(_reduced, g, scale, SEED + 3, tau_off, a_off) for g in g_off}
+    # 1. single scattering against quadrature (estimator check, independent of the table), each
+    #    tau with the estimator its table entry comes from
+    ss_rows = single_scatter_rows(th_edges, scale)
     print(f"single-scattering check done {time.time() - t_start:.0f} s", flush=True)
     # 2. MC noise: a second seed, same photons
-    noise_g = (0.0, 0.8, 0.96)
     noise = {}
     for g in noise_g:
-        t2 = run_g(g, photons_for(g, scale), SEED + 1)
-        r2 = reduce_tally(t2)
+        r2 = noise_runs[g].result()
         r1 = res[g]
         de = np.abs(r2["ratio"] / r1["ratio"] - 1)
         dl = ring_l1(th_edges, r2["shape"], r1["shape"])
@@ -185,20 +248,15 @@ def main(argv=None) -> int:
     #    r_max (from the table's own runs): the truncation error is a fraction of this
     trunc = []
     for g in (0.0, 0.9, 0.96):
-        t = tallies[g]
         a3 = [1.0, 0.999, 0.99, 0.9]
         dom = 2 * math.pi * (np.cos(th_edges[:-1]) - np.cos(th_edges[1:]))
-        e_no = mc.profiles(t, a3, relative=True, background=False)[0] @ dom
-        e_bg = mc.profiles(t, a3, relative=True, background=True)[0] @ dom
+        e_no = np.concatenate([mc.profiles(t, a3, relative=True, background=False)[0] @ dom for t in tallies[g]], 1)
+        e_bg = np.concatenate([mc.profiles(t, a3, relative=True, background=True)[0] @ dom for t in tallies[g]], 1)
         trunc.append((g, a3, 1 - e_no / np.maximum(e_bg, 1e-300)))
     # 4. interpolation at off-grid points, simulated directly
-    g_off = (0.65, 0.87)
-    a_off = np.array([0.15, 0.45, 0.75, 0.875, 0.925, 0.97, 0.997])
-    tau_off = np.sqrt(TAU[:-1] * TAU[1:])[1::3]
     interp_rows = []
     for g in g_off:
-        t = run_g(g, photons_for(g, scale), SEED + 3, tau=tau_off)
-        r = reduce_tally(t, a_off)
+        r = off_runs[g].result()
         for i, a in enumerate(a_off):
             for k, tv in enumerate(tau_off):
                 ri, si = interp(tab, g, a, tv)
@@ -206,6 +264,7 @@ def main(argv=None) -> int:
                 s_err = float(ring_l1(th_edges, si[None], r["shape"][i, k][None])[0])
                 interp_rows.append((g, a, tv, e_err, s_err))
         print(f"interp g={g}: done {time.time() - t_start:.0f} s", flush=True)
+    pool.shutdown()
     t_total = time.time() - t_start
 
     # ---- doc ----
@@ -255,11 +314,14 @@ def write_doc(ctx: dict, doc: str | None) -> None:
       "(exp(-sa d)(1 - exp(-d))); `energy` and `weights` underflow float32 where sa d > ~85 "
       "(a = 0.02 beyond tau ~ 1.7): use `ratio` there. `emit_mu`: distribution of the cosine "
       "between the emission direction and the source->camera direction of the forward-hemisphere "
-      "energy (20 bins over [-1, 1]). `profile`: raw f(theta) per steradian on `theta_edges`.")
+      "energy (20 bins over [-1, 1]). The raw f(theta) per steradian is not shipped (4 MB; "
+      "`reduce_tally` returns it as `profile`).")
     L("")
     L(f"Grid: g = {', '.join(f'{g:g}' for g in G)}; albedo = {', '.join(f'{a:g}' for a in ALBEDO)}; "
-      f"tau = {len(TAU)} log-spaced from {TAU[0]:g} to {TAU[-1]:g}.")
-    L(f"Photons per g: {', '.join(f'{g:g}: {n}' for g, n in zip(G, photons))} (seed {SEED}); "
+      f"tau = {len(TAU)} from {TAU[0]:g} to {TAU[-1]:g}, log-spaced with a factor 1.318 a step up to 0.83, "
+      "half that step (in log tau) to 4.3 and a quarter of it to 30 (`tau_grid`).")
+    L(f"Photons per g (point estimator, tau < {T_FAR:g} | sphere crossings, tau >= {T_FAR:g}): "
+      f"{', '.join(f'{g:g}: {n[0]} | {n[1]}' for g, n in zip(G, photons))} (seed {SEED}); "
       f"time per g {min(secs):.0f}-{max(secs):.0f} s.")
     L("")
     L("## Method (fogcli/apsf_mc.py)")
@@ -268,8 +330,14 @@ def write_doc(ctx: dict, doc: str | None) -> None:
       "applied after the run from a histogram over the excess path l - d (log bins, 24 per decade, "
       "with the first three moments per bin so exp(-sa x) is averaged within a bin): one run per g "
       "serves every albedo.")
+    L(f"* Two estimators: below tau {T_FAR:g} the point estimator (this item and the next three), from "
+      f"tau {T_FAR:g} on sphere crossings (`apsf_mc.simulate_far`): the medium is infinite and homogeneous "
+      "and the source isotropic, so the whole sphere of radius d is the detector; a photon crossing it with "
+      "radial cosine mu scores w / |mu| in the theta = acos(mu) bin. Isotropic emission, exponential first "
+      "flight, no weight window; the same excess-path histogram. At tau 0.2-3 its noise is 3-20x below the "
+      "point estimator's for the same time, and 10-100x at tau >= 5 (benchmarks/apsf_crossing_probe.py).")
     L("* Point (next-event) estimator at every vertex, w p_HG(mu) exp(-r) / r^2, to cameras at all "
-      "30 distances on +z and -z at once. Inside a ball of radius eps = min(0.1 d, 0.6) around the "
+      f"{int((TAU < T_FAR).sum())} distances below {T_FAR:g} on +z and -z at once. Inside a ball of radius eps = min(0.1 d, 0.6) around the "
       "camera a vertex at r is scored as if at r' = eps (r/eps)^3 on the same ray with 1/r^2 -> 3/eps^2 "
       "(r' uniform on [0, eps] for a uniform vertex density: exact per direction, exp(-r) and "
       "absorption included; bounded variance; a density gradient moves ~ eps/4 |grad ln n| of the "
@@ -322,6 +390,11 @@ def write_doc(ctx: dict, doc: str | None) -> None:
             L(f"| {g:g} | [{lo:g}, {hi:g}) | {pct(de[:, sel], 50):.3f} | {pct(de[:, sel], 90):.3f} | "
               f"{pct(de[:, sel], 100):.3f} | {pct(dl[:, sel], 50):.3f} | {pct(dl[:, sel], 90):.3f} | "
               f"{pct(dl[:, sel], 100):.3f} |")
+    L("")
+    e_low = stack["energy"][:, ALBEDO < 0.3][..., TAU >= 5]
+    L(f"At tau >= 5 and albedo < 0.3 the scattered light is at most {np.max(e_low):.1g} of the source's "
+      "(`energy`), carried by rare photons with short paths: the large relative differences there are "
+      "light no image shows.")
     L("")
     L("The same for albedo >= 0.9 only (fog: the light that matters in thick media):")
     L("")
@@ -484,37 +557,36 @@ def write_doc(ctx: dict, doc: str | None) -> None:
     worst = ir_[ir_[:, 2] < 1.0][np.argmax(np.abs(ir_[ir_[:, 2] < 1.0, 3]))]
     big = np.concatenate([noise[g][0][:, TAU >= 5].ravel() for g in noise_g])
     big_hi = np.concatenate([noise[g][0][ALBEDO >= 0.9][:, TAU >= 5].ravel() for g in noise_g])
-    L("* The variance of the point estimator is still heavy-tailed (few vertices near a far camera; "
-      "vertices close to the camera whose photon heads at it, p_HG up to ~100 per sr for g = 0.96; "
-      "for small albedo at large tau only rare near-straight paths count). Beyond tau 5 the "
-      f"seed-to-seed energy difference is median {pct(big, 50):.3f}, p90 {pct(big, 90):.3f} over all "
-      f"albedos and the three g of the noise table ({pct(big_hi, 50):.3f} / {pct(big_hi, 90):.3f} for "
-      "albedo >= 0.9). Example: the worst interpolation point below tau 1 "
-      f"(g {worst[0]:g}, a {worst[1]:g}, tau {worst[2]:.3g}: energy {worst[3]:+.2f}, shape L1 {worst[4]:.2f}) "
-      "is one event in the direct run, which shifts all its albedos >= 0.45 alike.")
+    L(f"* Below tau {T_FAR:g} the point estimator's variance is heavy-tailed (vertices close to the camera "
+      "whose photon heads at it, p_HG up to ~100 per sr for g = 0.96). Example: the worst interpolation point "
+      f"below tau 1 (g {worst[0]:g}, a {worst[1]:g}, tau {worst[2]:.3g}: energy {worst[3]:+.2f}, shape L1 "
+      f"{worst[4]:.2f}) is, as far as the two seeds tell, noise of the direct run at that point.")
+    L(f"* From tau {T_FAR:g} on the sphere-crossing estimator: few crossings land in the narrowest angle bins "
+      "(a bin's share of the sphere's directions) and 1/|mu| has a logarithmically divergent variance at grazing "
+      "crossings (the last forward bin). Beyond tau 5 the seed-to-seed energy difference is median "
+      f"{pct(big, 50):.3f}, p90 {pct(big, 90):.3f} over all albedos and the three g of the noise table "
+      f"({pct(big_hi, 50):.3f} / {pct(big_hi, 90):.3f} for albedo >= 0.9); entries whose ratio underflows "
+      "float32 (albedo 0.02 at the largest tau: their light is below 1e-38 of the thin-medium form) are left out.")
     L(f"* The direct runs cannot show the 1 % interpolation target: below tau 0.3 the interpolated-vs-direct "
       f"energy differs by median {pct(np.abs(small[:, 3]), 50):.3f}, p90 {pct(np.abs(small[:, 3]), 90):.3f} "
       f"(shape L1 median {pct(small[:, 4], 50):.3f}), the size of the seed-to-seed noise. The "
       "interpolation error proper, free of that noise, is measured by benchmarks/apsf_grid_check.py "
-      "(section \"Interpolation error of the shipped grid\"): across albedo from one tally, across g and "
-      "tau in single scattering by quadrature. What stays is the table's own noise beyond tau ~1: "
-      "lowering it needs far more photons at large tau, or a lower-variance estimator there "
-      "(e.g. a track-length estimator binned by direction of arrival in a ball around far cameras, "
-      "more camera axes with emission sampled towards each, or nested weight-window regions around "
-      "the far cameras).")
+      "(section \"Interpolation error of the shipped grid\"): across albedo from one tally, across g in "
+      "single scattering by quadrature, across tau at tau >= 5 from cameras at the grid taus and the midpoints "
+      "in one tally.")
     r_ = stack["ratio"][:, ALBEDO >= 0.9]
     spike = r_[..., 1:-1] / np.sqrt(np.maximum(r_[..., :-2] * r_[..., 2:], 1e-300))
     ig_, ia_, it_ = np.unravel_index(np.argmax(np.abs(np.log(np.maximum(spike, 1e-300)))), spike.shape)
     L("* Single events are still visible as spikes along tau: the largest, for albedo >= 0.9, is "
       f"g {G[ig_]:g}, tau {TAU[it_ + 1]:.3g}: ratio {spike[ig_, ia_, it_]:.2f} x the geometric mean of its "
-      "two tau neighbours (the same event at every albedo). fogcli interpolates linearly in log tau, "
-      "so it reaches the output around that distance.")
+      "two tau neighbours (the same event at every albedo). fogcli interpolates the log ratio linearly "
+      "in log tau, so it reaches the output around that distance.")
     L("* Infinite homogeneous medium: no boundaries, no ground.")
     if doc:
         import re
 
         old = Path(doc).read_text() if Path(doc).exists() else ""
-        # the blocks other scripts own (apsf_interpolation.py, apsf_grid_check.py) stay
+        # the blocks other scripts own (apsf_grid_check.py) stay
         keep = "".join("\n" + m.group(0) + "\n" for m in re.finditer(r"<!-- ([a-z-]+) -->.*?<!-- /\1 -->", old, re.S))
         Path(doc).write_text("\n".join(lines) + "\n" + keep)
     else:

@@ -47,8 +47,10 @@ def carried_energy(tau: float, g: float, albedo: float, n: int = 200) -> float:
 
 
 def main() -> int:
-    with np.load(ROOT / "src" / "fogcli" / "data" / "apsf.npz") as z:
-        gs, albedos, taus = z["g"], z["albedo"], z["tau"]
+    sys.path.insert(0, str(ROOT / "benchmarks"))
+    import make_apsf_table as M     # the table's grid, as apsf.npz stores it (float32)
+
+    gs, albedos, taus = (np.asarray(v, np.float32) for v in (M.G, M.ALBEDO, M.TAU))
     t0 = time.time()
     out = np.zeros((len(gs), len(albedos), len(taus)))
     for i, g in enumerate(gs):

@@ -59,8 +59,7 @@ def test_format(tab):
     for k in ("energy", "energy_sphere", "fit_error", "ratio"):
         assert tab[k].shape == (G, A, T), k
     assert tab["emit_mu"].shape == (G, A, T, 20)
-    assert tab["profile"].shape == (G, A, T, len(tab["theta_edges"]) - 1)
-    assert tab["photons"].shape == (G,) and tab["photons"].dtype.kind == "i"
+    assert tab["photons"].shape == (G, 2) and tab["photons"].dtype.kind == "i"   # point, crossing
     np.testing.assert_allclose(tab["sigma_u"], 2.0 ** (-14 + np.arange(J) / 2), rtol=1e-6)
     assert TABLE.stat().st_size < 6e6
     assert np.all(np.diff(tab["tau"]) > 0) and np.all(np.diff(tab["albedo"]) > 0) and np.all(np.diff(tab["g"]) > 0)
@@ -181,20 +180,41 @@ def test_forward_phase_emits_towards_the_camera(tab):
 
 # ---------------------------------------------------------------- regenerate table entries
 
-def test_regenerated_entries_match_table(tab):
-    """A small seeded run at a table g (0.85) and a few table tau, with the table's r_max and
+def far_batched(g, tau, photons, albedo, seed0, **kw):
+    """batched() with the sphere-crossing estimator (simulate_far)."""
+    ratios = []
+    for b in range(NB):
+        t = mc.simulate_far(g, tau, photons // NB, seed0 + b, **kw)
+        f, _ = mc.profiles(t, albedo, relative=True)
+        ring, _ = mc.kernel_bins(t.th_edges, f)
+        ratios.append(ring.sum(-1) / -np.expm1(-np.asarray(tau))[None, :])
+    return np.array(ratios)
+
+
+@pytest.mark.parametrize("estimator", ["point", "crossing"])
+def test_regenerated_entries_match_table(tab, estimator):
+    """Small seeded runs at a table g (0.85) and a few table taus, each with the estimator its
+    entry comes from (point below t_far, sphere crossings from it on), the table's r_max and
     roulette, against the shipped energies: within K_SIGMA combined standard errors."""
     g = 0.85
     ig = int(np.argmin(np.abs(tab["g"] - g)))
     assert abs(tab["g"][ig] - g) < 1e-6
-    ks = [3, 10, 16]                                 # tau ~ 0.02, 0.2, 1.2
+    t_far = float(tab["t_far"])
+    want = (0.02, 0.2) if estimator == "point" else (0.83, 3.0, 12.0)
+    ks = [int(np.argmin(np.abs(tab["tau"] - v))) for v in want]
     tau = tab["tau"][ks].astype(np.float64)
+    assert np.all(tau < t_far) if estimator == "point" else np.all(tau >= t_far)
     albedo = [1.0, 0.9, 0.4]
     ias = [int(np.argmin(np.abs(tab["albedo"] - a))) for a in albedo]
-    n = 9000
-    ratios, _, _ = batched(g, tau, n, albedo, r_max=float(tab["r_max"]), rr_order=int(tab["rr_order"][ig]))
+    kw = dict(r_max=float(tab["r_max"]), rr_order=int(tab["rr_order"][ig]))
+    if estimator == "point":
+        n = 9000
+        ratios, _, _ = batched(g, tau, n, albedo, **kw)
+    else:
+        n = 3000
+        ratios = far_batched(g, tau, n, albedo, 1300, **kw)
     mean, se = ratios.mean(0), ratios.std(0, ddof=1) / math.sqrt(NB)
-    se_tab = se * math.sqrt(n / float(tab["photons"][ig]))
+    se_tab = se * math.sqrt(n / float(tab["photons"][ig, 0 if estimator == "point" else 1]))
     for i, ia in enumerate(ias):
         for j, k in enumerate(ks):
             ref = float(tab["ratio"][ig, ia, k])
@@ -229,13 +249,7 @@ def test_crossing_and_point_estimators_agree_and_crossing_is_quieter():
     tau = np.array([2.0, 5.0])
     albedo = [1.0, 0.8]
     point, _, _ = batched(0.5, tau, 12000, albedo, seed0=1100, r_max=15.0)
-    far = []
-    for b in range(NB):
-        t = mc.simulate_far(0.5, tau, 1000, 1200 + b, r_max=15.0)
-        f, _ = mc.profiles(t, albedo, relative=True)
-        ring, _ = mc.kernel_bins(t.th_edges, f)
-        far.append(ring.sum(-1) / -np.expm1(-tau)[None, :])
-    far = np.array(far)
+    far = far_batched(0.5, tau, 1000 * NB, albedo, 1200, r_max=15.0)
     mp, sp = point.mean(0), point.std(0, ddof=1) / math.sqrt(NB)
     mf, sf = far.mean(0), far.std(0, ddof=1) / math.sqrt(NB)
     for i, a in enumerate(albedo):

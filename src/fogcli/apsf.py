@@ -136,9 +136,18 @@ def spread(tab: dict, g: float, albedo: float, tau: np.ndarray) -> tuple[np.ndar
     the table's Gaussians (..., J), at optical distances tau (clamped to the table's range,
     where the shape has settled: the single-scattering shape below, the diffuse one above).
     Interpolated linearly in log tau, albedo and g; the ratio rather than the energy,
-    because it varies slowly where the energy itself changes by orders of magnitude."""
-    ratio = _along_tau(tab, _slice_ga(tab, "ratio", g, albedo)[:, None], tau)[..., 0]
+    because it varies slowly where the energy itself changes by orders of magnitude, and
+    its logarithm along tau (log_along_tau)."""
+    ratio = log_along_tau(tab, _slice_ga(tab, "ratio", g, albedo), tau)
     return ratio, _along_tau(tab, _slice_ga(tab, "shape", g, albedo), tau)
+
+
+def log_along_tau(tab: dict, ratio: np.ndarray, tau: np.ndarray) -> np.ndarray:
+    """A positive ratio over tau (T,) at tau, its logarithm linear in log tau: at large tau
+    the ratio falls like exp(-c tau) where the light diffuses and is absorbed, which the
+    ratio itself follows badly between the grid's taus (benchmarks/apsf_grid_check.py)."""
+    lr = np.log(np.maximum(ratio, 1e-300))[:, None]
+    return np.exp(_along_tau(tab, lr, tau)[..., 0])
 
 
 def _along_tau(tab: dict, per_tau: np.ndarray, tau: np.ndarray) -> np.ndarray:

@@ -83,7 +83,7 @@ def gain(cfg: Config, light) -> np.ndarray:
     not scatter."""
     if light.type == "directional":
         return np.ones(3)
-    from .apsf import _along_tau, _slice_ga
+    from .apsf import _slice_ga, log_along_tau
 
     m = cfg.medium
     pos, _ = placed(cfg, light)
@@ -95,7 +95,7 @@ def gain(cfg: Config, light) -> np.ndarray:
     for c, (sa, ss) in enumerate(zip(m.absorption, m.scattering)):
         if ss > 0 and P > 0:
             ratio = _slice_ga(tab, "ratio", m.asymmetry, ss / (sa + ss))
-            out[c] = float(_along_tau(tab, ratio[:, None], np.array([ss * P]))[0, 0])
+            out[c] = float(log_along_tau(tab, ratio, np.array([ss * P]))[0])
     # all orders carry at least what single scattering does; below 1 is the table's noise
     return np.maximum(out, 1.0)
 
