@@ -23,3 +23,17 @@ def test_documents_and_images_referred_to_exist():
             assert (ROOT / ref).exists(), f"{p.name} names {ref}"
         for img in re.findall(r"\]\((images/[\w.-]+)\)", p.read_text()):
             assert (p.parent / img).exists(), f"{p.name} shows {img}"
+
+
+def test_default_border_margin_is_the_calibrations_choice():
+    """render.border_margin's default is the margin of the lowest mean relative L1 on the
+    calibration scenes in the table benchmarks/border_margin.py wrote into docs/physics.md."""
+    from fogcli.config import Render
+
+    block = (ROOT / "docs" / "physics.md").read_text().split("<!-- border-margin -->")[1].split("<!-- /border-margin -->")[0]
+    head = next(ln for ln in block.splitlines() if ln.startswith("| case |"))
+    margins = [float(c.split()[-1]) for c in head.strip("|").split("|") if c.strip().startswith("margin")]
+    row = next(ln for ln in block.splitlines() if ln.startswith("| mean, calibration scenes"))
+    means = [float(c) for c in row.strip("|").split("|")[2:]]
+    assert len(means) == len(margins) >= 3
+    assert Render().border_margin == margins[means.index(min(means))]
