@@ -223,7 +223,8 @@ def test_apsf_reference_matches_brute_force(rt, rng, border):
     sigmas = apsf.load_table()["sigma_u"] * cfg.camera.focal(w)
     lut = plan.lut_host.astype(np.float64)
     mx, my = border_margin(cfg, w, h)
-    assert (mx, my) == ((round(0.5 * w), round(0.5 * h)) if border == "extend" else (0, 0))
+    f = cfg.render.border_margin
+    assert f > 0 and (mx, my) == ((round(f * w), round(f * h)) if border == "extend" else (0, 0))
     pad = np.pad(level0, ((my, my), (mx, mx), (0, 0)), mode="edge")
     want = _apsf_reference(pad[:, :, :3], pad[:, :, 3], lut, sigmas, border != "closed")[my:my + h, mx:mx + w]
     np.testing.assert_allclose(got, want, rtol=1e-3, atol=1e-5 * float(want.max()))

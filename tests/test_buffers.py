@@ -51,4 +51,5 @@ def test_planned_bytes_counts_what_a_frame_may_add():
     assert planned_bytes(n, t, plan_features(base), base) == declared
     assert planned_bytes(n, t, plan_features(ref), ref) == sum(buffer_bytes(n, t, plan_features(ref)).values()) + 48 * n
     d_ext = sum(buffer_bytes(n, t, plan_features(ext)).values())
-    assert planned_bytes(n, t, plan_features(ext), ext) == d_ext + int(d_ext * 2.0 ** 2 / 64)   # margin 0.5, level 3
+    f = ext.render.border_margin
+    assert f > 0 and planned_bytes(n, t, plan_features(ext), ext) == d_ext + int(d_ext * (1 + 2 * f) ** 2 / 64)   # level 3
