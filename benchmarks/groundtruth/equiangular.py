@@ -5,7 +5,8 @@ near the light grows as 1/R^3: after 10000-20000 spp the held-out renders still 
 0.11-0.13. This tracer (equiangular.cl, run by fogcli's own OpenCL runtime) samples every
 segment of the walk equiangularly towards each light, and is otherwise the same model as the
 Mitsuba scenes: the same shapes, textures, uv maps and point lights (scenes.py), an infinite
-homogeneous medium with HG phase, black emissive surfaces, Russian roulette from depth 5.
+homogeneous medium with HG phase, black emissive surfaces; Russian roulette from depth 3,
+survival at most 0.7.
 
     python benchmarks/groundtruth/equiangular.py --check          # against Mitsuba's renders
     python benchmarks/groundtruth/equiangular.py --only yard --budget 900 --write
@@ -29,11 +30,12 @@ HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 sys.path.insert(0, str(HERE.parents[1] / "src"))
 import scenes as S  # noqa: E402
+from load import NOISE_DEF, halves_noise  # noqa: E402
+from fogcli.metrics import rel_l1  # noqa: E402
 
 RENDERS = HERE / "renders-lights"
 PASS_SPP = 16
-NOISE_DEF = ("noise = sum|A-B| / sum(A+B) over all pixels and channels, A and B two independent "
-             "halves (different seeds); estimates the relative L1 error of the stored image (A+B)/2")
+_PROGRAMS = {}      # one build of equiangular.cl per context and process
 
 
 def _matrix(shape):
@@ -98,10 +100,10 @@ class Tracer:
         self.cl = cl
         rt = get_runtime()
         self.ctx, self.queue = rt.ctx, rt.queue
-        src = (HERE / "equiangular.cl").read_text()
-        self.prg = cl.Program(self.ctx, src).build(options=["-cl-fast-relaxed-math"])
-        self.kernel = cl.Kernel(self.prg, "trace")
-        self.local = None
+        if self.ctx not in _PROGRAMS:
+            src = (HERE / "equiangular.cl").read_text()
+            _PROGRAMS[self.ctx] = cl.Program(self.ctx, src).build(options=["-cl-fast-relaxed-math"])
+        self.kernel = cl.Kernel(_PROGRAMS[self.ctx], "trace")
         shp, tex, texel, lights, self.ns, self.nl = scene_buffers(name, shapes, lights)
         mf = cl.mem_flags
         self.bufs = [cl.Buffer(self.ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=a)
@@ -111,9 +113,8 @@ class Tracer:
     def render(self, spp, seed, ss, st, g, neq=1, rr_depth=3, rr_q=0.7, max_depth=-1, jitter=True):
         """Sum of `spp` samples per pixel, (H, W, 3) float64."""
         cl = self.cl
-        cl.enqueue_fill_buffer(self.queue, self.out, np.float32(0), 0, S.WIDTH * S.HEIGHT * 3 * 4)
         shp, tex, texel, lights = self.bufs
-        self.kernel(self.queue, (S.WIDTH, S.HEIGHT), self.local, shp, np.int32(self.ns), tex, texel,
+        self.kernel(self.queue, (S.WIDTH, S.HEIGHT), None, shp, np.int32(self.ns), tex, texel,
                        lights, np.int32(self.nl), np.int32(S.WIDTH), np.int32(S.HEIGHT),
                        np.float32(S.FOCAL), np.int32(spp), np.uint32(seed), np.float32(ss),
                        np.float32(st), np.float32(g), np.int32(neq), np.int32(rr_depth), np.float32(rr_q),
@@ -124,6 +125,9 @@ class Tracer:
 
 
 def grey_parts(m):
+    """[(sigma_s, sigma_t, channel or None)]: one launch when the medium is grey, else one per
+    channel. Stricter than render.grey_parts (grey sigma_t), since a launch takes a scalar
+    sigma_s where Mitsuba takes an RGB albedo."""
     s, a = np.asarray(m["sigma_s"], float), np.asarray(m["sigma_a"], float)
     if np.allclose(s + a, (s + a)[0]) and np.allclose(s, s[0]):
         return [(s[0], s[0] + a[0], None)]
@@ -157,7 +161,7 @@ def render_medium(tr, medium, budget, target, seed0, max_spp, log=print, start=N
         k += 1
         if h == 1:
             A, B = acc[0] / n[0], acc[1] / n[1]
-            noise = float(np.abs(A - B).sum() / max((A + B).sum(), 1e-30))
+            noise = halves_noise(A, B)
             el = time.time() - t0
             full = n[1] >= n[0] if only_b else (noise <= target or n[0] + n[1] >= max_spp)
             if el > budget or full:
@@ -168,10 +172,6 @@ def render_medium(tr, medium, budget, target, seed0, max_spp, log=print, start=N
 def blocks(img, b=8):
     H, W = img.shape[:2]
     return img[:H // b * b, :W // b * b].reshape(H // b, b, W // b, b, -1).mean(axis=(1, 3))
-
-
-def rel_l1(a, b):
-    return float(np.abs(a - b).sum() / max(np.abs(b).sum(), 1e-30))
 
 
 def compare(name, medium, img, noise, log=print):

@@ -19,6 +19,14 @@ import os
 import numpy as np
 
 RENDERS = os.path.join(os.path.dirname(os.path.abspath(__file__)), "renders")
+NOISE_DEF = ("noise = sum|A-B| / sum(A+B) over all pixels and channels, A and B two independent "
+             "halves (different seeds) of the medium render; estimates the relative L1 error of "
+             "the stored image (A+B)/2 against the converged image")
+
+
+def halves_noise(A, B):
+    """The renders' `noise` (NOISE_DEF) of two independent halves A and B."""
+    return float(np.abs(A - B).sum() / max((A + B).sum(), 1e-30))
 
 
 def load(path):

@@ -31,15 +31,13 @@ OUT = os.path.join(HERE, "renders")
 OUT_LIGHTS = os.path.join(HERE, "renders-lights")     # scenes with point lights (scenes.LIGHTS)
 sys.path.insert(0, HERE)
 import scenes as S  # noqa: E402
+from load import NOISE_DEF, halves_noise  # noqa: E402
 
 NEAR_CLIP = 1e-4            # the sensor's near plane; Mitsuba's depth AOV starts there (corrected)
 L_SPP = 256                 # vacuum image (pixel-averaged emitted radiance)
 DEPTH_MEAN_SPP = 64         # pixel-averaged depth
 ABSORB_SPP = 256            # per half, absorption-only check
 PASS_SPP = 32               # the medium image is accumulated in passes of this many spp
-NOISE_DEF = ("noise = sum|A-B| / sum(A+B) over all pixels and channels, A and B two independent "
-             "halves (different seeds) of the medium render; estimates the relative L1 error of "
-             "the stored image (A+B)/2 against the converged image")
 
 
 def _pick_variant(requested):
@@ -143,7 +141,7 @@ def render_medium(mi, name, medium, spp, max_depth, rr_depth, budget_s, target, 
         k += 1
         if h == 1:
             A, B = acc[0] / n[0], acc[1] / n[1]
-            noise = float(np.abs(A - B).sum() / max((A + B).sum(), 1e-30))
+            noise = halves_noise(A, B)
             el = time.time() - t0
             done_spp = n[0] + n[1] >= spp
             if done_spp or el > budget_s or noise <= target:
@@ -241,7 +239,7 @@ def checks(mi, log):
         A = sc.render(ABSORB_SPP, 7)
         B = sc.render(ABSORB_SPP, 8)
         img = (A + B) / 2
-        r = {"spp": 2 * ABSORB_SPP, "render_noise": float(np.abs(A - B).sum() / (A + B).sum())}
+        r = {"spp": 2 * ABSORB_SPP, "render_noise": halves_noise(A, B)}
         for key, d in [("centre", dc), ("pixelmean", dm)]:
             pred = L * np.exp(-st * np.where(np.isfinite(d), d, 1e9)[..., None])
             r[f"relL1_{key}depth"] = float(np.abs(img - pred).sum() / pred.sum())
