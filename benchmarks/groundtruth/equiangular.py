@@ -29,7 +29,9 @@ import numpy as np
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 sys.path.insert(0, str(HERE.parents[1] / "src"))
+sys.path.insert(0, str(HERE.parent))
 import scenes as S  # noqa: E402
+from docblock import write_block  # noqa: E402
 from load import NOISE_DEF, halves_noise  # noqa: E402
 from fogcli.metrics import rel_l1  # noqa: E402
 
@@ -217,10 +219,7 @@ def write_table():
                     f"{meta['mitsuba_spp']} | {meta['mitsuba_noise']:.3f} | {meta['mitsuba_seconds']:.0f} | "
                     + ", ".join(f"{x:.3f}" for x in e) + " |")
     text = "\n".join([TABLE_BEGIN] + rows + [TABLE_END])
-    readme = HERE / "README.md"
-    doc = readme.read_text()
-    i, j = doc.index(TABLE_BEGIN), doc.index(TABLE_END) + len(TABLE_END)
-    readme.write_text(doc[:i] + text + doc[j:])
+    write_block(HERE / "README.md", TABLE_BEGIN, TABLE_END, text)
     print(text)
 
 
