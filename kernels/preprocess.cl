@@ -5,6 +5,10 @@
 #include "common.h"
 #include "density.h"
 
+#ifndef CAM_Z
+#define CAM_Z 0     /* 1: the depth is planar (camera.depth is not distance) */
+#endif
+
 typedef struct {
     float4 sa;          /* absorption per RGB, 1/m; .w = mean over RGB */
     float4 ss;          /* scattering per RGB; .w = mean */
@@ -91,10 +95,34 @@ __kernel void view_cosines_inner(__global const float *depth, __global float *co
                                  const int height, const camera_t cam)
 {
     int i = get_global_id(0), j = get_global_id(1);
+#if CAM_Z
+    /* Planar depth: a point is z (rx, ry, -1), and a neighbour's ray differs from this
+     * pixel's by one reciprocal focal length, so the five points need no square root and
+     * no division (view_cosine's per-point ones made this kernel compute-bound). The
+     * cosine does not depend on the scale of p, so p is the ray. */
+    float ifx = 1.0f / cam.focal_px, ify = 1.0f / cam.focal_y;
+    float rx = (i + 0.5f - cam.cx) * ifx, ry = -(j + 0.5f - cam.cy) * ify;
+    int idx = j * width + i;
+    float z = depth[idx], zr = depth[idx + 1], zl = depth[idx - 1], zd = depth[idx + width], zu = depth[idx - width];
+    int fx = absf_(zr - z) < absf_(z - zl), fy = absf_(zd - z) < absf_(z - zu);
+    /* u = P(i+1) - P(i) or P(i) - P(i-1); v likewise down the rows (ray y falls by ify) */
+    float ux = fx ? zr * (rx + ifx) - z * rx : z * rx - zl * (rx - ifx);
+    float uy = fx ? (zr - z) * ry : (z - zl) * ry;
+    float uz = fx ? z - zr : zl - z;
+    float vx = fy ? (zd - z) * rx : (z - zu) * rx;
+    float vy = fy ? zd * (ry - ify) - z * ry : z * ry - zu * (ry + ify);
+    float vz = fy ? z - zd : zu - z;
+    float nx = uy * vz - uz * vy, ny = uz * vx - ux * vz, nz = ux * vy - uy * vx;
+    float r2 = rx * rx + ry * ry + 1.0f;
+    float v = absf_(nx * rx + ny * ry - nz) / SQRT_((nx * nx + ny * ny + nz * nz) * r2);
+    v = (v == v && v <= 1.0f) ? v : 1.0f;   /* NaN (sky, flat zero) */
+    cosv[idx] = z * z * r2 < cam.max_depth * cam.max_depth ? v : 1.0f;
+#else
     float wx, wy, wz;
     float dist = pixel_ray(&cam, i, j, depth[j * width + i], &wx, &wy, &wz);
     float v = view_cosine(&cam, depth, width, height, i, j, 1);
     cosv[j * width + i] = dist < cam.max_depth ? v : 1.0f;
+#endif
 }
 #endif
 
@@ -113,6 +141,11 @@ __kernel void view_cosines_inner(__global const float *depth, __global float *co
 #endif
 #ifndef PRE_TRANSMITTANCE
 #define PRE_TRANSMITTANCE 0
+#endif
+/* the Gaussian spread of level 0: read by the Gaussian chains and the spread and level
+ * AOVs; the apsf source collapse does without it (1 unless the plan leaves it out) */
+#ifndef PRE_SPREAD
+#define PRE_SPREAD 1
 #endif
 __kernel void preprocess(__global const float4 *image, __global const float *depth,
                          __global float4 *direct, __global float4 *scat0,
@@ -200,7 +233,9 @@ __kernel void preprocess(__global const float4 *image, __global const float *dep
     }
 #endif
     store4(scat0, idx, sc[0], sc[1], sc[2], wv);
+#if PRE_SPREAD
     spread0[idx] = sigma;
+#endif
 #if PRE_SPLIT_MEDIUM
     store4(medium_term, idx, med[0], med[1], med[2], P);
 #endif

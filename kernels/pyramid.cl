@@ -149,6 +149,63 @@ __kernel void reduce_level_source(__global float4 *chain, __global float4 *prep,
 #endif
 }
 
+/* reduce_level_source's interior (destination pixels whose taps are inside the source level
+ * and, for apsf, clear of its conservation factors' margin), on whole work-groups of the
+ * rectangle reduce_region gives: no bounds tests, every channel a scalar and the sums chained
+ * (AFTER), so the taps' loads are linear in the work-item and PoCL vectorises it (the float3
+ * sums and the branch of reduce_level_source left it scalar: ~14 ms at level 1 of 2 MPx).
+ * The sums are reduce_level_source's in its order, so the two agree to rounding. */
+__kernel void reduce_source_inner(__global float4 *chain, __global float4 *prep,
+                                  const int src_off, const int sw, const int sh,
+                                  const int dst_off, const int dw, const int dh,
+                                  const float thresh_next, const float eps,
+                                  __global const float *lut, const int level,
+                                  __global const float *edge, const int edge_off,
+                                  __global const float *cons, const int cons_off)
+{
+    int x = get_global_id(0), y = get_global_id(1);
+    __global const float *src = (__global const float *)(prep + src_off);
+    int x0 = 2 * x - FILTER_TAPS / 2 + 1, y0 = 2 * y - FILTER_TAPS / 2 + 1;
+    float a0 = 0.0f, a1 = 0.0f, a2 = 0.0f, ayw = 0.0f, ay = 0.0f, alw = 0.0f;
+#pragma unroll
+    for (int ty = 0; ty < FILTER_TAPS; ++ty) {
+        __global const float *row = src + 4 * ((y0 + ty) * sw + x0);
+#pragma unroll
+        for (int tx = 0; tx < FILTER_TAPS; ++tx) {
+            float p0 = row[4 * tx], p1 = row[4 * tx + 1], p2 = row[4 * tx + 2], pw = row[4 * tx + 3];
+            float wg = filter_w[tx] * filter_w[ty];
+            a0 += wg * p0;
+            a1 = AFTER(a1 + wg * p1, a0);
+            a2 = AFTER(a2 + wg * p2, a1);
+            float yl = 0.2126f * p0 + 0.7152f * p1 + 0.0722f * p2;
+            ayw = AFTER(ayw + yl * pw, a2);
+            ay = AFTER(ay + yl, ayw);
+            alw = AFTER(alw + pw, ay);
+        }
+    }
+    float lw = ay > 1e-30f ? ayw / ay : alw / (float)(FILTER_TAPS * FILTER_TAPS);
+    int d = dst_off + y * dw + x;
+#ifdef PSF_APSF
+    float f;
+    int i = lut_pos(lut, lw, &f);
+    float q0 = lut_get(lut, lut_updown(level, 0, 0), i, f) * a0, q1 = lut_get(lut, lut_updown(level, 1, 0), i, f) * a1,
+          q2 = lut_get(lut, lut_updown(level, 2, 0), i, f) * a2;
+    store4(prep, d, q0, q1, q2, lw);
+    if (level == (int)lut[3] - 1) {   /* the top level keeps what its `up` share leaves */
+        float es = 1.0f;
+#ifdef BORDER_OPEN
+        es = edge_share(edge, edge_off, dw, dh, x, y, 0);
+#endif
+        a0 = (a0 - q0) * es; a1 = (a1 - q1) * es; a2 = (a2 - q2) * es;
+    }
+    store4(chain, d, a0, a1, a2, lw);
+#else
+    float wk = exp_poly(lw);
+    store4(chain, d, a0, a1, a2, wk);
+    store_prep(prep, d, a0, a1, a2, wk, thresh_next, eps);
+#endif
+}
+
 /* Source collapse (`render.fetch: source`, docs/method.md), levels K-1 .. 0:
  * E_k = keep_k(I^[k]) + up(E_{k+1}), E_K = I^[K]. First split_level writes each pixel's
  * half-octave share to `half_img`, then collapse_level writes E_k over I^[k] in place (it

@@ -320,13 +320,16 @@ def test_apsf_with_heterogeneous_media_separation_emission_and_every_aov():
 
 
 def _view_cosines(cfg, depth):
-    """float64 oracle of kernels/preprocess.cl view_cosines (planar z depth): camera-space
-    points, along each axis the one-sided difference with the smaller depth step (the
-    inward one at the image's edge), |cos| between the normal and the line of sight."""
+    """float64 oracle of kernels/preprocess.cl view_cosines: camera-space points (from
+    planar z, or from the ray length with camera.depth distance), along each axis the
+    one-sided difference with the smaller depth step (the inward one at the image's edge),
+    |cos| between the normal and the line of sight."""
     from fogcli.noise import pinhole_rays
 
     h, w = depth.shape
     dirs, lengths = pinhole_rays(cfg, depth)
+    if cfg.camera.depth == "distance":
+        lengths = np.asarray(depth, np.float64)
     P = dirs * lengths[..., None]
     out = np.empty((h, w))
     for j in range(h):
@@ -342,15 +345,18 @@ def _view_cosines(cfg, depth):
     return np.nan_to_num(out, nan=1.0)
 
 
-@pytest.mark.parametrize("w,h", [(37, 19), (64, 8), (5, 40)])
-def test_view_cosines_match_oracle(rt, rng, w, h):
+@pytest.mark.parametrize("w,h,kind", [(37, 19, "z"), (64, 8, "z"), (5, 40, "z"), (37, 19, "distance"),
+                                      (64, 8, "distance")])
+def test_view_cosines_match_oracle(rt, rng, w, h, kind):
     """view_cosines (view_cosines_inner on the interior's whole work-groups where the frame
     holds one, the checked per-pixel kernel on the strips around it) against the oracle on a
-    depth map of tilted steps, every pixel including the edges; 1e-4 absolute (float32)."""
+    depth map of tilted steps, every pixel including the edges; 1e-4 absolute (float32).
+    Planar depth takes the inner kernel's division-free path (CAM_Z), distance the general one."""
     yy, xx = np.mgrid[0:h, 0:w]
     depth = (5.0 + 0.05 * xx + 0.03 * yy + 2.0 * ((xx // 7 + yy // 5) % 2)
              + rng.uniform(0, 0.01, (h, w))).astype(np.float32)
-    plan, cfg = plan_for(rt, w, h, "camera.fov=60", "render.psf=apsf", "render.emission_profile=lambertian")
+    plan, cfg = plan_for(rt, w, h, "camera.fov=60", "render.psf=apsf", "render.emission_profile=lambertian",
+                         f"camera.depth={kind}")
     tm = Timings()
     plan.upload(rng.uniform(0, 1, (h, w, 4)).astype(np.float32), depth, tm)
     plan.preprocess(tm)

@@ -7,9 +7,19 @@ import pytest
 
 import oracles
 from conftest import plan_for
+from fogcli import pipeline
+from fogcli.api import make_config
 from fogcli.config import FILTERS
 from fogcli.pipeline import Timings, read_chain, write_level0
 from fogcli.reference import brute_force
+
+
+def _whole(plan, buf):
+    """A whole device buffer of floats (every level of a chain)."""
+    out = np.empty(buf.size // 4, np.float32)
+    plan.rt.cl.enqueue_copy(plan.rt.queue, out, buf)
+    plan.rt.queue.finish()
+    return out
 
 
 def _download(plan, buf, ch):
@@ -89,9 +99,13 @@ def test_spread_w_stable_limits(rt):
 
 
 @pytest.mark.parametrize("taps", [2, 4, 6])
-@pytest.mark.parametrize("masked,fetch", [(True, "source"), (True, "receiver"), (False, "receiver")])
-def test_reduce_level_matches_oracle(rt, rng, taps, masked, fetch):
-    w, h = 29, 17
+@pytest.mark.parametrize("masked,fetch,size", [(True, "source", (29, 17)), (True, "receiver", (29, 17)),
+                                               (False, "receiver", (29, 17)), (True, "source", (157, 37))])
+def test_reduce_level_matches_oracle(rt, rng, taps, masked, fetch, size):
+    """One reduce against the oracle; at 157 x 37 the source fetch's level 1 runs mostly
+    through reduce_source_inner (whole work-groups), the rest and the small sizes through
+    reduce_level_source."""
+    w, h = size
     src = rng.uniform(0, 3, (h, w, 4)).astype(np.float32)
     src[:, :, 3] = rng.uniform(0, 6, (h, w))
     src[5, 5, :3] = 400.0           # an HDR pixel dominates the luminance weights
@@ -102,6 +116,10 @@ def test_reduce_level_matches_oracle(rt, rng, taps, masked, fetch):
     write_level0(plan, src, spread)
     plan.pyramid(Timings(), masked=masked)
     chains, spreads = read_chain(plan)
+    if size[0] > 100:
+        (_, sw, sh, _), (_, dw, dh, _) = plan.lv[0], plan.lv[1]
+        x0, x1, y0, y1 = pipeline.reduce_region(sw, sh, dw, dh, taps, 0, rt.local2d)
+        assert (x1 - x0) * (y1 - y0) >= 0.4 * dw * dh
     lvl, slvl = src.astype(np.float64), spread.astype(np.float64)
     for k in (1, 2):
         lvl, slvl = oracles.reduce_level(lvl, slvl, FILTERS[taps], 1.2 * 0.9 * 2 ** (k - 1), 1.5, masked,
@@ -109,6 +127,42 @@ def test_reduce_level_matches_oracle(rt, rng, taps, masked, fetch):
         np.testing.assert_allclose(chains[k], lvl, rtol=1e-4, atol=1e-6)
         if fetch == "receiver":   # the Gaussian spread chain only serves Elek's eq. 11
             np.testing.assert_allclose(spreads[k], slvl, rtol=1e-4, atol=1e-6)
+
+
+@pytest.mark.parametrize("sets", [[], ["render.border=closed"], ["render.kernel=6"], ["render.kernel=2"],
+                                  ["render.psf=gaussian", "render.border=closed"]])
+def test_reduce_inner_matches_the_checked_one(rt, rng, sets, monkeypatch):
+    """reduce_source_inner (interior of each level, whole work-groups, vectorised) against
+    reduce_level_source on every pixel: the same sums in the same order, so the colour and
+    prep chains agree to float32 rounding (1e-6 of each level's peak; measured 0), apsf with
+    its conservation margin and the top level's kept share, and the Gaussian chain."""
+    from fogcli.pipeline import get_plan
+
+    h, w = 97, 331
+    img = (rng.uniform(0, 2, (h, w, 4)) ** 3).astype(np.float32)
+    z = rng.uniform(2, 60, (h, w)).astype(np.float32)
+    cfg = make_config("fog", sets=sets)
+    got = {}
+    for inner in (True, False):
+        monkeypatch.setattr(pipeline, "_PLANS", {})
+        if not inner:
+            monkeypatch.setattr(pipeline, "reduce_region", lambda *a: None)
+        plan = get_plan(rt, w, h, cfg)
+        t = Timings()
+        plan.upload(img, z, t)
+        plan.preprocess(t)
+        plan.pyramid(t, masked=True)
+        got[inner] = tuple(_whole(plan, b) for b in (plan.chain, plan.prep))
+        if inner:
+            (_, sw, sh, _), (_, dw, dh, _) = plan.lv[0], plan.lv[1]
+            taps = len(FILTERS[cfg.render.kernel])
+            region = pipeline.reduce_region(sw, sh, dw, dh, taps, taps // 2 if plan.apsf else 0, rt.local2d)
+            assert region is not None and (region[1] - region[0]) * (region[3] - region[2]) >= 0.5 * dw * dh
+    for k in range(1, len(plan.sizes)):
+        o, lw, lh, _ = (int(v) for v in plan.lv[k])
+        for a, b in zip(got[True], got[False]):
+            a, b = a[4 * o:4 * (o + lw * lh)], b[4 * o:4 * (o + lw * lh)]
+            assert np.abs(a - b).max() <= 1e-6 * max(np.abs(b).max(), 1e-30), k
 
 
 @pytest.mark.parametrize("interp", ["linear-bilinear", "linear-bicubic"])

@@ -67,6 +67,8 @@ def defines(cfg: Config) -> dict:
         if cfg.render.emission_profile == "lambertian":
             d.update(EMISSION_LAMBERT=1, APSF_NC=NC, APSF_COS_MIN=f"{COS_MIN!r}f",
                      APSF_J=len(load_table()["sigma_u"]))
+            if cfg.camera.depth != "distance":
+                d["CAM_Z"] = 1      # planar depth: view_cosines_inner without roots and divisions
     if open_border(cfg):
         d["BORDER_OPEN"] = 1
     m = cfg.medium
@@ -234,6 +236,21 @@ def pair_region(sizes: list, nt: int, local: tuple) -> tuple | None:
     return 2 * xs[0], 2 * (xs[0] + nx), ys[0], ys[0] + ny
 
 
+def reduce_region(sw: int, sh: int, dw: int, dh: int, taps: int, margin: int, local: tuple) -> tuple | None:
+    """The destination pixels (x0, x1, y0, y1) of a reduce from a sw x sh level to dw x dh that
+    reduce_source_inner takes, on whole work-groups: every tap inside the source level and at
+    least `margin` pixels from its edges (apsf: where the conservation factors are 1)."""
+    out = []
+    for s, d, l in ((sw, dw, local[0]), (sh, dh, local[1])):
+        lo = -(-(margin + taps // 2 - 1) // 2)                  # 2 x - taps / 2 + 1 >= margin
+        hi = min(d - 1, (s - margin - taps + taps // 2 - 1) // 2)   # 2 x - taps / 2 + 1 + taps <= s - margin
+        n = (hi + 1 - lo) // l * l
+        if n <= 0:
+            return None
+        out += [lo, lo + n]
+    return tuple(out)
+
+
 def plan_features(cfg: Config, aovs=()) -> Features:
     r = cfg.render
     source = r.method == "pyramid" and r.fetch == "source"
@@ -320,12 +337,14 @@ class Plan:
             raise ProcessingError(f"cannot allocate device buffers for {width}x{height}: {exc}") from exc
         d = defines(cfg)
         pre = dict(d, PRE_SOURCE=int(self.source), PRE_SEP=int(self.sep), PRE_SPLIT_MEDIUM=int(self.split_medium),
-                   PRE_TRANSMITTANCE=int("transmittance" in self.aovs))
+                   PRE_TRANSMITTANCE=int("transmittance" in self.aovs),
+                   PRE_SPREAD=int(not (self.apsf and self.source) or bool(self.aovs)))
         self.k_pre_prog = rt.program("preprocess", **pre)
         self.k_pre_whole = rt.program("preprocess", WHOLE_GROUPS=1, **pre)
         self.k_density = rt.program("density", **d)
         pyr = rt.program("pyramid", **d)
         self.k_reduce, self.k_reduce_src = pyr.reduce_level, pyr.reduce_level_source
+        self.k_reduce_inner = pyr.reduce_source_inner
         self.k_prep0 = pyr.prep_level0
         whole = rt.program("pyramid", WHOLE_GROUPS=1, **d)     # launch2d / launch1d: no bounds check
         self.k_collapse = (whole.collapse_level, pyr.collapse_level)
@@ -678,13 +697,16 @@ class Plan:
         q = self.rt.queue
         chain, _, prep = self.source_bufs(second)
         if self.source:
+            taps = len(FILTERS[self.cfg.render.kernel])
             for k in range(1, len(self.sizes)):
                 (so, sw, sh, _), (do, dw, dh, _) = self.lv[k - 1], self.lv[k]
-                t.add("pyramid", self.k_reduce_src(
-                    q, *self.rt.nd(dw, dh), chain, prep,
-                    np.int32(so), np.int32(sw), np.int32(sh), np.int32(do), np.int32(dw), np.int32(dh),
-                    np.float32(self.threshold(k + 1)), np.float32(eps), self.lut, np.int32(k),
-                    self.edge, np.int32(self.edge_off[k]), self.cons, np.int32(self.cons_off[k])))
+                args = (chain, prep, np.int32(so), np.int32(sw), np.int32(sh), np.int32(do), np.int32(dw),
+                        np.int32(dh), np.float32(self.threshold(k + 1)), np.float32(eps), self.lut, np.int32(k),
+                        self.edge, np.int32(self.edge_off[k]), self.cons, np.int32(self.cons_off[k]))
+                region = reduce_region(int(sw), int(sh), int(dw), int(dh), taps, taps // 2 if self.apsf else 0,
+                                       self.rt.local2d)
+                self._launch_inner(t, "pyramid", region, self.k_reduce_inner, (self.k_reduce_src,) * 2,
+                                   int(dw), int(dh), args)
             return
         spread = self.spread2 if second else self.spread
         for k in range(1, len(self.sizes)):
