@@ -89,42 +89,39 @@ __kernel void composite(__global const float4 *direct, __global const float4 *me
 /* the arguments of composite_source and composite_source_pairs (launched alike) */
 #define COMP_SOURCE_ARGS                                                                          \
     __global const float4 *direct, __global const float4 *medium_term, __global const float4 *chain, \
-    __global const float4 *half_img, __global const int4 *lv, const int kmax, const float c,     \
+    __global const float4 *half_img, __global const int4 *restrict lv, const int kmax, const float c, \
     const float a, __global float4 *out, __global float *level_aov, __global float4 *scattered_aov, \
     __global const float4 *prep, __global const float *spread0, __global const float *edge,      \
     __global const float *cons, const int cons_up
-/* What composite_source and composite_source_pairs (pairs.h) write of a pixel's kept and
+/* What composite_source and composite_source_pairs (pairs.h) write of pixel q's kept and
  * up-sampled light s: store_out and the AOVs, or (COMP_ACCUMULATE) s added; in scalars, which
- * the pair kernel needs to vectorise. */
-ALWAYS_INLINE void comp_store(int idx, float s0, float s1, float s2, __global const float4 *direct,
-                              __global const float4 *medium_term, __global float4 *out,
-                              __global float *level_aov, __global float4 *scattered_aov,
+ * the pair kernel needs to vectorise. The pointers start where q counts from (the buffers
+ * themselves, or a pair row's first pixel: pairs.h, Addressing). */
+ALWAYS_INLINE void comp_store(int q, float s0, float s1, float s2, __global const float *direct,
+                              __global const float *medium_term, __global float *out,
+                              __global float *level_aov, __global float *scattered_aov,
                               __global const float *spread0, float c, int kmax)
 {
+    const int q4 = 4 * q;
 #if COMP_ACCUMULATE
-    float o0, o1, o2, ow;
-    load4(out, idx, &o0, &o1, &o2, &ow);
-    store4(out, idx, o0 + s0, o1 + s1, o2 + s2, ow);
+    out[q4] += s0; out[q4 + 1] += s1; out[q4 + 2] += s2; out[q4 + 3] += 0.0f;
 #if COMP_AOV
-    load4(scattered_aov, idx, &o0, &o1, &o2, &ow);
-    store4(scattered_aov, idx, o0 + s0, o1 + s1, o2 + s2, ow);
+    scattered_aov[q4] += s0; scattered_aov[q4 + 1] += s1; scattered_aov[q4 + 2] += s2;
+    scattered_aov[q4 + 3] += 0.0f;
 #endif
 #else
-    float d0, d1, d2, dw;
-    load4(direct, idx, &d0, &d1, &d2, &dw);
+    float d0 = direct[q4], d1 = direct[q4 + 1], d2 = direct[q4 + 2], dw = direct[q4 + 3];
 #if COMP_SPLIT_MEDIUM
-    float m0, m1, m2, mw;
-    load4(medium_term, idx, &m0, &m1, &m2, &mw);
-    d0 += m0;
-    d1 += m1;
-    d2 += m2;
+    d0 += medium_term[q4];
+    d1 += medium_term[q4 + 1];
+    d2 += medium_term[q4 + 2];
 #endif
-    store4(out, idx, d0 + s0, d1 + s1, d2 + s2, dw);
+    out[q4] = d0 + s0; out[q4 + 1] = d1 + s1; out[q4 + 2] = d2 + s2; out[q4 + 3] = dw;
 #if COMP_AOV
     /* the level of this pixel's Gaussian spread (with apsf its light lands on several
      * levels around it) */
-    level_aov[idx] = level_of(spread0[idx], c, (float)kmax);
-    store4(scattered_aov, idx, s0, s1, s2, 0.0f);
+    level_aov[q] = level_of(spread0[q], c, (float)kmax);
+    scattered_aov[q4] = s0; scattered_aov[q4 + 1] = s1; scattered_aov[q4 + 2] = s2; scattered_aov[q4 + 3] = 0.0f;
 #endif
 #endif
 }
@@ -146,21 +143,28 @@ __kernel void composite_source(COMP_SOURCE_ARGS)
 #endif
         sc = keep_px(v.xyz, prep[idx].xyz, half_img, width, height, i, j, a, edge, 0) + up.xyz;
     }
-    comp_store(idx, sc.x, sc.y, sc.z, direct, medium_term, out, level_aov, scattered_aov, spread0, c, kmax);
+    comp_store(idx, sc.x, sc.y, sc.z, (__global const float *)direct, (__global const float *)medium_term,
+               (__global float *)out, level_aov, (__global float *)scattered_aov, spread0, c, kmax);
 }
 
-__kernel void composite_source_pairs(COMP_SOURCE_ARGS)
+/* pairs px0 + i of row py0 + j (pairs.h, Addressing; launched with no global offset);
+ * up_planes: level 1 as colour planes (up_planes, pyramid.cl) */
+__kernel void composite_source_pairs(COMP_SOURCE_ARGS, __global const float *up_planes, const int px0,
+                                     const int py0)
 {
-    int i2 = get_global_id(0), j = get_global_id(1);
+    int i = get_global_id(0), j = get_global_id(1) + py0;
     int width = lv[0].y, height = lv[0].z;
-    int x = 2 * i2, idx = j * width + x;
+    int p1 = j * width + 2 * px0, r4 = 4 * p1;   /* the row's first pixel */
+    __global const float *ch = (__global const float *)chain + r4, *pr = (__global const float *)prep + r4;
+    __global const float *dr = (__global const float *)direct + r4, *mr = (__global const float *)medium_term + r4;
+    __global float *orow = (__global float *)out + r4, *srow = (__global float *)scattered_aov + r4;
     float e0, e1, e2, o0, o1, o2, s0, s1, s2;
-    pair_up((__global const float *)(chain + lv[1].x), lv[1].y, i2, j, &e0, &e1, &e2, &o0, &o1, &o2);
-    PAIR_ROWS(half_img, j, width, height)
-    pair_keep(chain, prep, idx, x, j, width, height, r0, r1, r2, a, edge, e0, e1, e2, &s0, &s1, &s2);
-    comp_store(idx, s0, s1, s2, direct, medium_term, out, level_aov, scattered_aov, spread0, c, kmax);
-    pair_keep(chain, prep, idx + 1, x + 1, j, width, height, r0, r1, r2, a, edge, o0, o1, o2, &s0, &s1, &s2);
-    comp_store(idx + 1, s0, s1, s2, direct, medium_term, out, level_aov, scattered_aov, spread0, c, kmax);
+    pair_up(up_planes, lv[1].y * lv[1].z, lv[1].y, px0, i, j, &e0, &e1, &e2, &o0, &o1, &o2);
+    PAIR_ROWS(half_img, j, width, height, 2 * px0)
+    pair_keep(ch, pr, i, 0, j, width, height, r0, r1, r2, a, edge, edge + 2 * px0, e0, e1, e2, &s0, &s1, &s2);
+    comp_store(2 * i, s0, s1, s2, dr, mr, orow, level_aov + p1, srow, spread0 + p1, c, kmax);
+    pair_keep(ch, pr, i, 1, j, width, height, r0, r1, r2, a, edge, edge + 2 * px0, o0, o1, o2, &s0, &s1, &s2);
+    comp_store(2 * i + 1, s0, s1, s2, dr, mr, orow, level_aov + p1, srow, spread0 + p1, c, kmax);
 }
 
 /* Iser eq. 4.28 for the receiver fetch: the separated chain (a plain Gaussian chain of the

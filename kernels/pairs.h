@@ -8,7 +8,13 @@
  * columns around i2 and the half image at x - 1 .. x + 2, none clamped, every channel a
  * scalar: the reads are linear in the work-item, and the kernels vectorise. Away from the
  * edges the apsf conservation factors are 1 (up2_cons). The operations and their order are
- * those of up2_fetch4, half_blur and keep_px (common.h). */
+ * those of up2_fetch4, half_blur and keep_px (common.h).
+ * Addressing: the host passes the pair rectangle's first pair column px0 and row py0 as
+ * arguments and launches with no global offset; every read and write is a row pointer made
+ * of uniform values (the row, px0) indexed by K * i + c, i = get_global_id(0). LLVM sees
+ * that form as strided and loads it with wide loads and shuffles; an index such as
+ * 4 * (j * w + x), or a global offset, it turns into gathers and scatters, one per channel:
+ * 548 of them kept composite_source_pairs at ~29 ms at 2 MPx (AVX-512). */
 #ifndef FOGCLI_PAIRS_H
 #define FOGCLI_PAIRS_H
 
@@ -24,23 +30,27 @@ __constant float UP_WE[4] = {0.00260417f, 0.31510417f, 0.61197917f, 0.0703125f};
 __constant float UP_WO[4] = {0.0703125f, 0.61197917f, 0.31510417f, 0.00260417f};
 #endif
 
-/* level k+1 (up, width w1) up-sampled at the pair's two pixels of row j: e (even x = 2 i2)
- * and o (odd): columns i2 - UP_NT / 2 .. i2 + UP_NT / 2, the even pixel's taps the first
- * UP_NT, the odd one's the last UP_NT; the rows and their weights are the row's own */
-ALWAYS_INLINE void pair_up(__global const float *up, int w1, int i2, int j, float *e0, float *e1, float *e2,
-                         float *o0, float *o1, float *o2)
+/* level k+1 (width w1, n1 pixels; as three colour planes, up_planes in pyramid.cl)
+ * up-sampled at the two pixels of pair px0 + i of row j: e (even x = 2 i2) and o (odd):
+ * columns i2 - UP_NT / 2 .. i2 + UP_NT / 2, the even pixel's taps the first UP_NT, the odd
+ * one's the last UP_NT; the rows and their weights are the row's own. From the planes every
+ * tap is a unit-stride load; from the RGBA level each was four loads and their shuffles
+ * (the taps overlap between work-items, which LLVM cannot share): ~10 of composite_source's
+ * ~28 ms at 2 MPx. */
+ALWAYS_INLINE void pair_up(__global const float *planes, int n1, int w1, int px0, int i, int j, float *e0,
+                           float *e1, float *e2, float *o0, float *o1, float *o2)
 {
     int y0 = (j >> 1) - UP_NT / 2 + (j & 1);
     float a0 = 0.0f, a1 = 0.0f, a2 = 0.0f, b0 = 0.0f, b1 = 0.0f, b2 = 0.0f;
 #pragma unroll
     for (int r = 0; r < UP_NT; ++r) {
         float wr = (j & 1) ? UP_WO[r] : UP_WE[r];
-        __global const float *row = up + 4 * ((y0 + r) * w1 + i2 - UP_NT / 2);
+        __global const float *row = planes + (y0 + r) * w1 + px0 - UP_NT / 2 + i;
         float re0 = 0.0f, re1 = 0.0f, re2 = 0.0f, ro0 = 0.0f, ro1 = 0.0f, ro2 = 0.0f;
 #pragma unroll
         for (int t = 0; t <= UP_NT; ++t) {
             float we = t < UP_NT ? UP_WE[t] : 0.0f, wo = t > 0 ? UP_WO[t - 1] : 0.0f;
-            float q0 = row[4 * t], q1 = row[4 * t + 1], q2 = row[4 * t + 2];
+            float q0 = row[t], q1 = row[n1 + t], q2 = row[2 * n1 + t];
             re0 += we * q0;
             re1 = AFTER(re1 + we * q1, re0);
             re2 = AFTER(re2 + we * q2, re1);
@@ -58,33 +68,36 @@ ALWAYS_INLINE void pair_up(__global const float *up, int w1, int i2, int j, floa
     *e0 = a0; *e1 = a1; *e2 = a2; *o0 = b0; *o1 = b1; *o2 = b2;
 }
 
-/* keep_px + u of pixel x of row j of a level (width w, height h; idx its index in `chain` and
- * `prep`; r0, r1, r2 the half image's rows j - 1, j, j + 1, clamped by the caller; edge the
- * level's edge tables) -> s */
-ALWAYS_INLINE void pair_keep(__global const float4 *chain, __global const float4 *prep, int idx, int x, int j,
-                           int w, int h, __global const float *r0, __global const float *r1,
-                           __global const float *r2, float a, __global const float *edge,
-                           float u0, float u1, float u2, float *s0_, float *s1_, float *s2_)
+/* keep_px + u of pixel x = 2 (px0 + i) + p of row j of a level (width w, height h). The
+ * pointers start at pixel 2 px0 of the row: ch, pr of `chain` and `prep`, r0, r1, r2 of the
+ * half image's rows j - 1, j, j + 1 (clamped by the caller), ex of the level's edge table
+ * along x (edge + 2 px0); edge itself for the row's entries -> s */
+ALWAYS_INLINE void pair_keep(__global const float *ch, __global const float *pr, int i, int p, int j,
+                             int w, int h, __global const float *r0, __global const float *r1,
+                             __global const float *r2, float a, __global const float *edge,
+                             __global const float *ex, float u0, float u1, float u2, float *s0_, float *s1_,
+                             float *s2_)
 {
     float b = 1.0f - 2.0f * a;
-    float h0 = a * (a * r0[4 * x - 4] + b * r0[4 * x] + a * r0[4 * x + 4])
-             + b * (a * r1[4 * x - 4] + b * r1[4 * x] + a * r1[4 * x + 4])
-             + a * (a * r2[4 * x - 4] + b * r2[4 * x] + a * r2[4 * x + 4]);
-    float h1 = a * (a * r0[4 * x - 3] + b * r0[4 * x + 1] + a * r0[4 * x + 5])
-             + b * (a * r1[4 * x - 3] + b * r1[4 * x + 1] + a * r1[4 * x + 5])
-             + a * (a * r2[4 * x - 3] + b * r2[4 * x + 1] + a * r2[4 * x + 5]);
+    const int x4 = 8 * i + 4 * p;     /* this pixel's first float in each row */
+    float h0 = a * (a * r0[x4 - 4] + b * r0[x4] + a * r0[x4 + 4])
+             + b * (a * r1[x4 - 4] + b * r1[x4] + a * r1[x4 + 4])
+             + a * (a * r2[x4 - 4] + b * r2[x4] + a * r2[x4 + 4]);
+    float h1 = a * (a * r0[x4 - 3] + b * r0[x4 + 1] + a * r0[x4 + 5])
+             + b * (a * r1[x4 - 3] + b * r1[x4 + 1] + a * r1[x4 + 5])
+             + a * (a * r2[x4 - 3] + b * r2[x4 + 1] + a * r2[x4 + 5]);
     h1 = AFTER(h1, h0);
-    float h2 = a * (a * r0[4 * x - 2] + b * r0[4 * x + 2] + a * r0[4 * x + 6])
-             + b * (a * r1[4 * x - 2] + b * r1[4 * x + 2] + a * r1[4 * x + 6])
-             + a * (a * r2[4 * x - 2] + b * r2[4 * x + 2] + a * r2[4 * x + 6]);
+    float h2 = a * (a * r0[x4 - 2] + b * r0[x4 + 2] + a * r0[x4 + 6])
+             + b * (a * r1[x4 - 2] + b * r1[x4 + 2] + a * r1[x4 + 6])
+             + a * (a * r2[x4 - 2] + b * r2[x4 + 2] + a * r2[x4 + 6]);
     h2 = AFTER(h2, h1);
     float v0, v1, v2, vw, p0, p1, p2, pw;
-    load4(chain, idx, &v0, &v1, &v2, &vw);
-    load4(prep, idx, &p0, &p1, &p2, &pw);
-    float c0 = r1[4 * x], c1 = r1[4 * x + 1], c2 = r1[4 * x + 2], cw = r1[4 * x + 3];
+    v0 = ch[x4]; v1 = ch[x4 + 1]; v2 = ch[x4 + 2]; vw = ch[x4 + 3];
+    p0 = pr[x4]; p1 = pr[x4 + 1]; p2 = pr[x4 + 2]; pw = pr[x4 + 3];
+    float c0 = r1[x4], c1 = r1[x4 + 1], c2 = r1[x4 + 2], cw = r1[x4 + 3];
 #ifdef PSF_APSF
 #ifdef BORDER_OPEN
-    float es = edge[x] * edge[w + j], eh = edge[w + h + x] * edge[2 * w + h + j];
+    float es = ex[2 * i + p] * edge[w + j], eh = ex[w + h + 2 * i + p] * edge[2 * w + h + j];
     float s0 = h0 + (v0 - p0 - c0 / eh) * es;
     float s1 = AFTER(h1 + (v1 - p1 - c1 / eh) * es, s0);
     float s2 = AFTER(h2 + (v2 - p2 - c2 / eh) * es, s1);
@@ -104,9 +117,9 @@ ALWAYS_INLINE void pair_keep(__global const float4 *chain, __global const float4
     *s2_ = AFTER(s2 + u2, *s1_);
 }
 
-/* the half image's rows around row j of a level of width w, height h */
-#define PAIR_ROWS(half_img, j, w, h)                                                            \
-    __global const float *hb_ = (__global const float *)(half_img);                              \
+/* the half image's rows around row j of a level of width w, height h, from pixel x0 */
+#define PAIR_ROWS(half_img, j, w, h, x0)                                                        \
+    __global const float *hb_ = (__global const float *)(half_img) + 4 * (x0);                   \
     __global const float *r0 = hb_ + 4 * ((j) > 0 ? (j) - 1 : 0) * (w);                          \
     __global const float *r1 = hb_ + 4 * (j) * (w);                                              \
     __global const float *r2 = hb_ + 4 * ((j) + 1 < (h) ? (j) + 1 : (h) - 1) * (w);

@@ -210,32 +210,38 @@ __kernel void reduce_source_inner(__global float4 *chain, __global float4 *prep,
  * E_k = keep_k(I^[k]) + up(E_{k+1}), E_K = I^[K]. First split_level writes each pixel's
  * half-octave share to `half_img`, then collapse_level writes E_k over I^[k] in place (it
  * reads only its own pixel of the colour chain). Level 0 is composite_source. */
-__kernel void split_level(__global const float4 *chain, const int off, const int n,
+__kernel void split_level(__global const float4 *chain, const int off, const int h,
                           __global float4 *half_img, const float thresh, const float eps,
                           __global const float *lut, const int level, const int w,
                           __global const float *edge, const int edge_off)
 {
-    int i = get_global_id(0);
-    if (OUTSIDE(i, 0, n, 1)) return;
-    /* scalar loads and stores so that PoCL vectorises it (see load4 in common.h) */
-    float r, g, b, w_;
-    load4(chain, off + i, &r, &g, &b, &w_);
+    int x = get_global_id(0), y = get_global_id(1);
+    if (OUTSIDE(x, y, w, h)) return;
+    /* row pointers indexed by 4 x + c, and the edge table by x: strided loads and stores
+     * (an index of 4 (y w + x), or x = i % w on a 1-D launch, made gathers of them) */
+    __global const float *src = (__global const float *)(chain + off) + 4 * y * w;
+    __global float *dst = (__global float *)half_img + 4 * y * w;
+    float r = src[4 * x], g = src[4 * x + 1], b = src[4 * x + 2], w_ = src[4 * x + 3];
 #ifdef PSF_APSF
     float f;
     int li = lut_pos(lut, w_, &f);
 #ifdef BORDER_OPEN
-    float e = edge_share(edge, edge_off, w, n / w, i % w, i / w, 1);
+    float e = edge_share(edge, edge_off, w, h, x, y, 1);
 #else
     float e = 1.0f;
 #endif
-    store4(half_img, i, e * lut_get(lut, lut_updown(level, 0, 1), li, f) * r,
-           e * lut_get(lut, lut_updown(level, 1, 1), li, f) * g,
-           e * lut_get(lut, lut_updown(level, 2, 1), li, f) * b, 0.0f);
+    dst[4 * x] = e * lut_get(lut, lut_updown(level, 0, 1), li, f) * r;
+    dst[4 * x + 1] = e * lut_get(lut, lut_updown(level, 1, 1), li, f) * g;
+    dst[4 * x + 2] = e * lut_get(lut, lut_updown(level, 2, 1), li, f) * b;
+    dst[4 * x + 3] = 0.0f;
     return;
 #endif
     float m, mh;
     split_weights(w_, thresh, eps, &m, &mh);
-    store4(half_img, i, (mh - m) * r, (mh - m) * g, (mh - m) * b, mh);
+    dst[4 * x] = (mh - m) * r;
+    dst[4 * x + 1] = (mh - m) * g;
+    dst[4 * x + 2] = (mh - m) * b;
+    dst[4 * x + 3] = mh;
 }
 
 /* the arguments of collapse_level and collapse_pairs (launched alike) */
@@ -258,21 +264,37 @@ __kernel void collapse_level(COLLAPSE_ARGS)
     chain[d] = (float4)(e, v.w);
 }
 
-/* collapse_level on two pixels per work-item, away from the level's edges (pairs.h) */
-__kernel void collapse_pairs(COLLAPSE_ARGS)
+/* collapse_level on two pixels per work-item, away from the level's edges: pairs px0 + i of
+ * row py0 + j (pairs.h, Addressing; launched with no global offset); up_planes: level k+1 as
+ * colour planes (up_planes) */
+__kernel void collapse_pairs(COLLAPSE_ARGS, __global const float *up_planes, const int px0, const int py0)
 {
-    int i2 = get_global_id(0), y = get_global_id(1);
-    int x = 2 * i2, d = off + y * w + x;
-    float e0, e1, e2, o0, o1, o2, s0, s1, s2, v0, v1, v2, vw;
-    pair_up((__global const float *)(chain + up_off), uw, i2, y, &e0, &e1, &e2, &o0, &o1, &o2);
-    PAIR_ROWS(half_img, y, w, h)
+    int i = get_global_id(0), y = get_global_id(1) + py0;
+    __global float *ch = (__global float *)chain + 4 * (off + y * w + 2 * px0);
+    __global const float *pr = (__global const float *)prep + 4 * (off + y * w + 2 * px0);
+    __global const float *edge_l = edge + edge_off;
+    float e0, e1, e2, o0, o1, o2, s0, s1, s2;
+    pair_up(up_planes, uw * uh, uw, px0, i, y, &e0, &e1, &e2, &o0, &o1, &o2);
+    PAIR_ROWS(half_img, y, w, h, 2 * px0)
     /* each pixel reads only its own value of level k before writing it */
-    pair_keep(chain, prep, d, x, y, w, h, r0, r1, r2, a, edge + edge_off, e0, e1, e2, &s0, &s1, &s2);
-    load4(chain, d, &v0, &v1, &v2, &vw);
-    store4(chain, d, s0, s1, s2, vw);
-    pair_keep(chain, prep, d + 1, x + 1, y, w, h, r0, r1, r2, a, edge + edge_off, o0, o1, o2, &s0, &s1, &s2);
-    load4(chain, d + 1, &v0, &v1, &v2, &vw);
-    store4(chain, d + 1, s0, s1, s2, vw);
+    pair_keep(ch, pr, i, 0, y, w, h, r0, r1, r2, a, edge_l, edge_l + 2 * px0, e0, e1, e2, &s0, &s1, &s2);
+    float vw = ch[8 * i + 3];
+    ch[8 * i] = s0; ch[8 * i + 1] = s1; ch[8 * i + 2] = s2; ch[8 * i + 3] = vw;
+    pair_keep(ch, pr, i, 1, y, w, h, r0, r1, r2, a, edge_l, edge_l + 2 * px0, o0, o1, o2, &s0, &s1, &s2);
+    vw = ch[8 * i + 7];
+    ch[8 * i + 4] = s0; ch[8 * i + 5] = s1; ch[8 * i + 6] = s2; ch[8 * i + 7] = vw;
+}
+
+/* The colour of level k+1 (n pixels at `off` in the chain) as three planes, R then G then
+ * B, for the pair kernels at level k (pairs.h, pair_up). */
+__kernel void up_planes(__global const float4 *chain, const int off, const int n, __global float *planes)
+{
+    int i = get_global_id(0);
+    if (i >= n) return;
+    __global const float *c = (__global const float *)(chain + off);
+    planes[i] = c[4 * i];
+    planes[n + i] = c[4 * i + 1];
+    planes[2 * n + i] = c[4 * i + 2];
 }
 
 /* Level 0 of the prep chain from level 0 of the colour chain (tests set level 0 directly;

@@ -201,6 +201,7 @@ BUFFERS = {
     "chain": lambda n, t, f: 16 * t,                       # colour chain, every level
     "spread": lambda n, t, f: 4 * t,
     "prep": lambda n, t, f: 16 * t * f.source,
+    "up_planes": lambda n, t, f: 12 * (t - n) * f.source,  # a level >= 1 as colour planes (pair kernels)
     "chain2": lambda n, t, f: 16 * t * f.sep,
     "prep2": lambda n, t, f: 16 * t * f.sep,
     "half2": lambda n, t, f: 16 * n * f.sep,
@@ -345,6 +346,7 @@ class Plan:
         pyr = rt.program("pyramid", **d)
         self.k_reduce, self.k_reduce_src = pyr.reduce_level, pyr.reduce_level_source
         self.k_reduce_inner = pyr.reduce_source_inner
+        self.k_up_planes = pyr.up_planes
         self.k_prep0 = pyr.prep_level0
         whole = rt.program("pyramid", WHOLE_GROUPS=1, **d)     # launch2d / launch1d: no bounds check
         self.k_collapse = (whole.collapse_level, pyr.collapse_level)
@@ -725,8 +727,8 @@ class Plan:
     def split(self, t: Timings, k: int, chain, out) -> None:
         """Half-octave shares of level k of `chain` into `out` (level-0 sized scratch)."""
         o, w, h, _ = (int(v) for v in self.lv[k])
-        t.add("composite", self.rt.launch1d(
-            self.k_split, w * h, chain, np.int32(o), np.int32(w * h), out, np.float32(self.threshold(k + 1)),
+        t.add("composite", self.rt.launch2d(
+            self.k_split, w, h, chain, np.int32(o), np.int32(h), out, np.float32(self.threshold(k + 1)),
             np.float32(self.cfg.render.resolved()[1]), self.lut, np.int32(k), np.int32(w), self.edge,
             np.int32(self.edge_off[k])))
 
@@ -752,7 +754,7 @@ class Plan:
             self.split(t, k, chain, half)
             args = (chain, np.int32(o), np.int32(w), np.int32(h), half, np.int32(uo), np.int32(uw), np.int32(uh),
                     np.float32(a), prep, self.edge, np.int32(self.edge_off[k]), self.cons, np.int32(self.cons_off[k + 1]))
-            self._launch_pairs(t, self._pairs[k], self.k_collapse_pairs, self.k_collapse, w, h, args)
+            self._launch_pairs(t, self._pairs[k], self.k_collapse_pairs, self.k_collapse, w, h, args, chain, k + 1)
             if ext and k == self._ext_level:
                 self._inject(t)
 
@@ -771,23 +773,36 @@ class Plan:
                 np.float32(self.cfg.render.resolved()[0]), np.float32(self.half_step()), self.out, self.level_aov,
                 self.scat_aov, prep, self.spread, self.edge, self.cons, np.int32(self.cons_off[1]))
         self._launch_pairs(t, self._pairs[0], self.k_comp_pairs[second], self.k_comp_src[second], self.w, self.h,
-                           args)
+                           args, chain, 1)
 
-    def _launch_pairs(self, t: Timings, region, pairs, kernels, w: int, h: int, args: tuple) -> None:
+    def _launch_pairs(self, t: Timings, region, pairs, kernels, w: int, h: int, args: tuple, chain, up: int) -> None:
         """A w x h level through its two-pixel kernel (`pairs`, pairs.h) on `region`, the
-        per-pixel kernel around it (_launch_inner)."""
-        self._launch_inner(t, "composite", region, pairs, kernels, w, h, args, per=2)
+        per-pixel kernel around it (_launch_inner). The pair kernels read level `up` of
+        `chain` as colour planes (up_planes, made here) and take the region's corner as
+        arguments (pairs.h, Addressing)."""
+        if region is not None:
+            o, uw, uh, _ = (int(v) for v in self.lv[up])
+            t.add("composite", self.rt.launch1d((self.k_up_planes, self.k_up_planes), uw * uh, chain, np.int32(o),
+                                                np.int32(uw * uh), self.up_planes))
+        self._launch_inner(t, "composite", region, pairs, kernels, w, h, args, per=2, corner_args=True,
+                           extra=(self.up_planes,))
 
     def _launch_inner(self, t: Timings, stage: str, region, inner, kernels, w: int, h: int, args: tuple,
-                      per: int = 1) -> None:
+                      per: int = 1, corner_args: bool = False, extra: tuple = ()) -> None:
         """A w x h kernel through `inner` on `region` [x0, x1) x [y0, y1) (whole work-groups,
-        `per` pixels of a row per work-item) and the checked per-pixel kernel (kernels[1]) on
-        the four strips around it; without a region, the per-pixel kernels alone (launch2d)."""
+        `per` pixels of a row per work-item; its corner as a global offset, or with
+        corner_args as two more arguments, x0 / per and y0) and the checked per-pixel kernel
+        (kernels[1]) on the four strips around it; without a region, the per-pixel kernels
+        alone (launch2d)."""
         if region is None:
             t.add(stage, self.rt.launch2d(kernels, w, h, *args))
             return
         (x0, x1, y0, y1), q = region, self.rt.queue
-        t.add(stage, inner(q, ((x1 - x0) // per, y1 - y0), self.rt.local2d, *args, global_offset=(x0 // per, y0)))
+        size = ((x1 - x0) // per, y1 - y0)
+        if corner_args:
+            t.add(stage, inner(q, size, self.rt.local2d, *args, *extra, np.int32(x0 // per), np.int32(y0)))
+        else:
+            t.add(stage, inner(q, size, self.rt.local2d, *args, global_offset=(x0 // per, y0)))
         for gx, gy, ox, oy in ((w, y0, 0, 0), (w, h - y1, 0, y1), (x0, y1 - y0, 0, y0), (w - x1, y1 - y0, x1, y0)):
             if gx > 0 and gy > 0:     # exact sizes: no pixel twice (the separated chain's pass adds)
                 t.add(stage, kernels[1](q, (gx, gy), None, *args, global_offset=(ox, oy)))
