@@ -8,7 +8,9 @@ about the memory's speed (1-4 ms here); one it leaves scalar takes several times
 Findings of session 1 (AVX-512): OpenCL builtins (exp, sqrt, fmax, ...) are non-inlined
 calls that stop vectorisation; a __constant parameter read needs `restrict`; a loop over
 primitive types and float3 arithmetic stay slow. Session 9 (AVX2): see the table the script
-writes (docs/performance.md, "What PoCL vectorises").
+writes (docs/performance.md, "What PoCL vectorises"). Session 17: an index such as 4 (j w + i)
+becomes gathers (and its stores scatters), a row pointer indexed by 4 i + c wide loads and
+shuffles: the k_rgba_* and k_pair_* rows.
 """
 from __future__ import annotations
 
@@ -47,6 +49,10 @@ __kernel void k_vec4_exp(__global const float4* restrict a,__global float4* rest
 __kernel void k_nb_clamp(__global const float* restrict a,__global float* restrict b,int w,int h){int i=get_global_id(0),j=get_global_id(1); if(i>=w||j>=h) return; int idx=j*w+i; int ip=i+1<w?i+1:w-1; b[idx]=exp_poly(-a[idx])+a[j*w+ip];}
 __kernel void k_nb_masked(__global const float* restrict a,__global float* restrict b,int w,int h){int i=get_global_id(0),j=get_global_id(1); if(i>=w||j>=h) return; int idx=j*w+i; float v=i+1<w?a[idx+1]:a[idx]; b[idx]=exp_poly(-a[idx])+v;}
 __kernel void k_nb_affine(__global const float* restrict a,__global float* restrict b,int w,int h){int i=get_global_id(0),j=get_global_id(1); if(i>=w||j>=h) return; int idx=j*w+i; float v=a[idx+1]; b[idx]=exp_poly(-a[idx])+(i+1<w?v:0.0f);}
+__kernel void k_rgba_idx(__global const float* restrict a,__global float* restrict b,int w,int h){int i=get_global_id(0),j=get_global_id(1); int idx=j*w+i; b[idx]=a[4*idx]*0.2f+a[4*idx+1]*0.7f+a[4*idx+2]*0.1f+a[4*idx+3];}
+__kernel void k_rgba_row(__global const float* restrict a,__global float* restrict b,int w,int h){int i=get_global_id(0),j=get_global_id(1); const __global float*r=a+4*j*w; b[j*w+i]=r[4*i]*0.2f+r[4*i+1]*0.7f+r[4*i+2]*0.1f+r[4*i+3];}
+__kernel void k_pair_idx(__global const float* restrict a,__global float* restrict b,int w,int h){int i=get_global_id(0),j=get_global_id(1); int idx=j*w+2*i; for(int p=0;p<2;++p){ b[4*(idx+p)]=a[4*(idx+p)]*2.0f; b[4*(idx+p)+1]=a[4*(idx+p)+1]; b[4*(idx+p)+2]=a[4*(idx+p)+2]*a[4*(idx+p)]; b[4*(idx+p)+3]=a[4*(idx+p)+3];}}
+__kernel void k_pair_row(__global const float* restrict a,__global float* restrict b,int w,int h){int i=get_global_id(0),j=get_global_id(1); const __global float*r=a+4*j*w; __global float*o=b+4*j*w; for(int p=0;p<2;++p){ o[8*i+4*p]=r[8*i+4*p]*2.0f; o[8*i+4*p+1]=r[8*i+4*p+1]; o[8*i+4*p+2]=r[8*i+4*p+2]*r[8*i+4*p]; o[8*i+4*p+3]=r[8*i+4*p+3];}}
 '''
 
 # name: (what it tests, 2-D?)
@@ -69,8 +75,13 @@ KERNELS = {
     "k_nb_clamp": "2-D, right neighbour at a clamped index",
     "k_nb_masked": "2-D, right neighbour read under a condition",
     "k_nb_affine": "2-D, right neighbour read unconditionally (padded)",
+    "k_rgba_idx": "2-D, RGBA read at 4 (j w + i) + c",
+    "k_rgba_row": "2-D, RGBA read at row[4 i + c], row = a + 4 j w",
+    "k_pair_idx": "2-D, two RGBA pixels a work-item at 4 (j w + 2 i + p) + c",
+    "k_pair_row": "2-D, two RGBA pixels a work-item at row[8 i + 4 p + c]",
 }
-TWO_D = {"k_nb_clamp", "k_nb_masked", "k_nb_affine"}
+TWO_D = {"k_nb_clamp", "k_nb_masked", "k_nb_affine", "k_rgba_idx", "k_rgba_row", "k_pair_idx", "k_pair_row"}
+HALF_W = {"k_pair_idx", "k_pair_row"}    # a work-item per pair of pixels
 
 
 def measure() -> dict:
@@ -96,11 +107,13 @@ def measure() -> dict:
     out = {}
     for name in KERNELS:
         k = cl.Kernel(prg, name)
-        glob = (W, H) if name in TWO_D else ((n // 2,) if name == "k_planes_exp" else (n,))
+        glob = ((W // 2 if name in HALF_W else W), H) if name in TWO_D else ((n // 2,) if name == "k_planes_exp" else (n,))
         kargs = (A, B, np.int32(W), np.int32(H)) if name in TWO_D else args.get(name, (A, B))
+        # the addressing kernels on fogcli's own work-groups (runtime.LOCAL_CPU)
+        local = (32, 4) if name in TWO_D and name.startswith(("k_rgba_idx", "k_rgba_row", "k_pair")) else None
         best = 1e9
         for _ in range(7):
-            e = k(q, glob, None, *kargs)
+            e = k(q, glob, local, *kargs)
             e.wait()
             best = min(best, (e.profile.end - e.profile.start) * 1e-6)
         out[name] = best
