@@ -7,8 +7,9 @@
  * for composite_source). Here the two pixels of a pair read level k+1 at the same UP_NT + 1
  * columns around i2 and the half image at x - 1 .. x + 2, none clamped, every channel a
  * scalar: the reads are linear in the work-item, and the kernels vectorise. Away from the
- * edges the apsf conservation factors are 1 (up2_cons). The operations and their order are
- * those of up2_fetch4, half_blur and keep_px (common.h).
+ * edges the apsf conservation factors are 1 (up2_cons). The sums are those of up2_fetch4,
+ * half_blur and keep_px (common.h), regrouped (separable, shared between the two pixels):
+ * equal to float32 rounding.
  * Addressing: the host passes the pair rectangle's first pair column px0 and row py0 as
  * arguments and launches with no global offset; every read and write is a row pointer made
  * of uniform values (the row, px0) indexed by K * i + c, i = get_global_id(0). LLVM sees
@@ -35,62 +36,72 @@ __constant float UP_WO[4] = {0.0703125f, 0.61197917f, 0.31510417f, 0.00260417f};
  * columns i2 - UP_NT / 2 .. i2 + UP_NT / 2, the even pixel's taps the first UP_NT, the odd
  * one's the last UP_NT; the rows and their weights are the row's own. From the planes every
  * tap is a unit-stride load; from the RGBA level each was four loads and their shuffles
- * (the taps overlap between work-items, which LLVM cannot share): ~10 of composite_source's
- * ~28 ms at 2 MPx. */
+ * (the taps overlap between work-items, which LLVM cannot share). With the planes and the
+ * separable sums composite_source_pairs went from ~50 to ~30 ms of its stage at 2 MPx. */
 ALWAYS_INLINE void pair_up(__global const float *planes, int n1, int w1, int px0, int i, int j, float *e0,
                            float *e1, float *e2, float *o0, float *o1, float *o2)
 {
     int y0 = (j >> 1) - UP_NT / 2 + (j & 1);
+    __global const float *base = planes + y0 * w1 + px0 - UP_NT / 2 + i;
+    /* separable: the UP_NT rows first, per column and channel, then the columns for the
+     * even and the odd pixel (90 products where the rows-inside form had 144) */
+    float v0[UP_NT + 1], v1[UP_NT + 1], v2[UP_NT + 1];
+#pragma unroll
+    for (int t = 0; t <= UP_NT; ++t) {
+        float c0 = 0.0f, c1 = 0.0f, c2 = 0.0f;
+#pragma unroll
+        for (int r = 0; r < UP_NT; ++r) {
+            float wr = (j & 1) ? UP_WO[r] : UP_WE[r];
+            __global const float *q = base + r * w1 + t;
+            c0 += wr * q[0];
+            c1 += wr * q[n1];
+            c2 += wr * q[2 * n1];
+        }
+        v0[t] = c0; v1[t] = c1; v2[t] = c2;
+    }
     float a0 = 0.0f, a1 = 0.0f, a2 = 0.0f, b0 = 0.0f, b1 = 0.0f, b2 = 0.0f;
 #pragma unroll
-    for (int r = 0; r < UP_NT; ++r) {
-        float wr = (j & 1) ? UP_WO[r] : UP_WE[r];
-        __global const float *row = planes + (y0 + r) * w1 + px0 - UP_NT / 2 + i;
-        float re0 = 0.0f, re1 = 0.0f, re2 = 0.0f, ro0 = 0.0f, ro1 = 0.0f, ro2 = 0.0f;
-#pragma unroll
-        for (int t = 0; t <= UP_NT; ++t) {
-            float we = t < UP_NT ? UP_WE[t] : 0.0f, wo = t > 0 ? UP_WO[t - 1] : 0.0f;
-            float q0 = row[t], q1 = row[n1 + t], q2 = row[2 * n1 + t];
-            re0 += we * q0;
-            re1 = AFTER(re1 + we * q1, re0);
-            re2 = AFTER(re2 + we * q2, re1);
-            ro0 = AFTER(ro0 + wo * q0, re2);
-            ro1 = AFTER(ro1 + wo * q1, ro0);
-            ro2 = AFTER(ro2 + wo * q2, ro1);
-        }
-        a0 += wr * re0;
-        a1 = AFTER(a1 + wr * re1, a0);
-        a2 = AFTER(a2 + wr * re2, a1);
-        b0 = AFTER(b0 + wr * ro0, a2);
-        b1 = AFTER(b1 + wr * ro1, b0);
-        b2 = AFTER(b2 + wr * ro2, b1);
+    for (int t = 0; t < UP_NT; ++t) {
+        a0 += UP_WE[t] * v0[t]; a1 += UP_WE[t] * v1[t]; a2 += UP_WE[t] * v2[t];
+        b0 += UP_WO[t] * v0[t + 1]; b1 += UP_WO[t] * v1[t + 1]; b2 += UP_WO[t] * v2[t + 1];
     }
     *e0 = a0; *e1 = a1; *e2 = a2; *o0 = b0; *o1 = b1; *o2 = b2;
 }
 
-/* keep_px + u of pixel x = 2 (px0 + i) + p of row j of a level (width w, height h). The
- * pointers start at pixel 2 px0 of the row: ch, pr of `chain` and `prep`, r0, r1, r2 of the
- * half image's rows j - 1, j, j + 1 (clamped by the caller), ex of the level's edge table
- * along x (edge + 2 px0); edge itself for the row's entries -> s */
-ALWAYS_INLINE void pair_keep(__global const float *ch, __global const float *pr, int i, int p, int j,
-                             int w, int h, __global const float *r0, __global const float *r1,
-                             __global const float *r2, float a, __global const float *edge,
-                             __global const float *ex, float u0, float u1, float u2, float *s0_, float *s1_,
-                             float *s2_)
+/* The 3x3 half blur of keep_px (half_blur, common.h) at both pixels of pair i of a row: the
+ * columns' vertical sums first, shared by the two (x - 1 .. x + 2), then three of them for
+ * each pixel. r0, r1, r2: the half image's rows j - 1, j, j + 1 from pixel 2 px0 (clamped by
+ * the caller) -> channel c of the even pixel in he[c], the odd one's in ho[c]. */
+ALWAYS_INLINE void pair_half(__global const float *r0, __global const float *r1, __global const float *r2, int i,
+                             float a, float *he, float *ho)
 {
-    float b = 1.0f - 2.0f * a;
+    float b = 1.0f - 2.0f * a, prev = 0.0f;
+#pragma unroll
+    for (int c = 0; c < 3; ++c) {
+        float v[4];
+#pragma unroll
+        for (int k = 0; k < 4; ++k) {
+            int o = 8 * i + 4 * (k - 1) + c;
+            v[k] = AFTER(a * r0[o] + b * r1[o] + a * r2[o], prev);   /* chained: see AFTER */
+            prev = v[k];
+        }
+        he[c] = a * v[0] + b * v[1] + a * v[2];
+        ho[c] = AFTER(a * v[1] + b * v[2] + a * v[3], he[c]);
+        prev = ho[c];
+    }
+}
+
+/* keep_px + u of pixel x = 2 (px0 + i) + p of row j of a level (width w, height h), its half
+ * blur hb (pair_half). The pointers start at pixel 2 px0 of the row: ch, pr of `chain` and
+ * `prep`, r1 of the half image's row j, ex of the level's edge table along x (edge + 2 px0);
+ * edge itself for the row's entries -> s */
+ALWAYS_INLINE void pair_keep(__global const float *ch, __global const float *pr, int i, int p, int j,
+                             int w, int h, __global const float *r1, const float *hb,
+                             __global const float *edge, __global const float *ex, float u0, float u1, float u2,
+                             float *s0_, float *s1_, float *s2_)
+{
     const int x4 = 8 * i + 4 * p;     /* this pixel's first float in each row */
-    float h0 = a * (a * r0[x4 - 4] + b * r0[x4] + a * r0[x4 + 4])
-             + b * (a * r1[x4 - 4] + b * r1[x4] + a * r1[x4 + 4])
-             + a * (a * r2[x4 - 4] + b * r2[x4] + a * r2[x4 + 4]);
-    float h1 = a * (a * r0[x4 - 3] + b * r0[x4 + 1] + a * r0[x4 + 5])
-             + b * (a * r1[x4 - 3] + b * r1[x4 + 1] + a * r1[x4 + 5])
-             + a * (a * r2[x4 - 3] + b * r2[x4 + 1] + a * r2[x4 + 5]);
-    h1 = AFTER(h1, h0);
-    float h2 = a * (a * r0[x4 - 2] + b * r0[x4 + 2] + a * r0[x4 + 6])
-             + b * (a * r1[x4 - 2] + b * r1[x4 + 2] + a * r1[x4 + 6])
-             + a * (a * r2[x4 - 2] + b * r2[x4 + 2] + a * r2[x4 + 6]);
-    h2 = AFTER(h2, h1);
+    float h0 = hb[0], h1 = hb[1], h2 = hb[2];
     float v0, v1, v2, vw, p0, p1, p2, pw;
     v0 = ch[x4]; v1 = ch[x4 + 1]; v2 = ch[x4 + 2]; vw = ch[x4 + 3];
     p0 = pr[x4]; p1 = pr[x4 + 1]; p2 = pr[x4 + 2]; pw = pr[x4 + 3];

@@ -277,10 +277,12 @@ __kernel void collapse_pairs(COLLAPSE_ARGS, __global const float *up_planes, con
     pair_up(up_planes, uw * uh, uw, px0, i, y, &e0, &e1, &e2, &o0, &o1, &o2);
     PAIR_ROWS(half_img, y, w, h, 2 * px0)
     /* each pixel reads only its own value of level k before writing it */
-    pair_keep(ch, pr, i, 0, y, w, h, r0, r1, r2, a, edge_l, edge_l + 2 * px0, e0, e1, e2, &s0, &s1, &s2);
+    float he[3], ho[3];
+    pair_half(r0, r1, r2, i, a, he, ho);
+    pair_keep(ch, pr, i, 0, y, w, h, r1, he, edge_l, edge_l + 2 * px0, e0, e1, e2, &s0, &s1, &s2);
     float vw = ch[8 * i + 3];
     ch[8 * i] = s0; ch[8 * i + 1] = s1; ch[8 * i + 2] = s2; ch[8 * i + 3] = vw;
-    pair_keep(ch, pr, i, 1, y, w, h, r0, r1, r2, a, edge_l, edge_l + 2 * px0, o0, o1, o2, &s0, &s1, &s2);
+    pair_keep(ch, pr, i, 1, y, w, h, r1, ho, edge_l, edge_l + 2 * px0, o0, o1, o2, &s0, &s1, &s2);
     vw = ch[8 * i + 7];
     ch[8 * i + 4] = s0; ch[8 * i + 5] = s1; ch[8 * i + 6] = s2; ch[8 * i + 7] = vw;
 }
