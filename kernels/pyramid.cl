@@ -150,29 +150,32 @@ __kernel void reduce_level_source(__global float4 *chain, __global float4 *prep,
 }
 
 /* reduce_level_source's interior (destination pixels whose taps are inside the source level
- * and, for apsf, clear of its conservation factors' margin), on whole work-groups of the
- * rectangle reduce_region gives: no bounds tests, every channel a scalar and the sums chained
- * (AFTER), so the taps' loads are linear in the work-item and PoCL vectorises it (the float3
- * sums and the branch of reduce_level_source left it scalar: ~14 ms at level 1 of 2 MPx).
- * The sums are reduce_level_source's in its order, so the two agree to rounding. */
+ * and, for apsf, clear of its conservation factors' margin): destination pixel px0 + i of
+ * row py0 + j, launched with no global offset on whole work-groups of the rectangle
+ * reduce_region gives. No bounds tests, every channel a scalar and the sums chained
+ * (AFTER), rows addressed by pointers indexed by the work-item (pairs.h, Addressing): PoCL
+ * vectorises it with wide loads (the float3 sums and the branch of reduce_level_source left
+ * it scalar, ~14 ms at level 1 of 2 MPx). The sums are reduce_level_source's in its order,
+ * so the two agree to rounding. */
 __kernel void reduce_source_inner(__global float4 *chain, __global float4 *prep,
                                   const int src_off, const int sw, const int sh,
                                   const int dst_off, const int dw, const int dh,
                                   const float thresh_next, const float eps,
                                   __global const float *lut, const int level,
                                   __global const float *edge, const int edge_off,
-                                  __global const float *cons, const int cons_off)
+                                  __global const float *cons, const int cons_off, const int px0, const int py0)
 {
-    int x = get_global_id(0), y = get_global_id(1);
-    __global const float *src = (__global const float *)(prep + src_off);
-    int x0 = 2 * x - FILTER_TAPS / 2 + 1, y0 = 2 * y - FILTER_TAPS / 2 + 1;
+    int i = get_global_id(0), y = get_global_id(1) + py0;
+    int x0 = 2 * px0 - FILTER_TAPS / 2 + 1, y0 = 2 * y - FILTER_TAPS / 2 + 1;
+    __global const float *src = (__global const float *)(prep + src_off) + 4 * x0;
     float a0 = 0.0f, a1 = 0.0f, a2 = 0.0f, ayw = 0.0f, ay = 0.0f, alw = 0.0f;
 #pragma unroll
     for (int ty = 0; ty < FILTER_TAPS; ++ty) {
-        __global const float *row = src + 4 * ((y0 + ty) * sw + x0);
+        __global const float *row = src + 4 * (y0 + ty) * sw;
 #pragma unroll
         for (int tx = 0; tx < FILTER_TAPS; ++tx) {
-            float p0 = row[4 * tx], p1 = row[4 * tx + 1], p2 = row[4 * tx + 2], pw = row[4 * tx + 3];
+            int o = 8 * i + 4 * tx;
+            float p0 = row[o], p1 = row[o + 1], p2 = row[o + 2], pw = row[o + 3];
             float wg = filter_w[tx] * filter_w[ty];
             a0 += wg * p0;
             a1 = AFTER(a1 + wg * p1, a0);
@@ -184,25 +187,28 @@ __kernel void reduce_source_inner(__global float4 *chain, __global float4 *prep,
         }
     }
     float lw = ay > 1e-30f ? ayw / ay : alw / (float)(FILTER_TAPS * FILTER_TAPS);
-    int d = dst_off + y * dw + x;
+    int d4 = 4 * (dst_off + y * dw + px0);
+    __global float *crow = (__global float *)chain + d4, *prow = (__global float *)prep + d4;
 #ifdef PSF_APSF
     float f;
-    int i = lut_pos(lut, lw, &f);
-    float q0 = lut_get(lut, lut_updown(level, 0, 0), i, f) * a0, q1 = lut_get(lut, lut_updown(level, 1, 0), i, f) * a1,
-          q2 = lut_get(lut, lut_updown(level, 2, 0), i, f) * a2;
-    store4(prep, d, q0, q1, q2, lw);
+    int li = lut_pos(lut, lw, &f);
+    float q0 = lut_get(lut, lut_updown(level, 0, 0), li, f) * a0, q1 = lut_get(lut, lut_updown(level, 1, 0), li, f) * a1,
+          q2 = lut_get(lut, lut_updown(level, 2, 0), li, f) * a2;
     if (level == (int)lut[3] - 1) {   /* the top level keeps what its `up` share leaves */
         float es = 1.0f;
 #ifdef BORDER_OPEN
-        es = edge_share(edge, edge_off, dw, dh, x, y, 0);
+        es = edge_share(edge, edge_off, dw, dh, px0 + i, y, 0);
 #endif
         a0 = (a0 - q0) * es; a1 = (a1 - q1) * es; a2 = (a2 - q2) * es;
     }
-    store4(chain, d, a0, a1, a2, lw);
+    prow[4 * i] = q0; prow[4 * i + 1] = q1; prow[4 * i + 2] = q2; prow[4 * i + 3] = lw;
+    crow[4 * i] = a0; crow[4 * i + 1] = a1; crow[4 * i + 2] = a2; crow[4 * i + 3] = lw;
 #else
     float wk = exp_poly(lw);
-    store4(chain, d, a0, a1, a2, wk);
-    store_prep(prep, d, a0, a1, a2, wk, thresh_next, eps);
+    float m = smoothstep_(thresh_next, (1.0f + eps) * thresh_next, wk);
+    crow[4 * i] = a0; crow[4 * i + 1] = a1; crow[4 * i + 2] = a2; crow[4 * i + 3] = wk;
+    prow[4 * i] = m * a0; prow[4 * i + 1] = m * a1; prow[4 * i + 2] = m * a2;
+    prow[4 * i + 3] = log_pos(wk > 1e-6f ? wk : 1e-6f);
 #endif
 }
 

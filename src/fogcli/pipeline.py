@@ -705,10 +705,13 @@ class Plan:
                 args = (chain, prep, np.int32(so), np.int32(sw), np.int32(sh), np.int32(do), np.int32(dw),
                         np.int32(dh), np.float32(self.threshold(k + 1)), np.float32(eps), self.lut, np.int32(k),
                         self.edge, np.int32(self.edge_off[k]), self.cons, np.int32(self.cons_off[k]))
+                # on an 8-wide CPU without AVX-512 LLVM leaves the interior kernel scalar (its
+                # table reads would be gathers, which it does not emit there), and the
+                # per-pixel kernel is the faster scalar code (benchmarks/avx2/run.sh)
                 region = reduce_region(int(sw), int(sh), int(dw), int(dh), taps, taps // 2 if self.apsf else 0,
-                                       self.rt.local2d)
+                                       self.rt.local2d) if self.rt.lanes == 1 else None
                 self._launch_inner(t, "pyramid", region, self.k_reduce_inner, (self.k_reduce_src,) * 2,
-                                   int(dw), int(dh), args)
+                                   int(dw), int(dh), args, corner_args=True)
             return
         spread = self.spread2 if second else self.spread
         for k in range(1, len(self.sizes)):
