@@ -55,18 +55,18 @@ __kernel void reduce_level(__global float4 *chain, __global float *spread_chain,
     spread_chain[d] = acc_s / acc_g;
 }
 
+/* the arguments of reduce_level_source and reduce_source_inner (launched alike) */
+#define REDUCE_SOURCE_ARGS                                                                       \
+    __global float4 *chain, __global float4 *prep, const int src_off, const int sw, const int sh, \
+    const int dst_off, const int dw, const int dh, const float thresh_next, const float eps,    \
+    __global const float *lut, const int level, __global const float *edge, const int edge_off, \
+    __global const float *cons, const int cons_off
 /* The same level for the source collapse (`render.fetch: source`). Taps read the prep
  * chain (masked colour, log W; see prep_px): the colour of level k is the filtered masked
  * colour (eq. 6), W^[k] the geometric mean of W weighted by the luminance that actually
  * moves up, so that a small bright source next to a large dim one (a far lamp against the
  * sky) keeps its own spread. Writes I^[k], W^[k] and level k's own prep. */
-__kernel void reduce_level_source(__global float4 *chain, __global float4 *prep,
-                                  const int src_off, const int sw, const int sh,
-                                  const int dst_off, const int dw, const int dh,
-                                  const float thresh_next, const float eps,
-                                  __global const float *lut, const int level,
-                                  __global const float *edge, const int edge_off,
-                                  __global const float *cons, const int cons_off)
+__kernel void reduce_level_source(REDUCE_SOURCE_ARGS)
 {
     int x = get_global_id(0), y = get_global_id(1);
     if (x >= dw || y >= dh) return;
@@ -157,13 +157,7 @@ __kernel void reduce_level_source(__global float4 *chain, __global float4 *prep,
  * vectorises it with wide loads (the float3 sums and the branch of reduce_level_source left
  * it scalar, ~14 ms at level 1 of 2 MPx). The sums are reduce_level_source's in its order,
  * so the two agree to rounding. */
-__kernel void reduce_source_inner(__global float4 *chain, __global float4 *prep,
-                                  const int src_off, const int sw, const int sh,
-                                  const int dst_off, const int dw, const int dh,
-                                  const float thresh_next, const float eps,
-                                  __global const float *lut, const int level,
-                                  __global const float *edge, const int edge_off,
-                                  __global const float *cons, const int cons_off, const int px0, const int py0)
+__kernel void reduce_source_inner(REDUCE_SOURCE_ARGS, const int px0, const int py0)
 {
     int i = get_global_id(0), y = get_global_id(1) + py0;
     int x0 = 2 * px0 - FILTER_TAPS / 2 + 1, y0 = 2 * y - FILTER_TAPS / 2 + 1;
