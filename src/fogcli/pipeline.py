@@ -391,6 +391,21 @@ class Plan:
         t.add("upload", cl.enqueue_copy(self.rt.queue, self.image, np.ascontiguousarray(rgba, np.float32)))
         t.add("upload", cl.enqueue_copy(self.rt.queue, self.depth, np.ascontiguousarray(depth, np.float32)))
 
+    def upload_rgb(self, rgb: np.ndarray, alpha, depth: np.ndarray, t: Timings) -> None:
+        """The frame's RGBA assembled straight in the image buffer, mapped (on a CPU device
+        its own memory: no copy after the assembly, which a host array and upload() needed,
+        ~5 ms at 2 MPx), and the depth copied."""
+        cl, q = self.rt.cl, self.rt.queue
+        rgba, ev = cl.enqueue_map_buffer(q, self.image, cl.map_flags.WRITE_INVALIDATE_REGION, 0,
+                                         (self.h, self.w, 4), np.float32)
+        t.add("upload", ev)
+        ev.wait()
+        rgba[:, :, :3] = rgb
+        rgba[:, :, 3] = 1.0 if alpha is None else alpha
+        t.add("upload", rgba.base.release(q))
+        del rgba
+        t.add("upload", cl.enqueue_copy(q, self.depth, np.ascontiguousarray(depth, np.float32)))
+
     def optical_depth(self, t: Timings, depth=None, out=None) -> None:
         """P of the non-homogeneous primitives, summed into the spread buffer (level 0),
         which preprocess reads before it writes the spread there."""
@@ -965,10 +980,7 @@ def run(rgb: np.ndarray, depth: np.ndarray, cfg: Config, alpha=None, aovs=(), de
     t = timings if timings is not None else Timings()
     rt = get_runtime(device)
     plan = get_plan(rt, w, h, cfg, aovs)
-    rgba = np.empty((h, w, 4), np.float32)
-    rgba[:, :, :3] = rgb
-    rgba[:, :, 3] = 1.0 if alpha is None else alpha
-    plan.upload(rgba, depth, t)
+    plan.upload_rgb(rgb, alpha, depth, t)
     plan.preprocess(t)
     if alpha is not None and cfg.camera.empty_depth > 0:   # at 0 the alpha is the input's
         plan.coverage(t, cfg.camera.empty_depth)
