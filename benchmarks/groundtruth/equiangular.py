@@ -21,7 +21,6 @@ import json
 import math
 import os
 import sys
-import time
 from pathlib import Path
 
 import numpy as np
@@ -32,7 +31,7 @@ sys.path.insert(0, str(HERE.parents[1] / "src"))
 sys.path.insert(0, str(HERE.parent))
 import scenes as S  # noqa: E402
 from docblock import write_block  # noqa: E402
-from load import NOISE_DEF, halves_noise  # noqa: E402
+from load import NOISE_DEF, alternate_halves  # noqa: E402
 from fogcli.metrics import rel_l1  # noqa: E402
 
 RENDERS = HERE / "renders-lights"
@@ -143,14 +142,13 @@ def render_medium(tr, medium, budget, target, seed0, max_spp, log=print, start=N
     the same spp (two independent renders are two halves as well)."""
     m = S.MEDIA[medium]
     parts = grey_parts(m)
-    acc, n, only_b = [0.0, 0.0], [0, 0], False
+    acc, n, only_b = (0.0, 0.0), (0, 0), False
     if start is not None:
         only_b = start[1] is None
-        acc = [start[0] * start[2], 0.0 if only_b else start[1] * start[3]]
-        n = [start[2], 0 if only_b else start[3]]
-    t0, k = time.time(), (n[0] + n[1]) // PASS_SPP
-    while True:
-        h = 1 if only_b else k % 2
+        acc = (start[0] * start[2], 0.0 if only_b else start[1] * start[3])
+        n = (start[2], 0 if only_b else start[3])
+
+    def one_pass(k):
         img = np.zeros((S.HEIGHT, S.WIDTH, 3))
         for ss, st, c in parts:
             part = tr.render(PASS_SPP, seed0 + 7919 * k + (c or 0) * 104729, ss, st, m["g"])
@@ -158,17 +156,14 @@ def render_medium(tr, medium, budget, target, seed0, max_spp, log=print, start=N
                 img = part
             else:
                 img[..., c] = part[..., c]
-        acc[h] = acc[h] + img
-        n[h] += PASS_SPP
-        k += 1
-        if h == 1:
-            A, B = acc[0] / n[0], acc[1] / n[1]
-            noise = halves_noise(A, B)
-            el = time.time() - t0
-            full = n[1] >= n[0] if only_b else (noise <= target or n[0] + n[1] >= max_spp)
-            if el > budget or full:
-                log(f"    {n[0] + n[1]} spp, noise {noise:.4f}, {el:.0f} s")
-                return (acc[0] + acc[1]) / (n[0] + n[1]), noise, n[0] + n[1], el, (A, B, n[0], n[1])
+        return img
+
+    def stop(na, nb, noise, el):
+        return el > budget or (nb >= na if only_b else (noise <= target or na + nb >= max_spp))
+
+    sa, sb, na, nb, noise, el = alternate_halves(one_pass, PASS_SPP, stop, log, (n[0] + n[1]) // PASS_SPP, acc, n,
+                                                 only_b)
+    return (sa + sb) / (na + nb), noise, na + nb, el, (sa / na, sb / nb, na, nb)
 
 
 def blocks(img, b=8):

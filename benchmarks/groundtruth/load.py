@@ -15,6 +15,7 @@ meta: dict (fov = horizontal degrees, width, height, sigma_a, sigma_s, g, outsid
 import glob
 import json
 import os
+import time
 
 import numpy as np
 
@@ -27,6 +28,27 @@ NOISE_DEF = ("noise = sum|A-B| / sum(A+B) over all pixels and channels, A and B 
 def halves_noise(A, B):
     """The renders' `noise` (NOISE_DEF) of two independent halves A and B."""
     return float(np.abs(A - B).sum() / max((A + B).sum(), 1e-30))
+
+
+def alternate_halves(render_pass, pass_spp, stop, log, k0=0, acc=(0.0, 0.0), n=(0, 0), only_b=False):
+    """Passes of pass_spp samples alternate between two independent halves A and B (all go to
+    B with only_b) until stop(spp A, spp B, noise, seconds), asked after each pass into B.
+    render_pass(k) is the sum of pass k's samples; k counts on from k0 (an earlier run's
+    passes). acc, n: the halves' sums and spp so far. Returns (sum A, sum B, spp A, spp B,
+    noise, seconds)."""
+    acc, n = list(acc), list(n)
+    t0, k = time.time(), k0
+    while True:
+        h = 1 if only_b else k % 2
+        acc[h] = acc[h] + render_pass(k)
+        n[h] += pass_spp
+        k += 1
+        if h == 1:
+            noise = halves_noise(acc[0] / n[0], acc[1] / n[1])
+            el = time.time() - t0
+            if stop(n[0], n[1], noise, el):
+                log(f"    {n[0] + n[1]} spp, noise {noise:.4f}, {el:.0f} s")
+                return acc[0], acc[1], n[0], n[1], noise, el
 
 
 def load(path):

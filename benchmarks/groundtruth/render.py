@@ -31,7 +31,7 @@ OUT = os.path.join(HERE, "renders")
 OUT_LIGHTS = os.path.join(HERE, "renders-lights")     # scenes with point lights (scenes.LIGHTS)
 sys.path.insert(0, HERE)
 import scenes as S  # noqa: E402
-from load import NOISE_DEF, halves_noise  # noqa: E402
+from load import NOISE_DEF, alternate_halves, halves_noise  # noqa: E402
 
 NEAR_CLIP = 1e-4            # the sensor's near plane; Mitsuba's depth AOV starts there (corrected)
 L_SPP = 256                 # vacuum image (pixel-averaged emitted radiance)
@@ -128,25 +128,10 @@ class MediumRenderer:
 def render_medium(mi, name, medium, spp, max_depth, rr_depth, budget_s, target, seed0, log):
     sc = MediumRenderer(mi, name, S.MEDIA[medium] if isinstance(medium, str) else medium,
                         max_depth=max_depth, rr_depth=rr_depth)
-    acc = [None, None]
-    n = [0, 0]
-    t0 = time.time()
-    k = 0
-    noise = float("nan")
-    while True:
-        h = k % 2
-        img = sc.render(PASS_SPP, seed0 + k)
-        acc[h] = img * PASS_SPP if acc[h] is None else acc[h] + img * PASS_SPP
-        n[h] += PASS_SPP
-        k += 1
-        if h == 1:
-            A, B = acc[0] / n[0], acc[1] / n[1]
-            noise = halves_noise(A, B)
-            el = time.time() - t0
-            done_spp = n[0] + n[1] >= spp
-            if done_spp or el > budget_s or noise <= target:
-                log(f"    {n[0] + n[1]} spp, noise {noise:.4f}, {el:.0f} s")
-                return (A + B) / 2, noise, n[0] + n[1], el
+    sa, sb, na, nb, noise, el = alternate_halves(
+        lambda k: sc.render(PASS_SPP, seed0 + k) * PASS_SPP, PASS_SPP,
+        lambda na, nb, noise, el: na + nb >= spp or el > budget_s or noise <= target, log)
+    return (sa / na + sb / nb) / 2, noise, na + nb, el
 
 
 def case_names(only, lights=False):
