@@ -67,8 +67,6 @@ def defines(cfg: Config) -> dict:
         if cfg.render.emission_profile == "lambertian":
             d.update(EMISSION_LAMBERT=1, APSF_NC=NC, APSF_COS_MIN=f"{COS_MIN!r}f",
                      APSF_J=len(load_table()["sigma_u"]))
-            if cfg.camera.depth != "distance":
-                d["CAM_Z"] = 1      # planar depth: view_cosines_inner without roots and divisions
     if open_border(cfg):
         d["BORDER_OPEN"] = 1
     m = cfg.medium
@@ -339,7 +337,8 @@ class Plan:
         d = defines(cfg)
         pre = dict(d, PRE_SOURCE=int(self.source), PRE_SEP=int(self.sep), PRE_SPLIT_MEDIUM=int(self.split_medium),
                    PRE_TRANSMITTANCE=int("transmittance" in self.aovs),
-                   PRE_SPREAD=int(not (self.apsf and self.source) or bool(self.aovs)))
+                   PRE_SPREAD=int(not (self.apsf and self.source) or bool(self.aovs)),
+                   CAM_Z=int(cfg.camera.depth != "distance"))   # planar depth: view_cosines_inner without roots
         self.k_pre_prog = rt.program("preprocess", **pre)
         self.k_pre_whole = rt.program("preprocess", WHOLE_GROUPS=1, **pre)
         self.k_density = rt.program("density", **d)
@@ -918,6 +917,7 @@ def get_plan(rt: Runtime, width: int, height: int, cfg: Config, aovs=()) -> Plan
     """Reuse buffers across images of one size and one compile-time configuration."""
     key = (id(rt), width, height, tuple(sorted(defines(cfg).items())), cfg.render.levels,
            plan_features(cfg, aovs),            # what its buffers are (BUFFERS)
+           cfg.camera.depth == "distance",      # its preprocess build (CAM_Z)
            cfg.render.border, cfg.render.border_margin)   # its edge tables and extension plan
     plan = _PLANS.get(key)
     if plan is None:
