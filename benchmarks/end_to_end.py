@@ -69,10 +69,11 @@ def user_env(**extra) -> dict:
     return env
 
 
-def fogcli_ms(src: Path, out: Path, rounds: int) -> tuple[float, dict]:
-    env = user_env()
+def fogcli_ms(src: Path, out: Path, rounds: int, warm: bool = True, **env_extra) -> tuple[float, dict]:
+    env = user_env(**env_extra)
     cmd = [sys.executable, "-m", "fogcli", "apply", str(src), "-o", str(out), "--timings"]
-    subprocess.run(cmd, check=True, capture_output=True, env=env)           # first run: caches
+    if warm:
+        subprocess.run(cmd, check=True, capture_output=True, env=env)           # first run: caches
     best, stages = 1e9, {}
     for _ in range(rounds):
         t = time.perf_counter()
@@ -83,6 +84,19 @@ def fogcli_ms(src: Path, out: Path, rounds: int) -> tuple[float, dict]:
             line = [x for x in r.stderr.splitlines() if x.startswith("{")]
             stages = json.loads(line[-1]) if line else {}
     return best * 1e3, stages
+
+
+def start_server(run_dir: Path, log: Path) -> subprocess.Popen:
+    """`fogcli serve` as a user starts it, in the benchmark's environment."""
+    proc = subprocess.Popen([sys.executable, "-m", "fogcli", "serve", "--idle", "600"],
+                            env=user_env(FOGCLI_RUN_DIR=str(run_dir)), stdout=subprocess.DEVNULL,
+                            stderr=open(log, "w"), stdin=subprocess.DEVNULL)
+    t = time.monotonic()
+    while "ready on" not in log.read_text():
+        if proc.poll() is not None or time.monotonic() - t > 300:
+            raise SystemExit(f"fogcli serve did not come up: {log.read_text()}")
+        time.sleep(0.2)
+    return proc
 
 
 STARTUP = """
@@ -138,24 +152,45 @@ def main() -> int:
     rgb = rgb * (1.0 + 0.02 * rng.standard_normal(rgb.shape, dtype=np.float32))
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
-        for comp in ("zip", "zips", "piz", "none"):
-            src = Path(tmp) / f"in_{comp}.exr"
-            write_exr(src, np.dstack([rgb, z]).astype(np.float32), ["R", "G", "B", "Z"], comp)
-            o = oiio_ms(src, Path(tmp) / "oiio.exr", comp, args.rounds)
-            f, st = fogcli_ms(src, Path(tmp) / f"out_{comp}.exr", args.rounds)
-            rows.append((comp, src.stat().st_size / 1e6, o, f, st))
-            print(comp, f"{o:.0f} ms oiio, {f:.0f} ms fogcli = {f / o:.2f}x", st, flush=True)
+        run_dir = Path(tmp) / "run"
+        server = start_server(run_dir, Path(tmp) / "serve.log")
+        try:
+            for comp in ("zip", "zips", "piz", "none"):
+                src = Path(tmp) / f"in_{comp}.exr"
+                write_exr(src, np.dstack([rgb, z]).astype(np.float32), ["R", "G", "B", "Z"], comp)
+                out = Path(tmp) / f"out_{comp}.exr"
+                alone, served = dict(FOGCLI_SERVER="0"), dict(FOGCLI_RUN_DIR=str(run_dir))
+                fogcli_ms(src, out, 0, **alone)          # the first runs: caches, the server's buffers
+                fogcli_ms(src, out, 0, **served)
+                o, f, s, st = 1e9, 1e9, 1e9, {}
+                for _ in range(args.rounds):             # interleaved: the machine's speed drifts
+                    o = min(o, oiio_ms(src, Path(tmp) / "oiio.exr", comp, 1))
+                    fi, sti = fogcli_ms(src, out, 1, warm=False, **alone)
+                    f, st = (fi, sti) if fi < f else (f, st)
+                    si, ssti = fogcli_ms(src, out, 1, warm=False, **served)
+                    s = min(s, si)
+                    if not ssti.get("served"):
+                        raise SystemExit(f"the server did not take the command: {(Path(tmp) / 'serve.log').read_text()}")
+                rows.append((comp, src.stat().st_size / 1e6, o, f, st, s))
+                print(comp, f"{o:.0f} ms oiio, {f:.0f} ms fogcli = {f / o:.2f}x, served {s:.0f} ms = {s / o:.2f}x",
+                      st, flush=True)
+        finally:
+            server.terminate()
+            server.wait(timeout=60)
     keys = [k for k in ("kernel_ms", "io_ms", "total_ms") if k in rows[0][4]]
     start = {c: startup_ms(c, args.rounds) for c in (False, True)}
     lines = [BEGIN, "## End to end", "",
              f"`python benchmarks/end_to_end.py` on {cpu}, {os.cpu_count()} cores: `fogcli apply in.exr -o out.exr` "
              f"of a {W}x{H} half-float EXR with R, G, B, Z (the harbour sample with 2 % grain, default fog), a new process each "
              f"time, second run (kernel caches warm), best of {args.rounds}; against OpenImageIO writing the same "
-             "pixels to an EXR of the same compression and reading them back, in the same run.", "",
-             "| compression | file MB | OpenImageIO write + read ms | fogcli apply ms | ratio | "
-             + " | ".join(f"{k} ms" for k in keys) + " |", "|---|---|---|---|---|" + "---|" * len(keys)]
-    for comp, mb, o, f, st in rows:
-        lines.append(f"| {comp} | {mb:.1f} | {o:.0f} | {f:.0f} | {f / o:.2f}x | "
+             "pixels to an EXR of the same compression and reading them back, in the same run. `served`: the same "
+             "command handed to a running `fogcli serve` (docs/distributed.md); the stage times are those of the "
+             "new process.", "",
+             "| compression | file MB | OpenImageIO write + read ms | fogcli apply ms | ratio | served ms | "
+             "served ratio | " + " | ".join(f"{k} ms" for k in keys) + " |",
+             "|---|---|---|---|---|---|---|" + "---|" * len(keys)]
+    for comp, mb, o, f, st, s in rows:
+        lines.append(f"| {comp} | {mb:.1f} | {o:.0f} | {f:.0f} | {f / o:.2f}x | {s:.0f} | {s / o:.2f}x | "
                      + " | ".join(f"{st.get(k, 0):.0f}" for k in keys) + " |")
     lines += ["", "Start-up of a new process (ms, best of the rounds): importing fogcli, then the first `apply` of a "
               "64 x 48 frame, of which building the default pipeline's programs; PoCL's own cache warm.", "",

@@ -8,8 +8,14 @@ from __future__ import annotations
 
 __version__ = "0.1.0"
 
-from .api import apply, make_config, read_camera, read_depth, read_image, write_image  # noqa: E402
-from .errors import UserError  # noqa: E402
-
 __all__ = ["apply", "make_config", "read_camera", "read_depth", "read_image", "write_image", "UserError",
            "__version__"]
+
+
+def __getattr__(name):
+    # lazy: the command's entry point (launch.py) imports this package and must stay light
+    if name in __all__:
+        from . import api, errors
+
+        return getattr(errors if name == "UserError" else api, name)
+    raise AttributeError(f"module 'fogcli' has no attribute {name!r}")

@@ -12,7 +12,7 @@ from pathlib import Path
 
 import click
 
-from . import __version__
+from . import __version__, launch
 from .errors import ProcessingError, UserError
 from .pipeline import AOV_NAMES
 
@@ -145,7 +145,7 @@ def apply(input, depth_path, medium, config_file, camera_file, sets, layer, view
         stages, kms = kernel_ms(t)
         report = {"stages": {k: round(v, 3) for k, v in stages.items()}, "kernel_ms": round(kms, 3),
                   "io_ms": round(res.io_ms, 3), "total_ms": round((time.perf_counter() - start) * 1e3, 3),
-                  "device": get_runtime(device).info.label(), "pixels": res.pixels}
+                  "device": get_runtime(device).info.label(), "pixels": res.pixels, "served": launch.SERVING}
         click.echo(json.dumps(report), err=True)
 
 
@@ -193,6 +193,19 @@ def batch(input_dir, output_dir, depth_pattern, medium, config_file, camera_file
         click.echo(f"fogcli: {len(s.done)} done, {len(s.skipped)} skipped, {len(s.failed)} failed "
                    f"in {s.seconds:.1f} s", err=True)
     sys.exit(3 if s.failed else 0)
+
+
+@main.command()
+@click.option("--idle", type=click.FloatRange(1, 86400), default=900, show_default=True,
+              help="Stop after this many seconds without a command.")
+@click.option("--device", metavar="SPEC", help="OpenCL device for the warm-up (P:D, cpu, gpu or a name).")
+@guarded
+def serve(idle, device):
+    """Keep fogcli loaded: while this runs, `fogcli apply` in this user's other shells hands
+    its command to it and skips a new process's start-up (FOGCLI_SERVER=0: it does not)."""
+    from .server import serve as run_server
+
+    run_server(idle, device)
 
 
 @main.command()

@@ -116,17 +116,18 @@ def write_passthrough(path: Path, tmp: str, frame, rgb: np.ndarray, alpha: np.nd
             as_half = all(str(f) == "half" for f in o.channelformats)
             for y0, y1, px in _strip_reader(inp, i, spec, nch, read_fmt, kept):
                 r0, r1 = y0 - spec.y, y1 - spec.y
-                if replace or extra:
-                    px = np.array(px, copy=True)
-                    for c, plane in replace.items():
-                        px[:, :, c] = plane[r0:r1]
-                    if extra:
-                        px = np.concatenate([px] + [p[r0:r1, :, None].astype(px.dtype) for p in extra], axis=2)
-                if as_half:
-                    with np.errstate(over="ignore"):      # beyond 65504: inf, as the writer's own conversion
-                        px = px.astype(np.float16)
-                else:
-                    px = np.ascontiguousarray(px)
+                want = np.float16 if as_half else (np.float32 if px.dtype == np.float16 else px.dtype)
+                with np.errstate(over="ignore"):      # beyond 65504: inf, as the writer's own conversion
+                    if replace or extra:
+                        # each channel converted once, straight into the strip that is written
+                        buf = np.empty((r1 - r0, spec.width, nch + len(extra)), want)
+                        for c in range(nch):
+                            buf[:, :, c] = replace[c][r0:r1] if c in replace else px[:, :, c]
+                        for k, plane in enumerate(extra):
+                            buf[:, :, nch + k] = plane[r0:r1]
+                        px = buf
+                    else:
+                        px = np.ascontiguousarray(px, dtype=want)
                 if not out.write_scanlines(y0, y1, spec.z, px):
                     ok = False
                     break

@@ -48,8 +48,9 @@ class Frame:
     alpha_name: str | None = None
     view_prefix: str = ""           # "right." when a non-default view of a single-part file
     pixel_type: str = "float"       # the colour channels' type in the file (half, float, uint8...)
-    # every channel of the part as read (float32, exact for half and float files of up to
-    # KEEP_CHANNELS channels): the EXR output copies the others from here, not from a second decode
+    # every channel of the part as read (float16 where all are half, else float32; exact for
+    # half and float files of up to KEEP_CHANNELS channels): the EXR output copies the others
+    # from here, not from a second decode
     pixels: np.ndarray | None = None
 
 
@@ -286,7 +287,9 @@ def read_image(path: str | Path, layer: str | None = None, view: str | None = No
     with_rgb = [p for p in chosen if _colour_channels(list(p[1].channelnames))[0]]
     colour_part = (by_name or with_rgb or chosen)[0]    # a depth-only part may come first
     sub, spec = colour_part[0], colour_part[1]
-    px = whole = _read_pixels(inp, path, "float", sub)
+    formats = [str(t) for t in spec.channelformats] if len(spec.channelformats) else [str(spec.format)] * spec.nchannels
+    # an all-half part is read as it is stored: numpy widens it faster than the decoder does
+    px = whole = _read_pixels(inp, path, "half" if set(formats) == {"half"} else "float", sub)
     names = list(spec.channelnames)
     keep = _view_channels(names, spec, view, path) if len(parts) == 1 else list(range(len(names)))
     sel_names = [names[i] for i in keep]
@@ -352,9 +355,7 @@ def read_image(path: str | Path, layer: str | None = None, view: str | None = No
     alpha = None
     if a_idx is not None:
         # premultiplied coverage in [0, 1]; NaN (no coverage information) counts as opaque
-        alpha = np.clip(np.nan_to_num(px[:, :, a_idx], nan=1.0, posinf=1.0, neginf=0.0), 0.0, 1.0)
-        alpha = np.ascontiguousarray(alpha, dtype=np.float32)
-    formats = [str(t) for t in spec.channelformats] if len(spec.channelformats) else [fmt_name] * len(names)
+        alpha = np.clip(np.nan_to_num(px[:, :, a_idx].astype(np.float32), nan=1.0, posinf=1.0, neginf=0.0), 0.0, 1.0)
     keep_all = is_exr and len(names) <= KEEP_CHANNELS and all(f in ("half", "float") for f in formats)
     prefix = view + "." if (len(parts) == 1 and view and any(n.startswith(view + ".") for n in names)) else ""
     return Frame(path, rgb, alpha, depth, (spec.x, spec.y),

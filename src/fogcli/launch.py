@@ -1,0 +1,162 @@
+"""The `fogcli` command's entry point. With a `fogcli serve` running for this installation,
+`fogcli apply` hands its command line to it and prints what it sends back: the server has
+numpy, OpenCL, the built programs and the device buffers of the last frame sizes ready, so
+a frame costs its I/O and kernels, not a new process's start-up (docs/cli.md, Serving).
+Anything else, or no server, runs here as usual. This module imports only the standard
+library's light parts: it is on every command's path."""
+from __future__ import annotations
+
+import os
+import sys
+import zlib
+
+import _socket      # not socket: its import costs more than all of this module's work
+
+PACKAGE = os.path.dirname(os.path.abspath(__file__))
+ENV_PREFIXES = ("FOGCLI_", "POCL_", "PYOPENCL_", "OCL_", "OPENIMAGEIO_", "OIIO_")
+ENV_KEYS = ("HOME", "XDG_CACHE_HOME", "LD_LIBRARY_PATH", "LD_PRELOAD", "TMPDIR", "CUDA_VISIBLE_DEVICES")
+ENV_ROUTING = ("FOGCLI_SERVER", "FOGCLI_RUN_DIR")   # where to send, not how to run: not compared
+FORWARDED = ("apply",)
+SERVING = False          # set by the server while it runs a client's command
+
+
+def relevant_env(env=None) -> dict:
+    """The variables that change what a run does: a client whose values differ from the
+    server's runs on its own."""
+    env = os.environ if env is None else env
+    return {k: v for k, v in env.items() if (k.startswith(ENV_PREFIXES) or k in ENV_KEYS) and k not in ENV_ROUTING}
+
+
+def install_key() -> str:
+    """This interpreter and these sources: an edited or reinstalled fogcli gets a server of its own."""
+    parts = [sys.executable, PACKAGE, sys.version]
+    for d in (PACKAGE, os.path.join(PACKAGE, "kernels")):
+        try:
+            entries = sorted(os.scandir(d), key=lambda e: e.name)
+        except OSError:
+            continue
+        for e in entries:
+            if e.name.endswith((".py", ".cl", ".h")) and e.is_file():
+                st = e.stat()
+                parts.append(f"{e.name}:{st.st_mtime_ns}:{st.st_size}")
+    text = "\0".join(parts).encode()
+    return f"{zlib.crc32(text):08x}{zlib.adler32(text[::-1]):08x}"
+
+
+def run_dir() -> str:
+    """A folder only this user can enter (sockets in it need no other protection)."""
+    d = os.environ.get("FOGCLI_RUN_DIR")
+    if not d:
+        base = os.environ.get("XDG_RUNTIME_DIR")
+        if not base or not os.path.isdir(base):
+            base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
+            base = os.path.join(base, "fogcli")
+        d = os.path.join(base, "fogcli-run")
+    return d
+
+
+def socket_path(key: str | None = None) -> str:
+    return os.path.join(run_dir(), f"serve-{key or install_key()}.sock")
+
+
+def _private(d: str) -> bool:
+    try:
+        st = os.stat(d)
+    except OSError:
+        return False
+    return st.st_uid == os.getuid() and not st.st_mode & 0o077
+
+
+# frames: a tag byte and a 4-byte length; client -> server one request (q), server -> client
+# o (stdout text), e (stderr text), x (exit code), d (declined: run it yourself)
+def send(sock, tag: bytes, payload: bytes) -> None:
+    sock.sendall(tag + len(payload).to_bytes(4, "little") + payload)
+
+
+def recv(sock) -> tuple[bytes, bytes] | None:
+    head = _exactly(sock, 5)
+    if head is None:
+        return None
+    body = _exactly(sock, int.from_bytes(head[1:], "little"))
+    return None if body is None else (head[:1], body)
+
+
+def encode_request(argv: list[str], cwd: str, umask: int, env: dict) -> bytes:
+    """NUL-separated (no argument, path or variable can hold a NUL): umask, cwd, the
+    argument count, the arguments, then the variables as NAME=value."""
+    return "\0".join([str(umask), cwd, str(len(argv)), *argv, *(f"{k}={v}" for k, v in sorted(env.items()))]).encode(
+        "utf-8", "surrogateescape")
+
+
+def decode_request(data: bytes) -> dict:
+    f = data.decode("utf-8", "surrogateescape").split("\0")
+    n = int(f[2])
+    if len(f) < 3 + n:
+        raise ValueError("short request")
+    env = dict(kv.split("=", 1) for kv in f[3 + n:] if kv)
+    return {"umask": int(f[0]), "cwd": f[1], "argv": f[3:3 + n], "env": env}
+
+
+def _exactly(sock, n: int) -> bytes | None:
+    buf = bytearray()
+    while len(buf) < n:
+        chunk = sock.recv(min(n - len(buf), 1 << 20))
+        if not chunk:
+            return None
+        buf += chunk
+    return bytes(buf)
+
+
+def forward(argv: list[str]) -> int | None:
+    """The exit code of the command run by the server, or None: run it here."""
+    if os.environ.get("FOGCLI_SERVER") == "0" or not argv or argv[0] not in FORWARDED:
+        return None
+    if any(a in ("-", "-h", "--help") for a in argv):
+        return None
+    path = socket_path()
+    if not os.path.exists(path) or not _private(os.path.dirname(path)):
+        return None
+    sock = _socket.socket(_socket.AF_UNIX, _socket.SOCK_STREAM)
+    try:
+        sock.connect(path)
+    except OSError:          # a server that stopped without cleaning up: nobody listens
+        sock.close()
+        return None
+    mask = os.umask(0)
+    os.umask(mask)
+    got_any = False
+    try:
+        send(sock, b"q", encode_request(argv, os.getcwd(), mask, relevant_env()))
+        while True:
+            msg = recv(sock)
+            if msg is None:
+                break
+            tag, body = msg
+            if tag == b"d":
+                return None
+            got_any = True
+            if tag == b"x":
+                return int(body)
+            stream = sys.stdout if tag == b"o" else sys.stderr
+            stream.write(body.decode("utf-8", "replace"))
+            stream.flush()
+    except KeyboardInterrupt:     # closing the socket interrupts the server's run of it
+        sys.stderr.write("fogcli: interrupted\n")
+        return 130
+    except OSError:
+        pass
+    finally:
+        sock.close()
+    if not got_any:
+        return None
+    sys.stderr.write("fogcli: the server (fogcli serve) stopped during the run; run again (FOGCLI_SERVER=0: without it)\n")
+    return 1
+
+
+def main() -> None:
+    code = forward(sys.argv[1:])
+    if code is not None:
+        sys.exit(code)
+    from .cli import main as cli_main
+
+    cli_main()

@@ -1,0 +1,250 @@
+"""`fogcli serve`: one process that keeps numpy, OpenCL, the built programs and the device
+buffers of recent frame sizes, and runs the `fogcli apply` command lines that clients
+(launch.py) hand it, one at a time, in the client's folder and with its umask. A client
+that arrives while a run is going on, or whose environment differs in what changes a run,
+is told to run the command itself. A client that goes away (Ctrl-C, killed) interrupts its
+run as Ctrl-C would: the output's temporary file is removed. No fork: the runs happen in
+this process (PoCL must not be forked)."""
+from __future__ import annotations
+
+import _thread
+import io
+import os
+import queue
+import signal
+import socket
+import sys
+import threading
+import time
+import warnings
+
+from . import launch
+from .errors import UserError
+
+
+class _Stream(io.TextIOBase):
+    """stdout or stderr of one run: text sent to the client as it is written."""
+
+    def __init__(self, conn: socket.socket, tag: bytes):
+        self.conn, self.tag = conn, tag
+
+    def write(self, s: str) -> int:
+        try:
+            launch.send(self.conn, self.tag, s.encode("utf-8", "replace"))
+        except OSError:
+            pass       # the client is gone; the watcher interrupts the run
+        return len(s)
+
+    def isatty(self) -> bool:
+        return False
+
+    @property
+    def encoding(self) -> str:
+        return "utf-8"
+
+
+class Server:
+    def __init__(self, path: str, idle: float, log):
+        self.path, self.idle, self.log = path, idle, log
+        self.env = launch.relevant_env()       # before the runtime adds POCL_CACHE_DIR
+        self.jobs: queue.Queue = queue.Queue()
+        self.lock = threading.Lock()
+        self.busy = False
+        self.running = None                    # the connection whose run is going on
+        self.stopping = False                  # Ctrl-C or SIGTERM of the server itself
+        self.filters = list(warnings.filters)
+        self.saved = None                      # what a run changes: stdout, stderr, folder, umask
+
+    # ------------------------------------------------------------------ acceptor thread
+    def accept_loop(self, sock: socket.socket) -> None:
+        while True:
+            try:
+                conn, _ = sock.accept()
+            except OSError:
+                return
+            threading.Thread(target=self._admit, args=(conn,), daemon=True).start()
+
+    def _admit(self, conn: socket.socket) -> None:
+        try:
+            conn.settimeout(10)
+            msg = launch.recv(conn)
+            conn.settimeout(None)
+            req = launch.decode_request(msg[1]) if msg and msg[0] == b"q" else None
+            ok = isinstance(req, dict) and req.get("env") == self.env and isinstance(req.get("argv"), list)
+            with self.lock:
+                take = ok and not self.busy
+                self.busy = self.busy or take
+            if take:
+                self.jobs.put((conn, req))
+                return
+            why = "busy" if ok else ("its environment differs (FOGCLI_*, POCL_*, ...)" if isinstance(req, dict)
+                                     else "not a request")
+            self.log(f"a client runs by itself: {why}")
+            launch.send(conn, b"d", b"")
+        except (OSError, ValueError, IndexError):
+            pass
+        conn.close()
+
+    def _watch(self, conn: socket.socket) -> None:
+        """EOF from the client while its run is going on: interrupt the run."""
+        try:
+            while conn.recv(4096):
+                pass
+        except OSError:
+            pass
+        with self.lock:
+            if self.running is conn:
+                self.running = None
+                _thread.interrupt_main(signal.SIGUSR1)    # not SIGINT: that stops the server
+
+    # ------------------------------------------------------------------ main thread
+    def loop(self) -> None:
+        last = time.monotonic()
+        while not self.stopping:
+            try:
+                if not self._next(last):
+                    return
+            except KeyboardInterrupt:
+                if self.stopping:
+                    raise
+            finally:       # again: an interrupt may have cut the run's own clean-up short
+                self._restore()
+                with self.lock:
+                    self.busy = False
+                    self.running = None
+            last = time.monotonic()
+        raise KeyboardInterrupt
+
+    def _restore(self) -> None:
+        if self.saved is not None:
+            sys.stdout, sys.stderr, cwd, mask = self.saved
+            self.saved = None
+            launch.SERVING = False
+            os.umask(mask)
+            os.chdir(cwd)
+
+    def _next(self, last: float) -> bool:
+        try:
+            conn, req = self.jobs.get(timeout=max(0.1, self.idle - (time.monotonic() - last)))
+        except queue.Empty:
+            if time.monotonic() - last < self.idle:
+                return True
+            self.log(f"idle for {self.idle:g} s: stopping")
+            return False
+        try:
+            self.run(conn, req)
+        finally:
+            try:
+                conn.shutdown(socket.SHUT_RDWR)     # wakes the watcher's recv
+            except OSError:
+                pass
+            conn.close()
+        return True
+
+    def run(self, conn: socket.socket, req: dict) -> None:
+        from .cli import main as cli_main
+
+        t = time.perf_counter()
+        out, err = _Stream(conn, b"o"), _Stream(conn, b"e")
+        code = 1
+        with self.lock:
+            self.running = conn
+        threading.Thread(target=self._watch, args=(conn,), daemon=True).start()
+        try:
+            self.saved = sys.stdout, sys.stderr, os.getcwd(), os.umask(int(req.get("umask", 0o022)))
+            launch.SERVING = True
+            os.chdir(req["cwd"])
+            sys.stdout, sys.stderr = out, err
+            with warnings.catch_warnings():      # each run warns anew, as a process of its own
+                warnings.filters[:] = self.filters
+                cli_main.main(args=[str(a) for a in req["argv"]], prog_name="fogcli")
+        except SystemExit as exc:
+            code = exc.code if isinstance(exc.code, int) else (0 if exc.code is None else 1)
+        except KeyboardInterrupt:
+            code = 130
+            if self.stopping:
+                raise
+        except BaseException as exc:  # noqa: BLE001  (a bug must not stop the server)
+            err.write(f"fogcli: processing failed: {exc.__class__.__name__}: {exc}\n")
+            code = 1
+        finally:
+            with self.lock:
+                self.running = None
+            self._restore()
+        try:
+            launch.send(conn, b"x", str(code).encode())
+        except OSError:
+            pass
+        self.log(f"{' '.join(map(str, req['argv']))[:200]}: exit {code} ({(time.perf_counter() - t) * 1e3:.0f} ms)")
+
+
+def _warm_up(device: str | None) -> None:
+    """The default pipeline's programs built before the first client comes."""
+    import numpy as np
+
+    from .api import apply, make_config
+
+    apply(np.ones((48, 64, 3), np.float32), np.full((48, 64), 10.0, np.float32), make_config("fog"), device=device)
+
+
+def serve(idle: float, device: str | None = None) -> None:
+    key = launch.install_key()
+    path = launch.socket_path(key)
+    d = os.path.dirname(path)
+    try:
+        os.makedirs(d, mode=0o700, exist_ok=True)
+    except OSError as exc:
+        raise UserError(f"{d}: cannot make the server's folder ({exc.strerror})") from None
+    if not launch._private(d):
+        raise UserError(f"{d}: must belong to you and be closed to others (chmod 700)")
+    probe = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
+    probe.settimeout(5)
+    try:
+        probe.connect(path)
+        raise UserError(f"a server for this installation is running already ({path})")
+    except OSError:
+        pass
+    finally:
+        probe.close()
+
+    own = sys.stderr       # a run replaces sys.stderr with its client's; the log stays here
+
+    def log(msg: str) -> None:
+        own.write(f"fogcli serve: {msg}\n")
+        own.flush()
+
+    srv = Server(path, idle, log)
+
+    def stop(signum, frame):
+        srv.stopping = True
+        raise KeyboardInterrupt
+
+    def client_gone(signum, frame):
+        raise KeyboardInterrupt
+
+    signal.signal(signal.SIGINT, stop)
+    signal.signal(signal.SIGTERM, stop)
+    signal.signal(signal.SIGUSR1, client_gone)
+    tmp = f"{path}.{os.getpid()}"
+    sock = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
+    ino = None
+    try:
+        _warm_up(device)
+        sock.bind(tmp)
+        sock.listen(16)
+        os.replace(tmp, path)        # a stale socket of a killed server is replaced
+        ino = os.stat(path).st_ino
+        log(f"ready on {path} (stops after {idle:g} s idle; FOGCLI_SERVER=0 runs a command without it)")
+        threading.Thread(target=srv.accept_loop, args=(sock,), daemon=True).start()
+        srv.loop()
+    except KeyboardInterrupt:
+        log("interrupted: stopping")
+    finally:
+        sock.close()
+        try:
+            if ino is None:
+                os.unlink(tmp)
+            elif os.stat(path).st_ino == ino:     # not a newer server's socket
+                os.unlink(path)
+        except OSError:
+            pass

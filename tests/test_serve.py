@@ -1,0 +1,171 @@
+"""`fogcli serve`: `fogcli apply` handed to a running server gives the same file, the same
+errors and exit codes as a run of its own; a client whose environment differs, or that comes
+while the server is busy, runs by itself; a client that goes away interrupts its run and
+leaves no file; an idle server stops and removes its socket. Real processes throughout."""
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import OpenImageIO as oiio
+import pytest
+
+from fogcli import launch
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def _env(run_dir: Path, **extra) -> dict:
+    env = {k: v for k, v in os.environ.items() if k not in ("FOGCLI_SERVER", "FOGCLI_DEBUG")}
+    env.update(FOGCLI_RUN_DIR=str(run_dir), **extra)
+    return env
+
+
+def _fogcli(args, cwd, env, **kw):
+    return subprocess.run([sys.executable, "-m", "fogcli", *args], cwd=cwd, env=env, capture_output=True,
+                          text=True, timeout=300, **kw)
+
+
+def _start(run_dir: Path, log: Path, idle: int = 300):
+    proc = subprocess.Popen([sys.executable, "-m", "fogcli", "serve", "--idle", str(idle)], env=_env(run_dir),
+                            stdout=subprocess.DEVNULL, stderr=open(log, "w"), stdin=subprocess.DEVNULL)
+    t = time.monotonic()
+    while "ready on" not in log.read_text():
+        assert proc.poll() is None, log.read_text()
+        assert time.monotonic() - t < 240, "the server did not come up"
+        time.sleep(0.2)
+    return proc
+
+
+def _write(path: Path, w: int, h: int, seed: int = 0) -> None:
+    rng = np.random.default_rng(seed)
+    rgb = rng.uniform(0.0, 1.0, (h, w, 3)).astype(np.float32)
+    z = np.tile(np.linspace(2.0, 300.0, w, dtype=np.float32), (h, 1))
+    spec = oiio.ImageSpec(w, h, 4, "half")
+    spec.channelnames = ("R", "G", "B", "Z")
+    out = oiio.ImageOutput.create(str(path))
+    assert out.open(str(path), spec) and out.write_image(np.dstack([rgb, z]))
+    out.close()
+
+
+def _pixels(path: Path) -> np.ndarray:
+    inp = oiio.ImageInput.open(str(path))
+    px = np.asarray(inp.read_image(0, 0, 0, inp.spec().nchannels, "half"))
+    inp.close()
+    return px.view(np.uint16)
+
+
+def _wait_for(log: Path, text: str, limit: float = 120.0) -> None:
+    t = time.monotonic()
+    while text not in log.read_text():
+        assert time.monotonic() - t < limit, log.read_text()
+        time.sleep(0.1)
+
+
+def _timings(stderr: str) -> dict:
+    return json.loads([ln for ln in stderr.splitlines() if ln.startswith("{")][-1])
+
+
+@pytest.fixture(scope="module")
+def server(tmp_path_factory):
+    d = tmp_path_factory.mktemp("serve")
+    run_dir, log = d / "run", d / "serve.log"
+    proc = _start(run_dir, log)
+    yield run_dir, log, d
+    proc.send_signal(signal.SIGINT)
+    assert proc.wait(timeout=60) == 0, log.read_text()
+    assert not list(run_dir.glob("*.sock*")), "the server left its socket behind"
+
+
+def test_served_apply_matches_a_run_of_its_own(server):
+    run_dir, log, d = server
+    _write(d / "in.exr", 96, 64)
+    served = _fogcli(["apply", "in.exr", "-o", "served.exr", "--timings"], d, _env(run_dir))
+    alone = _fogcli(["apply", "in.exr", "-o", "alone.exr", "--timings"], d, _env(run_dir, FOGCLI_SERVER="0"))
+    assert served.returncode == 0 and alone.returncode == 0, served.stderr + alone.stderr
+    assert _timings(served.stderr)["served"] is True
+    assert _timings(alone.stderr)["served"] is False
+    assert np.array_equal(_pixels(d / "served.exr"), _pixels(d / "alone.exr"))
+    assert "apply in.exr -o served.exr --timings: exit 0" in log.read_text()
+    # the client's folder and umask: a relative output lands there with the client's mode
+    os.makedirs(d / "sub", exist_ok=True)
+    r = subprocess.run(["sh", "-c", f"umask 077 && exec '{sys.executable}' -m fogcli apply ../in.exr -o rel.exr"],
+                       cwd=d / "sub", env=_env(run_dir), capture_output=True, text=True, timeout=300)
+    assert r.returncode == 0, r.stderr
+    assert (d / "sub" / "rel.exr").stat().st_mode & 0o777 == 0o600
+
+
+def test_served_errors_are_the_same_one_line_exit_2(server):
+    run_dir, _, d = server
+    (d / "bad.exr").write_bytes(b"not an exr at all")
+    before = (d / "bad.exr").read_bytes()
+    for args in (["apply", "missing.exr"], ["apply", "bad.exr", "-o", "x.exr"],
+                 ["apply", "bad.exr", "--set", "render.kernel=5"]):
+        served = _fogcli(args, d, _env(run_dir))
+        alone = _fogcli(args, d, _env(run_dir, FOGCLI_SERVER="0"))
+        assert (served.returncode, served.stderr, served.stdout) == (alone.returncode, alone.stderr, alone.stdout)
+        assert served.returncode == 2 and len(served.stderr.splitlines()) == 1, served.stderr
+        assert "Traceback" not in served.stderr
+    assert (d / "bad.exr").read_bytes() == before
+    assert not (d / "x.exr").exists()
+
+
+def test_a_different_environment_runs_by_itself(server):
+    run_dir, _, d = server
+    _write(d / "env.exr", 32, 24)
+    r = _fogcli(["apply", "env.exr", "-o", "env_out.exr", "--timings"], d, _env(run_dir, FOGCLI_DEBUG="1"))
+    assert r.returncode == 0, r.stderr
+    assert _timings(r.stderr)["served"] is False
+    assert launch.relevant_env({"FOGCLI_DEBUG": "1", "PATH": "/x", "FOGCLI_SERVER": "1"}) == {"FOGCLI_DEBUG": "1"}
+
+
+def test_a_client_that_goes_away_interrupts_its_run(server):
+    """A long run (the exact reference) is interrupted when its client is killed: no output,
+    no temporary file. While it runs, another client is told to run by itself."""
+    run_dir, log, d = server
+    _write(d / "long.exr", 480, 360, seed=1)
+    _write(d / "small.exr", 32, 24, seed=2)
+    env = _env(run_dir)
+    a = subprocess.Popen([sys.executable, "-m", "fogcli", "apply", "long.exr", "-o", "long_out.exr",
+                          "--set", "render.method=reference"], cwd=d, env=env,
+                         stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    time.sleep(1.5)
+    b = subprocess.Popen([sys.executable, "-m", "fogcli", "apply", "small.exr", "-o", "small_out.exr", "--timings"],
+                         cwd=d, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    _wait_for(log, "a client runs by itself: busy")
+    assert a.poll() is None, "the long run ended before the test could interrupt it"
+    a.kill()
+    a.wait()
+    _wait_for(log, "long.exr -o long_out.exr --set render.method=reference: exit 130")
+    _, err = b.communicate(timeout=300)
+    assert b.returncode == 0 and _timings(err)["served"] is False, err
+    assert not (d / "long_out.exr").exists()
+    assert not [p.name for p in d.iterdir() if ".tmp" in p.name]
+    after = _fogcli(["apply", "small.exr", "-o", "small_again.exr", "--timings"], d, env)
+    assert after.returncode == 0 and _timings(after.stderr)["served"] is True, after.stderr
+
+
+def test_an_idle_server_stops_and_removes_its_socket(tmp_path):
+    run_dir, log = tmp_path / "run", tmp_path / "serve.log"
+    proc = _start(run_dir, log, idle=1)
+    assert proc.wait(timeout=60) == 0, log.read_text()
+    assert "idle for 1 s: stopping" in log.read_text()
+    assert not list(run_dir.glob("*.sock*"))
+    # no server: the command runs by itself
+    _write(tmp_path / "in.exr", 16, 12)
+    r = _fogcli(["apply", "in.exr", "--timings"], tmp_path, _env(run_dir))
+    assert r.returncode == 0 and _timings(r.stderr)["served"] is False, r.stderr
+
+
+def test_a_second_server_is_refused_and_requests_round_trip(server):
+    run_dir, _, d = server
+    r = _fogcli(["serve"], d, _env(run_dir))
+    assert r.returncode == 2 and "is running already" in r.stderr and len(r.stderr.splitlines()) == 1, r.stderr
+    argv = ["apply", "a b.exr", "--set", "medium.ambient=[1,2,3]", "ünï=cödé", ""]
+    env = {"FOGCLI_DEVICE": "0:0", "POCL_X": "a=b", "HOME": "/h ome"}
+    got = launch.decode_request(launch.encode_request(argv, "/tmp/x y", 0o027, env))
+    assert got == {"argv": argv, "cwd": "/tmp/x y", "umask": 0o027, "env": env}
