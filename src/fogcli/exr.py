@@ -11,6 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
+from . import pixels
 from .errors import ProcessingError, UserError
 
 # the old file's encoding, not the picture: dropped or rewritten by the writer
@@ -74,13 +75,13 @@ def write_passthrough(path: Path, tmp: str, frame, rgb: np.ndarray, alpha: np.nd
             for a in _ENCODING:
                 o.erase_attribute(a)
             o.tile_width = o.tile_height = o.tile_depth = 0
-            replace: dict[int, np.ndarray] = {}
+            replace: dict[int, tuple] = {}      # channel -> (frame or plane, its channel)
             extra_names, extra_planes = [], []
             if i == frame.part:
                 for c, name in enumerate(frame.rgb_names):
-                    replace.setdefault(names.index(name), rgb[:, :, c])
+                    replace.setdefault(names.index(name), (rgb, c))
                 if frame.alpha_name is not None and alpha is not None:
-                    replace[names.index(frame.alpha_name)] = alpha
+                    replace[names.index(frame.alpha_name)] = (alpha, 0)
                 for name, plane in aovs.items():
                     full = frame.view_prefix + name
                     if full in names:
@@ -112,9 +113,16 @@ def write_passthrough(path: Path, tmp: str, frame, rgb: np.ndarray, alpha: np.nd
             kept = frame.pixels if i == frame.part and read_fmt == "float" else None
             if kept is not None and kept.shape != (spec.height, spec.width, nch):
                 kept = None
-            # all half: handed over as half (numpy converts faster than the writer does)
+            # all half: handed over as half (converted faster here than by the writer)
             as_half = all(str(f) == "half" for f in o.channelformats)
-            for y0, y1, px in _strip_reader(inp, i, spec, nch, read_fmt, kept):
+            strips = _strip_reader(inp, i, spec, nch, read_fmt, kept)
+            if kept is not None and (replace or extra):
+                # the processed part whole, in one pass (OpenCV), then written in strips as read
+                full = pixels.gather([replace.get(c, (kept, c)) for c in range(nch)] + [(p, 0) for p in extra],
+                                     np.float16 if as_half else np.float32)
+                strips = ((y0, y1, full[y0 - spec.y:y1 - spec.y]) for y0, y1, _ in strips)
+                replace, extra, nch = {}, [], nch + len(extra)
+            for y0, y1, px in strips:
                 r0, r1 = y0 - spec.y, y1 - spec.y
                 want = np.float16 if as_half else (np.float32 if px.dtype == np.float16 else px.dtype)
                 with np.errstate(over="ignore"):      # beyond 65504: inf, as the writer's own conversion
@@ -122,7 +130,11 @@ def write_passthrough(path: Path, tmp: str, frame, rgb: np.ndarray, alpha: np.nd
                         # each channel converted once, straight into the strip that is written
                         buf = np.empty((r1 - r0, spec.width, nch + len(extra)), want)
                         for c in range(nch):
-                            buf[:, :, c] = replace[c][r0:r1] if c in replace else px[:, :, c]
+                            if c in replace:
+                                a, ch = replace[c]
+                                buf[:, :, c] = a[r0:r1, :, ch] if a.ndim == 3 else a[r0:r1]
+                            else:
+                                buf[:, :, c] = px[:, :, c]
                         for k, plane in enumerate(extra):
                             buf[:, :, nch + k] = plane[r0:r1]
                         px = buf

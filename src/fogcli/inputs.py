@@ -15,6 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
+from . import pixels
 from .colour import srgb_to_linear
 from .errors import UserError
 
@@ -289,7 +290,8 @@ def read_image(path: str | Path, layer: str | None = None, view: str | None = No
     sub, spec = colour_part[0], colour_part[1]
     formats = [str(t) for t in spec.channelformats] if len(spec.channelformats) else [str(spec.format)] * spec.nchannels
     # an all-half part is read as it is stored: numpy widens it faster than the decoder does
-    px = whole = _read_pixels(inp, path, "half" if set(formats) == {"half"} else "float", sub)
+    whole = _read_pixels(inp, path, "half" if set(formats) == {"half"} else "float", sub)
+    px = pixels.widen(whole)
     names = list(spec.channelnames)
     keep = _view_channels(names, spec, view, path) if len(parts) == 1 else list(range(len(names)))
     sel_names = [names[i] for i in keep]
@@ -317,7 +319,7 @@ def read_image(path: str | Path, layer: str | None = None, view: str | None = No
 
     rgb_idx, a_idx = _colour_channels(sel_names)
     depth_idx = next((i for i, n in enumerate(sel_names) if _is_depth_name(n) and i not in rgb_idx), None)
-    depth = np.ascontiguousarray(px[:, :, depth_idx], dtype=np.float32) if depth_idx is not None else None
+    depth = pixels.plane(px, depth_idx) if depth_idx is not None else None
     if depth is None and len(parts) > 1:
         # Nuke and others write the depth layer as a part of its own
         for i, ps, _, pv in chosen:
@@ -325,7 +327,7 @@ def read_image(path: str | Path, layer: str | None = None, view: str | None = No
                 continue
             cand = [k for k, n in enumerate(ps.channelnames) if _is_depth_name(n)]
             if cand:
-                depth = np.ascontiguousarray(_read_pixels(inp, path, "float", i)[:, :, cand[0]], dtype=np.float32)
+                depth = pixels.plane(_read_pixels(inp, path, "float", i), cand[0])
                 break
     inp.close()
     if not rgb_idx:
@@ -341,8 +343,7 @@ def read_image(path: str | Path, layer: str | None = None, view: str | None = No
         if a_idx is None and len(sel_names) in (2, 4) and depth_idx is None and len(colour) == len(sel_names):
             a_idx = len(sel_names) - 1      # grey + alpha, RGBA, by position when unnamed
             rgb_idx = [i if i != a_idx else rgb_idx[0] for i in rgb_idx]
-    rgb = np.ascontiguousarray(px[:, :, rgb_idx], dtype=np.float32)
-    rgb = _to_linear(rgb, spec, fmt_name)
+    rgb = _to_linear(pixels.take(px, rgb_idx), spec, fmt_name)
     # max and min propagate NaN and keep inf: two passes without temporaries tell both
     hi, lo = float(rgb.max(initial=0.0)), float(rgb.min(initial=0.0))
     big = max(hi, -lo)
@@ -355,7 +356,8 @@ def read_image(path: str | Path, layer: str | None = None, view: str | None = No
     alpha = None
     if a_idx is not None:
         # premultiplied coverage in [0, 1]; NaN (no coverage information) counts as opaque
-        alpha = np.clip(np.nan_to_num(px[:, :, a_idx].astype(np.float32), nan=1.0, posinf=1.0, neginf=0.0), 0.0, 1.0)
+        alpha = pixels.plane(px, a_idx)
+        alpha = np.clip(np.nan_to_num(alpha, nan=1.0, posinf=1.0, neginf=0.0, copy=False), 0.0, 1.0, out=alpha)
     keep_all = is_exr and len(names) <= KEEP_CHANNELS and all(f in ("half", "float") for f in formats)
     prefix = view + "." if (len(parts) == 1 and view and any(n.startswith(view + ".") for n in names)) else ""
     return Frame(path, rgb, alpha, depth, (spec.x, spec.y),

@@ -9,6 +9,7 @@ import math
 
 import numpy as np
 
+from . import pixels
 from .config import FILTERS, Config
 from .errors import ProcessingError
 from .runtime import Runtime, get_runtime
@@ -399,8 +400,7 @@ class Plan:
                                          (self.h, self.w, 4), np.float32)
         t.add("upload", ev)
         ev.wait()
-        rgba[:, :, :3] = rgb
-        rgba[:, :, 3] = 1.0 if alpha is None else alpha
+        pixels.pack_rgba(rgba, rgb, alpha)
         t.add("upload", rgba.base.release(q))
         del rgba
         t.add("upload", cl.enqueue_copy(q, self.depth, np.ascontiguousarray(depth, np.float32)))

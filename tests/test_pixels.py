@@ -1,0 +1,75 @@
+"""pixels.py against numpy, bit for bit: half widening (NaN, inf, subnormals, -0), channel
+picks of every layout a frame comes in, planes, and the RGBA packing into a foreign
+buffer (the mapped device image)."""
+import numpy as np
+import pytest
+
+from fogcli import pixels
+
+
+def _frame(h, w, c, dtype, seed=0):
+    rng = np.random.default_rng(seed)
+    a = (rng.standard_normal((h, w, c)) * 100).astype(dtype)
+    flat = a.reshape(-1)
+    special = np.array([np.nan, np.inf, -np.inf, -0.0, 6e-8, -3e-6, 65504, 1e-7], dtype)
+    flat[:special.size] = special
+    return a
+
+
+def _same(a, b):
+    assert a.dtype == b.dtype and a.shape == b.shape
+    assert np.array_equal(a.view(np.uint8), b.view(np.uint8))
+
+
+@pytest.mark.parametrize("c", [1, 2, 3, 4, 5, 7])
+def test_widen_is_numpys_cast_bit_for_bit(c):
+    h = _frame(37, 53, c, np.float16)
+    _same(pixels.widen(h), h.astype(np.float32))
+    _same(pixels.widen(h[:, ::2]), h[:, ::2].astype(np.float32))        # a view: numpy's path
+    f = h.astype(np.float32)
+    assert pixels.widen(f) is f
+
+
+@pytest.mark.parametrize("c,idx", [(4, [0, 1, 2]), (4, [2, 1, 0]), (3, [0, 1, 2]), (4, [0, 1, 2, 3]),
+                                   (2, [0, 0, 0]), (5, [4, 0, 2]), (7, [1, 2, 3, 6]), (1, [0, 0, 0])])
+@pytest.mark.parametrize("dtype", [np.float16, np.float32])
+def test_take_and_plane_match_numpy(c, idx, dtype):
+    px = _frame(29, 41, c, dtype, seed=c)
+    want = np.ascontiguousarray(px[:, :, idx], dtype=np.float32)
+    got = pixels.take(px, idx)
+    _same(got, want)
+    assert got.flags.c_contiguous and not np.shares_memory(got, px)
+    for i in range(c):
+        p = pixels.plane(px, i)
+        _same(p, np.ascontiguousarray(px[:, :, i], dtype=np.float32))
+        assert not np.shares_memory(p, px)
+
+
+@pytest.mark.parametrize("with_alpha", [False, True])
+def test_pack_rgba_into_a_foreign_buffer(with_alpha):
+    rgb = _frame(31, 47, 3, np.float32, seed=3)
+    alpha = _frame(31, 47, 1, np.float32, seed=4)[:, :, 0] if with_alpha else None
+    buf = bytearray(31 * 47 * 16)
+    dst = np.frombuffer(buf, np.float32).reshape(31, 47, 4)
+    pixels.pack_rgba(dst, rgb, alpha)
+    want = np.dstack([rgb, alpha if with_alpha else np.ones((31, 47), np.float32)])
+    _same(np.frombuffer(buf, np.float32).reshape(31, 47, 4), want)
+    dst2 = np.zeros((31, 47, 4), np.float32)
+    pixels.pack_rgba(dst2, rgb[:, :, ::-1], alpha)                      # a view: numpy's path
+    _same(dst2[:, :, :3], np.ascontiguousarray(rgb[:, :, ::-1]))
+
+
+@pytest.mark.parametrize("dtype", [np.float16, np.float32])
+def test_gather_matches_numpy(dtype):
+    rgba = _frame(23, 31, 4, np.float32, seed=5) * 1e3           # beyond 65504: inf in half
+    kept = _frame(23, 31, 4, np.float16, seed=6)
+    alpha = _frame(23, 31, 1, np.float32, seed=7)[:, :, 0]
+    rgb = rgba[:, :, :3]                                          # a view, as the download gives
+    aov = rgba[:, :, 1]                                           # a strided plane
+    for picks in ([(rgb, 0), (rgb, 1), (rgb, 2), (kept, 3)], [(kept, 0), (rgb, 2), (alpha, 0)],
+                  [(rgb, 0), (rgb, 1), (rgb, 2), (alpha, 0), (kept, 3), (aov, 0)], [(kept, 2)]):
+        want = np.empty((23, 31, len(picks)), dtype)
+        with np.errstate(over="ignore"):
+            for j, (a, c) in enumerate(picks):
+                want[:, :, j] = a[:, :, c] if a.ndim == 3 else a
+        _same(pixels.gather(picks, dtype), want)
