@@ -20,6 +20,7 @@ import warnings
 
 from . import launch
 from .errors import UserError
+from .hostmem import keep_freed_memory
 
 
 class _Stream(io.TextIOBase):
@@ -178,21 +179,6 @@ class Server:
         self.log(f"{' '.join(map(str, req['argv']))[:200]}: exit {code} ({(time.perf_counter() - t) * 1e3:.0f} ms)")
 
 
-def _keep_freed_memory() -> None:
-    """glibc hands freed blocks of 32 MB and more back to the system, so every frame's
-    arrays fault in fresh zeroed pages; a server keeps them for the next frame (7 % of a
-    2 MPx frame here, A/B of two servers). The memory of the largest frame stays with the
-    server until it stops."""
-    try:
-        import ctypes
-
-        libc = ctypes.CDLL("libc.so.6")
-        libc.mallopt(-3, 1 << 30)          # M_MMAP_THRESHOLD: blocks below 1 GiB from the heap
-        libc.mallopt(-1, (1 << 31) - 1)    # M_TRIM_THRESHOLD: keep up to 2 GiB of freed heap
-    except (OSError, AttributeError):      # not glibc: nothing to tune
-        pass
-
-
 def _warm_up(device: str | None) -> None:
     """The default pipeline's programs built before the first client comes."""
     import numpy as np
@@ -244,7 +230,7 @@ def serve(idle: float, device: str | None = None) -> None:
     sock = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
     ino = None
     try:
-        _keep_freed_memory()
+        keep_freed_memory()
         _warm_up(device)
         sock.bind(tmp)
         sock.listen(16)
