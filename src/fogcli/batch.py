@@ -14,7 +14,6 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
 from .errors import UserError
-from .hostmem import keep_freed_memory
 from .job import Job
 from .outputs import DISPLAY_EXT, LINEAR_EXT, default_ext, is_partial
 
@@ -179,7 +178,6 @@ def init_worker(cfg, aovs, device, threads: int | None, started=None) -> None:
     every frame a worker begins, so that a worker that dies (a decoder crash) can be traced
     to its frame."""
     _die_with_parent()
-    keep_freed_memory()
     if threads:
         # PoCL 3.0's pthread device reads POCL_MAX_PTHREAD_COUNT, later ones POCL_CPU_MAX_CU_NUM
         os.environ.setdefault("POCL_CPU_MAX_CU_NUM", str(threads))
@@ -364,7 +362,6 @@ def _local(jobs, cfg, aovs, device, n_jobs, progress, collect):
     pool; the ones in flight are rerun one at a time, so the frame that kills a worker
     again is known, and reported as failed."""
     if n_jobs <= 1:
-        keep_freed_memory()
         _overlapped(list(jobs), cfg, aovs, device, progress, collect)
         return
     threads = max(1, (os.cpu_count() or 1) // n_jobs)

@@ -1,4 +1,5 @@
-"""Host memory of processes that run many frames (a batch, `fogcli serve`)."""
+"""Host memory of a process that runs many frames (`fogcli serve`). A batch does not set
+it: benchmarks/ab_batch.py found no difference there within the noise, and it keeps memory."""
 from __future__ import annotations
 
 
