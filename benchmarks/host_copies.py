@@ -16,7 +16,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path[:0] = [str(ROOT / "src"), str(ROOT / "benchmarks")]
 
-from docblock import write_block  # noqa: E402
+from docblock import publish_performance  # noqa: E402
 from fogcli import pixels  # noqa: E402
 
 BEGIN, END = "<!-- host-copies: begin -->", "<!-- host-copies: end -->"
@@ -70,10 +70,7 @@ def main() -> int:
         saved += ta - tb
         lines.append(f"| {name} | {ta:.1f} | {tb:.1f} | {ta / tb:.1f}x |")
     lines += ["", f"Saved per frame: {saved:.0f} ms.", END]
-    block = "\n".join(lines)
-    print(block)
-    write_block(ROOT / "docs" / "performance.md", BEGIN, END, block, new_doc="# Performance\n")
-    return 0
+    return publish_performance(lines)
 
 
 if __name__ == "__main__":

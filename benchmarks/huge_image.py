@@ -20,7 +20,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path[:0] = [str(ROOT / "src"), str(ROOT / "benchmarks")]
 
-from docblock import write_block  # noqa: E402
+from docblock import publish_performance  # noqa: E402
 
 BEGIN, END = "<!-- huge-image: begin -->", "<!-- huge-image: end -->"
 W, H = 16000, 12000
@@ -63,10 +63,7 @@ def main() -> int:
              f"({mb:.0f} MB zip) in a new process: exit code {r.returncode} after {wall:.1f} s, peak resident "
              f"memory {max(peak, before) / 1024:.0f} MiB. fogcli does not tile yet; it refuses from the file's "
              "header, before reading a pixel:", "", "```", msg, "```", END]
-    block = "\n".join(lines)
-    print(block)
-    write_block(ROOT / "docs" / "performance.md", BEGIN, END, block, new_doc="# Performance\n")
-    return 0
+    return publish_performance(lines)
 
 
 if __name__ == "__main__":
