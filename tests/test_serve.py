@@ -127,7 +127,7 @@ def test_a_client_that_goes_away_interrupts_its_run(server):
     """A long run (the exact reference) is interrupted when its client is killed: no output,
     no temporary file. While it runs, another client is told to run by itself."""
     run_dir, log, d = server
-    _write(d / "long.exr", 480, 360, seed=1)
+    _write(d / "long.exr", 640, 480, seed=1)      # the exact reference: ~14 s here, seconds on a fast CI machine
     _write(d / "small.exr", 32, 24, seed=2)
     env = _env(run_dir)
     a = subprocess.Popen([sys.executable, "-m", "fogcli", "apply", "long.exr", "-o", "long_out.exr",
