@@ -169,3 +169,6 @@ def test_a_second_server_is_refused_and_requests_round_trip(server):
     env = {"FOGCLI_DEVICE": "0:0", "POCL_X": "a=b", "HOME": "/h ome"}
     got = launch.decode_request(launch.encode_request(argv, "/tmp/x y", 0o027, env))
     assert got == {"argv": argv, "cwd": "/tmp/x y", "umask": 0o027, "env": env}
+    deep = d / ("x" * 90)
+    r = _fogcli(["serve"], d, _env(deep))
+    assert r.returncode == 2 and "FOGCLI_RUN_DIR" in r.stderr and len(r.stderr.splitlines()) == 1, r.stderr

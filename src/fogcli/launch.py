@@ -1,7 +1,8 @@
 """The `fogcli` command's entry point. With a `fogcli serve` running for this installation,
 `fogcli apply` hands its command line to it and prints what it sends back: the server has
 numpy, OpenCL, the built programs and the device buffers of the last frame sizes ready, so
-a frame costs its I/O and kernels, not a new process's start-up (docs/cli.md, Serving).
+a frame costs its I/O and kernels, not a new process's start-up (docs/distributed.md, One
+command per frame).
 Anything else, or no server, runs here as usual. This module imports only the standard
 library's light parts: it is on every command's path."""
 from __future__ import annotations

@@ -192,6 +192,8 @@ def serve(idle: float, device: str | None = None) -> None:
     key = launch.install_key()
     path = launch.socket_path(key)
     d = os.path.dirname(path)
+    if len(os.fsencode(path)) + 12 > 107:          # sun_path is 108 bytes, the temporary name adds a pid
+        raise UserError(f"{d}: too long a folder for the server's socket; set FOGCLI_RUN_DIR to a shorter one")
     try:
         os.makedirs(d, mode=0o700, exist_ok=True)
     except OSError as exc:
