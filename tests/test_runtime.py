@@ -1,6 +1,8 @@
 """The program binary cache (fogcli.runtime): programs are built from source once per
 machine and loaded from their device binary after that, keyed by everything that can
 change the binary."""
+import shutil
+
 import numpy as np
 import pytest
 
@@ -51,6 +53,19 @@ def test_second_runtime_loads_the_binary(cache, monkeypatch):
     monkeypatch.setenv("POCL_LLVM_CPU_NAME", "znver1")
     assert b.binary_path("pyramid", "src", ["-D", "A=1"]) != p
     assert b.binary_path("pyramid", "src", ["-D", "A=2"]) != b.binary_path("pyramid", "src", ["-D", "A=1"])
+
+
+def test_the_key_follows_the_kernels_content_not_their_folder(cache, monkeypatch, tmp_path):
+    """Another install of the same kernels (a fresh venv) loads the binaries already built;
+    an edited header builds anew."""
+    rt = runtime.Runtime()
+    here = rt.binary_path("pyramid", "src", ["-I", str(runtime.KERNEL_DIR), "-D", "A=1"])
+    moved = tmp_path / "elsewhere" / "kernels"
+    shutil.copytree(runtime.KERNEL_DIR, moved)
+    monkeypatch.setattr(runtime, "KERNEL_DIR", moved)
+    assert rt.binary_path("pyramid", "src", ["-I", str(moved), "-D", "A=1"]) == here
+    (moved / "common.h").write_text((moved / "common.h").read_text() + "\n// edited\n")
+    assert rt.binary_path("pyramid", "src", ["-I", str(moved), "-D", "A=1"]) != here
 
 
 def test_programs_are_built_at_their_first_launch(cache, monkeypatch):

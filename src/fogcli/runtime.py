@@ -227,7 +227,10 @@ class Runtime:
         import hashlib
 
         h = hashlib.sha256()
-        parts = [src, *(f.name + f.read_text() for f in sorted(KERNEL_DIR.glob("*.h"))), *opts]
+        # the headers' folder by content, not by path: every install (a CI clone's fresh venv)
+        # would otherwise build every program anew
+        parts = [src, *(f.name + f.read_text() for f in sorted(KERNEL_DIR.glob("*.h"))),
+                 *("<kernels>" if o == str(KERNEL_DIR) else o for o in opts)]
         d = self.device
         parts += [d.name, d.vendor, d.version, d.driver_version, d.platform.name, d.platform.version,
                   self.cl.VERSION_TEXT]
