@@ -45,8 +45,8 @@ class _Stream(io.TextIOBase):
 
 
 class Server:
-    def __init__(self, path: str, idle: float, log):
-        self.path, self.idle, self.log = path, idle, log
+    def __init__(self, idle: float, log):
+        self.idle, self.log = idle, log
         self.env = launch.relevant_env()       # before the runtime adds POCL_CACHE_DIR
         self.jobs: queue.Queue = queue.Queue()
         self.lock = threading.Lock()
@@ -216,7 +216,7 @@ def serve(idle: float, device: str | None = None) -> None:
         own.write(f"fogcli serve: {msg}\n")
         own.flush()
 
-    srv = Server(path, idle, log)
+    srv = Server(idle, log)
 
     def stop(signum, frame):
         srv.stopping = True
