@@ -187,6 +187,41 @@ def test_a_worker_that_dies_costs_only_its_frame(tmp_path, monkeypatch):
     assert sorted(p.name for p in out.iterdir()) == [f"w{i}.exr" for i in range(8) if i != 3]
 
 
+def test_jobs_1_writes_two_frames_at_once_within_the_pixel_budget(tmp_path, monkeypatch):
+    """--jobs 1 keeps up to WRITES_IN_FLIGHT writes running (the EXR write is most of a
+    frame's core time), one at a time once the frames exceed the pixel budget, and reports
+    the frames in input order either way."""
+    import threading
+
+    from fogcli import batch, job
+    from fogcli.media import assemble
+
+    src = tmp_path / "in"
+    src.mkdir()
+    for i in range(6):
+        frame(src / f"f{i}.exr", 80 + i, w=40, h=30)
+    real, lock, live, peak = job.store, threading.Lock(), [0], [0]
+
+    def slow_store(st, cfg):
+        with lock:
+            live[0] += 1
+            peak[0] = max(peak[0], live[0])
+        time.sleep(0.3)           # longer than a 40 x 30 frame's read and device run
+        try:
+            return real(st, cfg)
+        finally:
+            with lock:
+                live[0] -= 1
+
+    monkeypatch.setattr(job, "store", slow_store)
+    for budget, want in ((8_000_000, batch.WRITES_IN_FLIGHT), (2 * 40 * 30 - 1, 1)):
+        monkeypatch.setattr(batch, "WRITE_BUDGET_PIXELS", budget)
+        peak[0] = 0
+        s = batch.run_batch(src, tmp_path / f"out{budget}", assemble("fog"), quiet=True)
+        assert peak[0] == want == (2 if budget > 2400 else 1)
+        assert [Path(d["input"]).name for d in s.done] == [f"f{i}.exr" for i in range(6)]
+
+
 def test_jobs_1_overlaps_io_and_keeps_every_frame_apart(tmp_path):
     """--jobs 1 reads frame n + 1 and writes frame n - 1 while frame n runs on the device: the
     pixels are those of `fogcli apply` frame by frame, a frame that fails to read or to write
@@ -205,6 +240,7 @@ def test_jobs_1_overlaps_io_and_keeps_every_frame_apart(tmp_path):
     rep = json.loads(report.read_text())
     assert rep["counts"] == {"done": 5, "skipped": 0, "failed": 2}
     assert {Path(f["input"]).name for f in rep["failed"]} == {"f2.exr", "f4.exr"}
+    assert [Path(d["input"]).name for d in rep["done"]] == ["f0.exr", "f1.exr", "f3.exr", "f5.exr", "f6.exr"]
     for i in (0, 1, 3, 5, 6):
         single = tmp_path / f"single{i}.exr"
         assert fogcli("apply", src / f"f{i}.exr", "-o", single).returncode == 0

@@ -230,10 +230,18 @@ def _attempt(job: Job, fn):
                       "reason": f"processing failed: {exc.__class__.__name__}: {exc}"}
 
 
+# --jobs 1: frames being written at once. The EXR write is most of a frame's core time (zip
+# of float noise) and runs serially within one file, so one write at a time left a core idle
+# while the device waited for it (benchmarks/throughput.py); the pixel budget keeps large
+# frames to one (~40 bytes a pixel held per frame being written).
+WRITES_IN_FLIGHT, WRITE_BUDGET_PIXELS = 2, 8_000_000
+
+
 def _overlapped(jobs, cfg, aovs, device, progress, collect) -> None:
     """--jobs 1: while frame n runs on the device (this thread), frame n + 1 is read and its
-    depth cleaned and frame n - 1 written, on two threads (OpenImageIO and numpy release
-    the GIL; OpenCL stays on this thread). At most three frames in memory."""
+    depth cleaned and frames n - 1 and n - 2 written (WRITES_IN_FLIGHT), on threads
+    (OpenImageIO and numpy release the GIL; OpenCL stays on this thread). Results are
+    reported in input order."""
     from concurrent.futures import ThreadPoolExecutor
 
     from .job import compute, load, store
@@ -247,23 +255,24 @@ def _overlapped(jobs, cfg, aovs, device, progress, collect) -> None:
         res, failed = _attempt(job, lambda: store(st, cfg))
         return failed or _done(job, res, t0)
 
-    with ThreadPoolExecutor(max_workers=2, thread_name_prefix="fogcli-io") as io:
+    with ThreadPoolExecutor(max_workers=1 + WRITES_IN_FLIGHT, thread_name_prefix="fogcli-io") as io:
         ahead = io.submit(read, jobs[0]) if jobs else None
-        writing = None
+        writing: list = []         # (future, pixels), oldest first
         for i in range(len(jobs)):
             job, t0, st, failed = ahead.result()
             ahead = io.submit(read, jobs[i + 1]) if i + 1 < len(jobs) else None
             if failed is None:
                 st, failed = _attempt(job, lambda: compute(st, cfg, aovs, device))
-            if writing is not None:
-                collect(writing.result(), progress)
-                writing = None
+            px = st.rgb.shape[0] * st.rgb.shape[1] if failed is None else 0
+            while writing and (len(writing) >= WRITES_IN_FLIGHT or failed is not None
+                               or px + sum(n for _, n in writing) > WRITE_BUDGET_PIXELS):
+                collect(writing.pop(0)[0].result(), progress)
             if failed is not None:
                 collect(failed, progress)
             else:
-                writing = io.submit(write, job, t0, st)
-        if writing is not None:
-            collect(writing.result(), progress)
+                writing.append((io.submit(write, job, t0, st), px))
+        for w, _ in writing:
+            collect(w.result(), progress)
 
 
 @dataclass
