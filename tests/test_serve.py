@@ -114,6 +114,90 @@ def test_served_errors_are_the_same_one_line_exit_2(server):
     assert not (d / "x.exr").exists()
 
 
+def test_served_batch_matches_a_batch_of_its_own(server):
+    """`fogcli batch` (--jobs 1) runs in the server: the same files, report and messages as
+    a batch by itself, and a progress bar where the client's stderr is a terminal.
+    --jobs 2 (worker processes) runs by itself."""
+    import fcntl
+    import pty
+    import struct
+    import termios
+
+    run_dir, log, d = server
+    src = d / "frames"
+    src.mkdir()
+    for i in range(4):
+        _write(src / f"f{i}.exr", 40 + 8 * i, 24, seed=10 + i)
+    (src / "f9.exr").write_bytes(b"truncated")
+    runs = {}
+    for name, extra in (("served", {}), ("alone", {"FOGCLI_SERVER": "0"})):
+        r = _fogcli(["batch", "frames", f"out_{name}", "--report", f"{name}.json"], d, _env(run_dir, **extra))
+        assert r.returncode == 3, r.stderr
+        runs[name] = r
+    assert "batch frames out_served --report served.json: exit 3" in log.read_text()
+    clean = [lambda e: [ln.split(" (")[0].replace("out_served", "out_alone") for ln in e.splitlines()
+                        if "done in" not in ln and " done, " not in ln]][0]
+    assert clean(runs["served"].stderr) == clean(runs["alone"].stderr)
+    assert "[5/5]" in runs["served"].stderr and "f9.exr" in runs["served"].stderr
+    rep = {n: json.loads((d / f"{n}.json").read_text()) for n in runs}
+    assert rep["served"]["counts"] == rep["alone"]["counts"] == {"done": 4, "skipped": 0, "failed": 1}
+    for i in range(4):
+        assert np.array_equal(_pixels(d / "out_served" / f"f{i}.exr"), _pixels(d / "out_alone" / f"f{i}.exr"))
+    # a terminal on the client's stderr: tqdm's bar, drawn with carriage returns, as by itself
+    bars = {}
+    for name, extra in (("tty_served", {}), ("tty_alone", {"FOGCLI_SERVER": "0"})):
+        master, slave = pty.openpty()
+        fcntl.ioctl(slave, termios.TIOCSWINSZ, struct.pack("HHHH", 30, 120, 0, 0))    # rows, columns
+        p = subprocess.Popen([sys.executable, "-m", "fogcli", "batch", "frames", f"out_{name}"], cwd=d,
+                             env=_env(run_dir, **extra), stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
+                             stderr=slave)
+        os.close(slave)
+        seen = b""
+        while True:
+            try:
+                chunk = os.read(master, 65536)
+            except OSError:         # EIO: the client closed its side
+                break
+            if not chunk:
+                break
+            seen += chunk
+        os.close(master)
+        assert p.wait(timeout=300) == 3
+        assert b"\r" in seen and b"img/s" in seen and b"[1/5]" not in seen, (name, seen[-400:])
+        text = seen.decode("utf-8", "replace").replace("\n", "\r")
+        bars[name] = max(len(seg) for seg in text.split("\r") if "img/s" in seg)
+    assert bars["tty_served"] == bars["tty_alone"] == 120      # the client's terminal width
+    assert "batch frames out_tty_served: exit 3" in log.read_text()
+    before = log.read_text()
+    r = _fogcli(["batch", "frames", "out_jobs2", "--jobs", "2", "-q"], d, _env(run_dir))
+    assert r.returncode == 3 and len(list((d / "out_jobs2").glob("*.exr"))) == 4, r.stderr
+    assert log.read_text() == before       # never reached the server
+
+
+def test_a_served_batch_whose_client_goes_away_stops_with_whole_files(server):
+    """Killing a served batch's client interrupts it as Ctrl-C would a batch of its own: the
+    frames written are whole, no temporary file is left, the rest are not started."""
+    run_dir, log, d = server
+    src = d / "slow"
+    src.mkdir()
+    for i in range(6):          # the exact reference: ~1.5 s a frame here
+        _write(src / f"s{i}.exr", 200, 150, seed=20 + i)
+    args = ["batch", "slow", "slow_out", "--set", "render.method=reference", "-q"]
+    a = subprocess.Popen([sys.executable, "-m", "fogcli", *args], cwd=d, env=_env(run_dir),
+                         stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    t = time.monotonic()
+    while not list((d / "slow_out").glob("s*.exr")):
+        assert a.poll() is None and time.monotonic() - t < 240, "no frame was written"
+        time.sleep(0.05)
+    a.kill()
+    a.wait()
+    _wait_for(log, f"{' '.join(args)}: exit 130")
+    names = sorted(p.name for p in (d / "slow_out").iterdir())
+    assert 1 <= len(names) < 6 and set(names) <= {f"s{i}.exr" for i in range(6)}, names
+    for n in names:
+        assert _pixels(d / "slow_out" / n).shape == (150, 200, 4)
+
+
 def test_a_different_environment_runs_by_itself(server):
     run_dir, _, d = server
     _write(d / "env.exr", 32, 24)
@@ -167,8 +251,13 @@ def test_a_second_server_is_refused_and_requests_round_trip(server):
     assert r.returncode == 2 and "is running already" in r.stderr and len(r.stderr.splitlines()) == 1, r.stderr
     argv = ["apply", "a b.exr", "--set", "medium.ambient=[1,2,3]", "ünï=cödé", ""]
     env = {"FOGCLI_DEVICE": "0:0", "POCL_X": "a=b", "HOME": "/h ome"}
-    got = launch.decode_request(launch.encode_request(argv, "/tmp/x y", 0o027, env))
-    assert got == {"argv": argv, "cwd": "/tmp/x y", "umask": 0o027, "env": env}
+    got = launch.decode_request(launch.encode_request(argv, "/tmp/x y", 0o027, env, (False, True, 132)))
+    assert got == {"argv": argv, "cwd": "/tmp/x y", "umask": 0o027, "env": env, "tty": (False, True, 132)}
+    served = [["apply", "x.exr"], ["batch", "a", "b"], ["batch", "a", "b", "--jobs", "1"], ["batch", "--jobs=1", "a", "b"]]
+    alone = [["batch", "a", "b", "--jobs", "2"], ["batch", "--jobs=3", "a", "b"], ["batch", "a", "b", "--jobs"],
+             ["batch", "a", "b", "--scheduler", "local:2"], ["batch", "--scheduler=tcp://h:8786", "a", "b"],
+             ["batch", "a", "b", "--jobs", "x"]]
+    assert [launch.served_here(a) for a in served + alone] == [True] * len(served) + [False] * len(alone)
     deep = d / ("x" * 90)
     r = _fogcli(["serve"], d, _env(deep))
     assert r.returncode == 2 and "FOGCLI_RUN_DIR" in r.stderr and len(r.stderr.splitlines()) == 1, r.stderr

@@ -296,12 +296,13 @@ class Progress:
         self.quiet, self.total, self.n, self.t0 = quiet, total, 0, time.perf_counter()
         self.bar = None
         if not quiet and sys.stderr.isatty():
-            import shutil
-
             from tqdm import tqdm
 
-            # the terminal's width, 100 columns where it reports none
-            cols = shutil.get_terminal_size((100, 20)).columns or 100
+            from . import launch
+
+            # the width of the terminal the bar is drawn on (the client's when served), 100
+            # columns where it reports none
+            cols = (launch.COLUMNS if launch.SERVING else launch.terminal()[2]) or 100
             self.bar = tqdm(total=total, unit="img", file=sys.stderr, ncols=cols, desc="fogcli")
 
     def update(self, r: dict) -> None:

@@ -1,8 +1,8 @@
 """The `fogcli` command's entry point. With a `fogcli serve` running for this installation,
-`fogcli apply` hands its command line to it and prints what it sends back: the server has
-numpy, OpenCL, the built programs and the device buffers of the last frame sizes ready, so
-a frame costs its I/O and kernels, not a new process's start-up (docs/distributed.md, One
-command per frame).
+`fogcli apply` (and `fogcli batch` on one process) hands its command line to it and prints
+what it sends back: the server has numpy, OpenCL, the built programs and the device
+buffers of the last frame sizes ready, so a frame costs its I/O and kernels, not a new
+process's start-up (docs/distributed.md, One command per frame).
 Anything else, or no server, runs here as usual. This module imports only the standard
 library's light parts: it is on every command's path."""
 from __future__ import annotations
@@ -17,8 +17,9 @@ PACKAGE = os.path.dirname(os.path.abspath(__file__))
 ENV_PREFIXES = ("FOGCLI_", "POCL_", "PYOPENCL_", "OCL_", "OPENIMAGEIO_", "OIIO_")
 ENV_KEYS = ("HOME", "XDG_CACHE_HOME", "LD_LIBRARY_PATH", "LD_PRELOAD", "TMPDIR", "CUDA_VISIBLE_DEVICES")
 ENV_ROUTING = ("FOGCLI_SERVER", "FOGCLI_RUN_DIR")   # where to send, not how to run: not compared
-FORWARDED = ("apply",)
+FORWARDED = ("apply", "batch")
 SERVING = False          # set by the server while it runs a client's command
+COLUMNS = 0              # ... and the width of the client's terminal (0: none)
 
 
 def relevant_env(env=None) -> dict:
@@ -82,20 +83,52 @@ def recv(sock) -> tuple[bytes, bytes] | None:
     return None if body is None else (head[:1], body)
 
 
-def encode_request(argv: list[str], cwd: str, umask: int, env: dict) -> bytes:
+def encode_request(argv: list[str], cwd: str, umask: int, env: dict, tty: tuple = (False, False, 0)) -> bytes:
     """NUL-separated (no argument, path or variable can hold a NUL): umask, cwd, the
-    argument count, the arguments, then the variables as NAME=value."""
-    return "\0".join([str(umask), cwd, str(len(argv)), *argv, *(f"{k}={v}" for k, v in sorted(env.items()))]).encode(
-        "utf-8", "surrogateescape")
+    terminal (stdout and stderr a terminal, its columns), the argument count, the
+    arguments, then the variables as NAME=value."""
+    term = f"{int(bool(tty[0]))}{int(bool(tty[1]))}:{int(tty[2])}"
+    return "\0".join([str(umask), cwd, term, str(len(argv)), *argv,
+                      *(f"{k}={v}" for k, v in sorted(env.items()))]).encode("utf-8", "surrogateescape")
 
 
 def decode_request(data: bytes) -> dict:
     f = data.decode("utf-8", "surrogateescape").split("\0")
-    n = int(f[2])
-    if len(f) < 3 + n:
+    n = int(f[3])
+    if len(f) < 4 + n or len(f[2]) < 3 or f[2][2] != ":":
         raise ValueError("short request")
-    env = dict(kv.split("=", 1) for kv in f[3 + n:] if kv)
-    return {"umask": int(f[0]), "cwd": f[1], "argv": f[3:3 + n], "env": env}
+    env = dict(kv.split("=", 1) for kv in f[4 + n:] if kv)
+    tty = (f[2][0] == "1", f[2][1] == "1", int(f[2][3:]))
+    return {"umask": int(f[0]), "cwd": f[1], "tty": tty, "argv": f[4:4 + n], "env": env}
+
+
+def terminal() -> tuple:
+    """(stdout a terminal, stderr a terminal, its columns or 0)."""
+    out, err = sys.stdout.isatty(), sys.stderr.isatty()
+    try:
+        cols = os.get_terminal_size(sys.stderr.fileno() if err else sys.stdout.fileno()).columns if out or err else 0
+    except (OSError, ValueError):
+        cols = 0
+    return out, err, cols
+
+
+def served_here(argv: list[str]) -> bool:
+    """What the server can run in its own process: apply, and batch on this process
+    (--jobs 1, no --scheduler): workers would be processes of their own."""
+    if argv[0] != "batch":
+        return True
+    it = iter(argv[1:])
+    for a in it:
+        if a == "--scheduler" or a.startswith("--scheduler="):
+            return False
+        if a == "--jobs" or a.startswith("--jobs="):
+            v = a[7:] if a.startswith("--jobs=") else next(it, "")
+            try:
+                if int(v) != 1:
+                    return False
+            except ValueError:
+                return False    # let click say what is wrong
+    return True
 
 
 def _exactly(sock, n: int) -> bytes | None:
@@ -112,7 +145,7 @@ def forward(argv: list[str]) -> int | None:
     """The exit code of the command run by the server, or None: run it here."""
     if os.environ.get("FOGCLI_SERVER") == "0" or not argv or argv[0] not in FORWARDED:
         return None
-    if any(a in ("-", "-h", "--help") for a in argv):
+    if any(a in ("-", "-h", "--help") for a in argv) or not served_here(argv):
         return None
     path = socket_path()
     if not os.path.exists(path) or not _private(os.path.dirname(path)):
@@ -127,7 +160,7 @@ def forward(argv: list[str]) -> int | None:
     os.umask(mask)
     got_any = False
     try:
-        send(sock, b"q", encode_request(argv, os.getcwd(), mask, relevant_env()))
+        send(sock, b"q", encode_request(argv, os.getcwd(), mask, relevant_env(), terminal()))
         while True:
             msg = recv(sock)
             if msg is None:

@@ -1,10 +1,10 @@
 """`fogcli serve`: one process that keeps numpy, OpenCL, the built programs and the device
-buffers of recent frame sizes, and runs the `fogcli apply` command lines that clients
-(launch.py) hand it, one at a time, in the client's folder and with its umask. A client
-that arrives while a run is going on, or whose environment differs in what changes a run,
-is told to run the command itself. A client that goes away (Ctrl-C, killed) interrupts its
-run as Ctrl-C would: the output's temporary file is removed. No fork: the runs happen in
-this process (PoCL must not be forked)."""
+buffers of recent frame sizes, and runs the `fogcli apply` and `fogcli batch --jobs 1`
+command lines that clients (launch.py) hand it, one at a time, in the client's folder and
+with its umask. A client that arrives while a run is going on, or whose environment
+differs in what changes a run, is told to run the command itself. A client that goes away
+(Ctrl-C, killed) interrupts its run as Ctrl-C would: the output's temporary file is
+removed. No fork: the runs happen in this process (PoCL must not be forked)."""
 from __future__ import annotations
 
 import _thread
@@ -26,8 +26,8 @@ from .hostmem import keep_freed_memory
 class _Stream(io.TextIOBase):
     """stdout or stderr of one run: text sent to the client as it is written."""
 
-    def __init__(self, conn: socket.socket, tag: bytes):
-        self.conn, self.tag = conn, tag
+    def __init__(self, conn: socket.socket, tag: bytes, tty: bool = False):
+        self.conn, self.tag, self.tty = conn, tag, tty
 
     def write(self, s: str) -> int:
         try:
@@ -37,7 +37,7 @@ class _Stream(io.TextIOBase):
         return len(s)
 
     def isatty(self) -> bool:
-        return False
+        return self.tty         # the client's: progress bars as on a run of its own
 
     @property
     def encoding(self) -> str:
@@ -120,7 +120,7 @@ class Server:
         if self.saved is not None:
             sys.stdout, sys.stderr, cwd, mask = self.saved
             self.saved = None
-            launch.SERVING = False
+            launch.SERVING, launch.COLUMNS = False, 0
             os.umask(mask)
             os.chdir(cwd)
 
@@ -146,14 +146,15 @@ class Server:
         from .cli import main as cli_main
 
         t = time.perf_counter()
-        out, err = _Stream(conn, b"o"), _Stream(conn, b"e")
+        tty = req.get("tty", (False, False, 0))
+        out, err = _Stream(conn, b"o", tty[0]), _Stream(conn, b"e", tty[1])
         code = 1
         with self.lock:
             self.running = conn
         threading.Thread(target=self._watch, args=(conn,), daemon=True).start()
         try:
             self.saved = sys.stdout, sys.stderr, os.getcwd(), os.umask(int(req.get("umask", 0o022)))
-            launch.SERVING = True
+            launch.SERVING, launch.COLUMNS = True, tty[2]
             os.chdir(req["cwd"])
             sys.stdout, sys.stderr = out, err
             with warnings.catch_warnings():      # each run warns anew, as a process of its own
