@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
-sys.path[:0] = [str(ROOT / "src"), str(ROOT / "benchmarks")]
+sys.path[:0] = [str(ROOT / "src"), str(ROOT / "benchmarks"), str(ROOT / "tests")]
 
 from docblock import write_block  # noqa: E402
 
@@ -69,34 +69,21 @@ def user_env(**extra) -> dict:
     return env
 
 
-def fogcli_ms(src: Path, out: Path, rounds: int, warm: bool = True, **env_extra) -> tuple[float, dict]:
-    env = user_env(**env_extra)
+def fogcli_once(src: Path, out: Path, **env_extra) -> tuple[float, dict]:
+    """Wall ms of one `fogcli apply src -o out --timings` as a user runs it, and its timings."""
     cmd = [sys.executable, "-m", "fogcli", "apply", str(src), "-o", str(out), "--timings"]
-    if warm:
-        subprocess.run(cmd, check=True, capture_output=True, env=env)           # first run: caches
-    best, stages = 1e9, {}
-    for _ in range(rounds):
-        t = time.perf_counter()
-        r = subprocess.run(cmd, check=True, capture_output=True, text=True, env=env)
-        wall = time.perf_counter() - t
-        if wall < best:
-            best = wall
-            line = [x for x in r.stderr.splitlines() if x.startswith("{")]
-            stages = json.loads(line[-1]) if line else {}
-    return best * 1e3, stages
+    t = time.perf_counter()
+    r = subprocess.run(cmd, check=True, capture_output=True, text=True, env=user_env(**env_extra))
+    wall = time.perf_counter() - t
+    line = [x for x in r.stderr.splitlines() if x.startswith("{")]
+    return wall * 1e3, json.loads(line[-1]) if line else {}
 
 
 def start_server(run_dir: Path, log: Path) -> subprocess.Popen:
-    """`fogcli serve` as a user starts it, in the benchmark's environment."""
-    proc = subprocess.Popen([sys.executable, "-m", "fogcli", "serve", "--idle", "600"],
-                            env=user_env(FOGCLI_RUN_DIR=str(run_dir)), stdout=subprocess.DEVNULL,
-                            stderr=open(log, "w"), stdin=subprocess.DEVNULL)
-    t = time.monotonic()
-    while "ready on" not in log.read_text():
-        if proc.poll() is not None or time.monotonic() - t > 300:
-            raise SystemExit(f"fogcli serve did not come up: {log.read_text()}")
-        time.sleep(0.2)
-    return proc
+    """`fogcli serve` as a user starts it, in the benchmark's environment (tests/test_serve.py's)."""
+    from test_serve import start_server as start
+
+    return start(run_dir, log, idle=600, env=user_env(FOGCLI_RUN_DIR=str(run_dir)))
 
 
 STARTUP = """
@@ -160,14 +147,14 @@ def main() -> int:
                 write_exr(src, np.dstack([rgb, z]).astype(np.float32), ["R", "G", "B", "Z"], comp)
                 out = Path(tmp) / f"out_{comp}.exr"
                 alone, served = dict(FOGCLI_SERVER="0"), dict(FOGCLI_RUN_DIR=str(run_dir))
-                fogcli_ms(src, out, 0, **alone)          # the first runs: caches, the server's buffers
-                fogcli_ms(src, out, 0, **served)
+                fogcli_once(src, out, **alone)          # the first runs: caches, the server's buffers
+                fogcli_once(src, out, **served)
                 o, f, s, st = 1e9, 1e9, 1e9, {}
                 for _ in range(args.rounds):             # interleaved: the machine's speed drifts
                     o = min(o, oiio_ms(src, Path(tmp) / "oiio.exr", comp, 1))
-                    fi, sti = fogcli_ms(src, out, 1, warm=False, **alone)
+                    fi, sti = fogcli_once(src, out, **alone)
                     f, st = (fi, sti) if fi < f else (f, st)
-                    si, ssti = fogcli_ms(src, out, 1, warm=False, **served)
+                    si, ssti = fogcli_once(src, out, **served)
                     s = min(s, si)
                     if not ssti.get("served"):
                         raise SystemExit(f"the server did not take the command: {(Path(tmp) / 'serve.log').read_text()}")

@@ -15,6 +15,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import resource
 import subprocess
 import sys
 import tempfile
@@ -40,28 +41,42 @@ def make_frames(folder: Path, n: int, w: int, h: int) -> None:
         write_img(folder / f"frame.{i:04d}.exr", np.dstack([rgb, z]), ["R", "G", "B", "Z"])
 
 
-def run_mode(src: Path, out: Path, extra: list[str], run_dir: Path | None = None) -> dict:
+def run_mode(src: Path, out: Path, extra: list[str], run_dir: Path | None = None, server_pid: int | None = None) -> dict:
     env = dict(os.environ, PYTHONPATH=str(ROOT / "src"), FOGCLI_SERVER="0")
     env.pop("PYTHONDONTWRITEBYTECODE", None)    # as installed: fogcli's bytecode compiled once, not per worker
     if extra and extra[0] == "one-thread":         # PoCL and OpenImageIO on one thread per process
         extra = extra[1:]
         env.update(POCL_MAX_PTHREAD_COUNT="1", OPENIMAGEIO_THREADS="1")
-    if extra and extra[0] == "served":
+    served = bool(extra) and extra[0] == "served"
+    if served:
         extra = extra[1:]
         env.pop("FOGCLI_SERVER")
         env["FOGCLI_RUN_DIR"] = str(run_dir)
     report = out.with_suffix(".json")
+    ru0, srv0 = resource.getrusage(resource.RUSAGE_CHILDREN), _cpu_of(server_pid)
     t0 = time.perf_counter()
     r = subprocess.run([sys.executable, "-m", "fogcli", "batch", str(src), str(out), "-q", "--report", str(report),
                         *extra], capture_output=True, text=True, env=env)
     wall = time.perf_counter() - t0
+    ru1, srv1 = resource.getrusage(resource.RUSAGE_CHILDREN), _cpu_of(server_pid)
+    # core seconds of the command: its process and workers (reaped children), and the server's if served
+    cpu = (ru1.ru_utime + ru1.ru_stime - ru0.ru_utime - ru0.ru_stime) + (srv1 - srv0 if served else 0.0)
     if r.returncode != 0:
         raise SystemExit(f"batch {extra} failed: {r.stderr}")
     rep = json.loads(report.read_text())
     done = len(rep["done"])
     mtimes = sorted(Path(d["output"]).stat().st_mtime for d in rep["done"])
     steady = (done - 1) / (mtimes[-1] - mtimes[0]) if done > 1 and mtimes[-1] > mtimes[0] else float("nan")
-    return {"wall": wall, "rate": done / wall, "steady": steady, "done": done, "out": out.name}
+    return {"wall": wall, "rate": done / wall, "steady": steady, "done": done, "out": out.name,
+            "cpu_ms": cpu / done * 1e3, "busy": cpu / wall / (os.cpu_count() or 1)}
+
+
+def _cpu_of(pid: int | None) -> float:
+    """User + system seconds of a running process (/proc), 0 without one."""
+    if pid is None:
+        return 0.0
+    fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
+    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
 
 
 def profile(frame: Path, single: bool) -> dict:
@@ -133,7 +148,7 @@ def main():
         server = start_server(run_dir, log)
         try:
             for k in range(args.rounds):               # modes interleaved, best of the rounds
-                got = {name: run_mode(src, Path(tmp) / f"out{k}_{i}", extra, run_dir)
+                got = {name: run_mode(src, Path(tmp) / f"out{k}_{i}", extra, run_dir, server.pid)
                        for i, (name, extra) in enumerate(modes.items())}
                 # the ceiling's core time in every round: each mode against the ceiling of its own round
                 # (this VM's speed drifts), the fastest round's profile shown
@@ -166,17 +181,24 @@ def main():
              "the steady state (first to last output written). `of the ceiling`: against the rate that a frame's "
              "core time allows (cores / the one-thread sum below), measured in the same round, best round; in "
              f"the fastest round {ncpu} cores / {core:.0f} ms = {ceiling:.2f} images/s.", "",
-             "| mode | images/s | of the ceiling | steady images/s | of the ceiling | vs --jobs 1 | wall s |",
-             "|---|---|---|---|---|---|---|"]
+             "| mode | images/s | of the ceiling | steady images/s | of the ceiling | vs --jobs 1 | wall s | "
+             "core ms a frame | cores busy |",
+             "|---|---|---|---|---|---|---|---|---|"]
     for name, r in best.items():
         lines.append(f"| {name} | {r['rate']:.2f} | {100 * of[name][0]:.0f} % | {r['steady']:.2f} | "
-                     f"{100 * of[name][1]:.0f} % | {r['rate'] / base['rate']:.2f}x | {r['wall']:.1f} |")
+                     f"{100 * of[name][1]:.0f} % | {r['rate'] / base['rate']:.2f}x | {r['wall']:.1f} | "
+                     f"{r['cpu_ms']:.0f} | {100 * r['busy']:.0f} % |")
     lines += ["", "The last two rows hold every process to one thread (POCL_MAX_PTHREAD_COUNT=1, "
               "OPENIMAGEIO_THREADS=1): they show how the worker processes themselves scale, "
               f"{best['--jobs 2, one thread per process']['rate'] / best['--jobs 1, one thread per process']['rate']:.2f}x "
               "for two, where the default `--jobs 1` already uses both cores."]
     lines += ["", "`served`: the same command handed to a running `fogcli serve` (docs/distributed.md), which "
-              "saves the batch's start-up (imports, PoCL, programs, first buffers)."]
+              "saves the batch's start-up (imports, PoCL, programs, first buffers).",
+              "", "`core ms a frame`: the command's user + system time (its workers and, served, the server's) "
+              "over the frames; `cores busy`: that time over wall time x cores. Of the ceiling = cores busy x "
+              "(the one-thread core time below / core ms a frame): what keeps a mode below the ceiling is idle "
+              "cores, or frames that cost more core time in a batch (start-up, frames competing for caches and "
+              "memory bandwidth) than alone."]
     lines += ["", "Where the time of one frame goes (ms, one process, best of 3 in each round, the fastest round): "
               "with PoCL and OpenImageIO on "
               "all cores, as `--jobs 1` runs, and on one thread each, whose sum is the core time a frame costs.",

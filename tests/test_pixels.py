@@ -59,7 +59,7 @@ def test_pack_rgba_into_a_foreign_buffer(with_alpha):
     _same(dst2[:, :, :3], np.ascontiguousarray(rgb[:, :, ::-1]))
 
 
-@pytest.mark.parametrize("dtype", [np.float16, np.float32])
+@pytest.mark.parametrize("dtype", [np.float16, np.float32, np.float64])
 def test_gather_matches_numpy(dtype):
     rgba = _frame(23, 31, 4, np.float32, seed=5) * 1e3           # beyond 65504: inf in half
     kept = _frame(23, 31, 4, np.float16, seed=6)
@@ -73,3 +73,25 @@ def test_gather_matches_numpy(dtype):
             for j, (a, c) in enumerate(picks):
                 want[:, :, j] = a[:, :, c] if a.ndim == 3 else a
         _same(pixels.gather(picks, dtype), want)
+
+
+@pytest.mark.parametrize("dtype", [np.float16, np.float32, np.float64])
+def test_gather_of_row_strips_as_exr_write_passes_them(dtype):
+    """The strips of a write: rows r0:r1 of the RGB view of an RGBA (the block it is the first
+    channels of, read in place), of a plane, of a float64 strip of the input's own channels."""
+    rgba = _frame(40, 33, 4, np.float32, seed=8) * 1e3
+    own = _frame(40, 33, 6, np.float64, seed=9)
+    alpha = _frame(40, 33, 1, np.float32, seed=10)[:, :, 0]
+    rgb = rgba[:, :, :3]
+    for r0, r1 in ((0, 16), (16, 32), (32, 40), (5, 6)):
+        block = pixels._whole_pixels(rgb[r0:r1])
+        assert block is not None and np.shares_memory(block, rgba)
+        _same(block, rgba[r0:r1])
+        picks = [(own[r0:r1], 0), (rgb[r0:r1], 2), (rgb[r0:r1], 0), (alpha[r0:r1], 0), (own[r0:r1], 5)]
+        want = np.empty((r1 - r0, 33, len(picks)), dtype)
+        with np.errstate(over="ignore"):
+            for j, (a, c) in enumerate(picks):
+                want[:, :, j] = a[:, :, c] if a.ndim == 3 else a
+        _same(pixels.gather(picks, dtype), want)
+    assert pixels._whole_pixels(rgba[:, ::2, :3]) is None          # not whole pixels: copied instead
+    assert pixels._whole_pixels(rgba[:, :, 1:]) is None

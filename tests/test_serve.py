@@ -30,8 +30,11 @@ def _fogcli(args, cwd, env, **kw):
                           text=True, timeout=300, **kw)
 
 
-def _start(run_dir: Path, log: Path, idle: int = 300):
-    proc = subprocess.Popen([sys.executable, "-m", "fogcli", "serve", "--idle", str(idle)], env=_env(run_dir),
+def start_server(run_dir: Path, log: Path, idle: int = 300, env: dict | None = None) -> subprocess.Popen:
+    """`fogcli serve` in the background, its log in `log`, once it is ready (also the
+    benchmarks' server: benchmarks/end_to_end.py)."""
+    proc = subprocess.Popen([sys.executable, "-m", "fogcli", "serve", "--idle", str(idle)],
+                            env=env if env is not None else _env(run_dir),
                             stdout=subprocess.DEVNULL, stderr=open(log, "w"), stdin=subprocess.DEVNULL)
     t = time.monotonic()
     while "ready on" not in log.read_text():
@@ -74,7 +77,7 @@ def _timings(stderr: str) -> dict:
 def server(tmp_path_factory):
     d = tmp_path_factory.mktemp("serve")
     run_dir, log = d / "run", d / "serve.log"
-    proc = _start(run_dir, log)
+    proc = start_server(run_dir, log)
     yield run_dir, log, d
     proc.send_signal(signal.SIGINT)
     assert proc.wait(timeout=60) == 0, log.read_text()
@@ -235,7 +238,7 @@ def test_a_client_that_goes_away_interrupts_its_run(server):
 
 def test_an_idle_server_stops_and_removes_its_socket(tmp_path):
     run_dir, log = tmp_path / "run", tmp_path / "serve.log"
-    proc = _start(run_dir, log, idle=1)
+    proc = start_server(run_dir, log, idle=1)
     assert proc.wait(timeout=60) == 0, log.read_text()
     assert "idle for 1 s: stopping" in log.read_text()
     assert not list(run_dir.glob("*.sock*"))

@@ -115,30 +115,17 @@ def write_passthrough(path: Path, tmp: str, frame, rgb: np.ndarray, alpha: np.nd
                 kept = None
             # all half: handed over as half (converted faster here than by the writer)
             as_half = all(str(f) == "half" for f in o.channelformats)
-            strips = _strip_reader(inp, i, spec, nch, read_fmt, kept)
-            if kept is not None and (replace or extra):
-                # the processed part whole, in one pass (OpenCV), then written in strips as read
-                full = pixels.gather([replace.get(c, (kept, c)) for c in range(nch)] + [(p, 0) for p in extra],
-                                     np.float16 if as_half else np.float32)
-                strips = ((y0, y1, full[y0 - spec.y:y1 - spec.y]) for y0, y1, _ in strips)
-                replace, extra, nch = {}, [], nch + len(extra)
-            for y0, y1, px in strips:
+            for y0, y1, px in _strip_reader(inp, i, spec, nch, read_fmt, kept):
                 r0, r1 = y0 - spec.y, y1 - spec.y
                 want = np.float16 if as_half else (np.float32 if px.dtype == np.float16 else px.dtype)
-                with np.errstate(over="ignore"):      # beyond 65504: inf, as the writer's own conversion
-                    if replace or extra:
-                        # each channel converted once, straight into the strip that is written
-                        buf = np.empty((r1 - r0, spec.width, nch + len(extra)), want)
-                        for c in range(nch):
-                            if c in replace:
-                                a, ch = replace[c]
-                                buf[:, :, c] = a[r0:r1, :, ch] if a.ndim == 3 else a[r0:r1]
-                            else:
-                                buf[:, :, c] = px[:, :, c]
-                        for k, plane in enumerate(extra):
-                            buf[:, :, nch + k] = plane[r0:r1]
-                        px = buf
-                    else:
+                if replace or extra:
+                    # the strip in its written type, in one pass (OpenCV): the part's own
+                    # channels, fogcli's in their place, the AOVs after them
+                    picks = [(replace[c][0][r0:r1], replace[c][1] if replace[c][0].ndim == 3 else 0)
+                             if c in replace else (px, c) for c in range(nch)]
+                    px = pixels.gather(picks + [(plane[r0:r1], 0) for plane in extra], want)
+                else:
+                    with np.errstate(over="ignore"):      # beyond 65504: inf, as the writer's own conversion
                         px = np.ascontiguousarray(px, dtype=want)
                 if not out.write_scanlines(y0, y1, spec.z, px):
                     ok = False

@@ -61,7 +61,7 @@ def socket_path(key: str | None = None) -> str:
     return os.path.join(run_dir(), f"serve-{key or install_key()}.sock")
 
 
-def _private(d: str) -> bool:
+def private_dir(d: str) -> bool:
     try:
         st = os.stat(d)
     except OSError:
@@ -148,7 +148,7 @@ def forward(argv: list[str]) -> int | None:
     if any(a in ("-", "-h", "--help") for a in argv) or not served_here(argv):
         return None
     path = socket_path()
-    if not os.path.exists(path) or not _private(os.path.dirname(path)):
+    if not os.path.exists(path) or not private_dir(os.path.dirname(path)):
         return None
     sock = _socket.socket(_socket.AF_UNIX, _socket.SOCK_STREAM)
     try:

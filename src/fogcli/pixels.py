@@ -68,29 +68,40 @@ def pack_rgba(dst: np.ndarray, rgb: np.ndarray, alpha: np.ndarray | None) -> Non
         dst[:, :, 3] = alpha
 
 
+def _whole_pixels(a: np.ndarray) -> np.ndarray | None:
+    """The contiguous (h, w, K) block that a (h, w, c) is the first channels of (the RGB view
+    of a downloaded RGBA, or rows of it), inside the array a views; None if it is not one."""
+    base = a.base if isinstance(a.base, np.ndarray) else None
+    if base is None or base.dtype != a.dtype or not base.flags.c_contiguous or base.ndim != 3:
+        return None
+    k, item = base.shape[2], a.itemsize
+    if a.strides != (base.strides[0], k * item, item) or a.shape[1] != base.shape[1]:
+        return None
+    off = a.ctypes.data - base.ctypes.data
+    if off < 0 or off % (k * item) or off + a.shape[0] * base.strides[0] > base.nbytes:
+        return None
+    return np.lib.stride_tricks.as_strided(a, (a.shape[0], a.shape[1], k), (base.strides[0], k * item, item))
+
+
 def _frame_of(a: np.ndarray, dtype) -> np.ndarray:
-    """A contiguous (h, w, c) of dtype (float16 or float32) holding a's channels first: a
-    itself, the frame a is the first channels of (the RGB view of a downloaded RGBA), or a
-    conversion."""
+    """A contiguous (h, w, c) of dtype holding a's channels first: a itself, the pixels a is
+    the first channels of (_whole_pixels), or a conversion."""
     if a.ndim == 2:
         a = a[:, :, None]
-    base = a.base if isinstance(a.base, np.ndarray) else None
-    if (base is not None and base.ndim == 3 and base.dtype == a.dtype and base.flags.c_contiguous
-            and base.shape[:2] == a.shape[:2] and base.strides == a.strides and base.ctypes.data == a.ctypes.data):
-        a = base
     if not a.flags.c_contiguous:
-        a = np.ascontiguousarray(a)
+        whole = _whole_pixels(a)
+        a = whole if whole is not None else np.ascontiguousarray(a)
     if a.dtype == dtype:
         return a
-    if a.dtype in (np.float16, np.float32) and a.size:
+    if a.dtype in (np.float16, np.float32) and dtype in (np.float16, np.float32) and a.size:
         return _convert(a, _cv2().CV_32F if dtype == np.float32 else _cv2().CV_16F)
     with np.errstate(over="ignore"):
         return a.astype(dtype)
 
 
 def gather(picks: list[tuple[np.ndarray, int]], dtype) -> np.ndarray:
-    """(h, w, k) contiguous array of dtype (float16 or float32) whose channel j is channel
-    picks[j][1] of frame picks[j][0] ((h, w, c) or (h, w), float16 or float32, any strides).
+    """(h, w, k) contiguous array of dtype (float16, float32 or float64) whose channel j is
+    channel picks[j][1] of frame picks[j][0] ((h, w, c) or (h, w), any float type and strides).
     float32 -> float16 rounds to nearest even, beyond 65504 to inf, as numpy's cast."""
     dtype = np.dtype(dtype)
     k = len(picks)

@@ -199,7 +199,7 @@ def serve(idle: float, device: str | None = None) -> None:
         os.makedirs(d, mode=0o700, exist_ok=True)
     except OSError as exc:
         raise UserError(f"{d}: cannot make the server's folder ({exc.strerror})") from None
-    if not launch._private(d):
+    if not launch.private_dir(d):
         raise UserError(f"{d}: must belong to you and be closed to others (chmod 700)")
     probe = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
     probe.settimeout(5)
