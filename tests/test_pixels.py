@@ -95,3 +95,5 @@ def test_gather_of_row_strips_as_exr_write_passes_them(dtype):
         _same(pixels.gather(picks, dtype), want)
     assert pixels._whole_pixels(rgba[:, ::2, :3]) is None          # not whole pixels: copied instead
     assert pixels._whole_pixels(rgba[:, :, 1:]) is None
+    with pytest.raises(IndexError):
+        pixels.gather([(rgb, 3)], dtype)                            # the hidden alpha is not a channel of rgb

@@ -7,6 +7,7 @@ import os
 import signal
 import subprocess
 import sys
+import threading
 import time
 from pathlib import Path
 
@@ -183,7 +184,7 @@ def test_a_served_batch_whose_client_goes_away_stops_with_whole_files(server):
     run_dir, log, d = server
     src = d / "slow"
     src.mkdir()
-    for i in range(6):          # the exact reference: ~1.5 s a frame here
+    for i in range(12):         # the exact reference: ~1.5 s a frame here; the run stops after ~3
         _write(src / f"s{i}.exr", 200, 150, seed=20 + i)
     args = ["batch", "slow", "slow_out", "--set", "render.method=reference", "-q"]
     a = subprocess.Popen([sys.executable, "-m", "fogcli", *args], cwd=d, env=_env(run_dir),
@@ -196,9 +197,47 @@ def test_a_served_batch_whose_client_goes_away_stops_with_whole_files(server):
     a.wait()
     _wait_for(log, f"{' '.join(args)}: exit 130")
     names = sorted(p.name for p in (d / "slow_out").iterdir())
-    assert 1 <= len(names) < 6 and set(names) <= {f"s{i}.exr" for i in range(6)}, names
+    assert 1 <= len(names) < 12 and set(names) <= {f"s{i}.exr" for i in range(12)}, names
     for n in names:
         assert _pixels(d / "slow_out" / n).shape == (150, 200, 4)
+
+
+def test_a_gone_client_interrupts_a_run_waiting_on_a_thread(monkeypatch):
+    """The watcher's signal reaches a run blocked on a lock (a batch waiting for its read or
+    write) at once, not when the wait ends."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    from fogcli import server as srv
+
+    def gone(signum, frame):
+        raise KeyboardInterrupt
+
+    old = signal.signal(srv.INTERRUPT, gone)
+    s = srv.Server(60, lambda m: None)
+    ours, theirs = __import__("socket").socketpair()
+    try:
+        s.running = ours
+        threading.Thread(target=s._watch, args=(ours,), daemon=True).start()
+        threading.Timer(0.2, theirs.close).start()
+        t = time.monotonic()
+        with ThreadPoolExecutor(1) as ex:
+            fut = ex.submit(time.sleep, 3)
+            with pytest.raises(KeyboardInterrupt):
+                fut.result()
+            waited = time.monotonic() - t
+        assert waited < 2.0, waited
+    finally:
+        signal.signal(srv.INTERRUPT, old)
+        ours.close()
+
+
+def test_terminal_without_streams_and_with_columns(monkeypatch):
+    monkeypatch.setattr(sys, "stdout", None)
+    monkeypatch.setattr(sys, "stderr", None)
+    monkeypatch.delenv("COLUMNS", raising=False)
+    assert launch.terminal() == (False, False, 0)
+    monkeypatch.setenv("COLUMNS", "132")
+    assert launch.terminal() == (False, False, 132)
 
 
 def test_a_different_environment_runs_by_itself(server):
@@ -261,6 +300,10 @@ def test_a_second_server_is_refused_and_requests_round_trip(server):
              ["batch", "a", "b", "--scheduler", "local:2"], ["batch", "--scheduler=tcp://h:8786", "a", "b"],
              ["batch", "a", "b", "--jobs", "x"]]
     assert [launch.served_here(a) for a in served + alone] == [True] * len(served) + [False] * len(alone)
+    good = launch.encode_request(["apply"], "/", 0o022, {}, (True, False, 80)).split(b"\0")
+    for field, bad in ((2, b"11:-80"), (2, b"21:80"), (2, b"11:"), (3, b"-1")):
+        with pytest.raises(ValueError):
+            launch.decode_request(b"\0".join(good[:field] + [bad] + good[field + 1:]))
     deep = d / ("x" * 90)
     r = _fogcli(["serve"], d, _env(deep))
     assert r.returncode == 2 and "FOGCLI_RUN_DIR" in r.stderr and len(r.stderr.splitlines()) == 1, r.stderr

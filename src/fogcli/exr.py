@@ -120,10 +120,13 @@ def write_passthrough(path: Path, tmp: str, frame, rgb: np.ndarray, alpha: np.nd
                 want = np.float16 if as_half else (np.float32 if px.dtype == np.float16 else px.dtype)
                 if replace or extra:
                     # the strip in its written type, in one pass (OpenCV): the part's own
-                    # channels, fogcli's in their place, the AOVs after them
-                    picks = [(replace[c][0][r0:r1], replace[c][1] if replace[c][0].ndim == 3 else 0)
+                    # channels, fogcli's in their place, the AOVs after them; each source
+                    # sliced once (gather converts each array it is given once)
+                    rows: dict = {}
+                    strip = lambda a: rows.setdefault(id(a), a[r0:r1])  # noqa: E731
+                    picks = [(strip(replace[c][0]), replace[c][1] if replace[c][0].ndim == 3 else 0)
                              if c in replace else (px, c) for c in range(nch)]
-                    px = pixels.gather(picks + [(plane[r0:r1], 0) for plane in extra], want)
+                    px = pixels.gather(picks + [(strip(plane), 0) for plane in extra], want)
                 else:
                     with np.errstate(over="ignore"):      # beyond 65504: inf, as the writer's own conversion
                         px = np.ascontiguousarray(px, dtype=want)

@@ -95,19 +95,29 @@ def encode_request(argv: list[str], cwd: str, umask: int, env: dict, tty: tuple 
 def decode_request(data: bytes) -> dict:
     f = data.decode("utf-8", "surrogateescape").split("\0")
     n = int(f[3])
-    if len(f) < 4 + n or len(f[2]) < 3 or f[2][2] != ":":
-        raise ValueError("short request")
+    if n < 0 or len(f) < 4 + n or len(f[2]) < 4 or f[2][2] != ":" or not set(f[2][:2]) <= {"0", "1"} \
+            or not f[2][3:].isdigit():
+        raise ValueError("bad request")
     env = dict(kv.split("=", 1) for kv in f[4 + n:] if kv)
     tty = (f[2][0] == "1", f[2][1] == "1", int(f[2][3:]))
     return {"umask": int(f[0]), "cwd": f[1], "tty": tty, "argv": f[4:4 + n], "env": env}
 
 
 def terminal() -> tuple:
-    """(stdout a terminal, stderr a terminal, its columns or 0)."""
-    out, err = sys.stdout.isatty(), sys.stderr.isatty()
+    """(stdout a terminal, stderr a terminal, its columns or 0; $COLUMNS first, as shutil's)."""
+    def tty(s) -> bool:
+        try:
+            return bool(s is not None and s.isatty())
+        except (AttributeError, ValueError, OSError):      # closed, or not a file
+            return False
+
+    out, err = tty(sys.stdout), tty(sys.stderr)
+    cols = os.environ.get("COLUMNS", "")
+    if cols.isdigit() and int(cols) > 0:
+        return out, err, int(cols)
     try:
-        cols = os.get_terminal_size(sys.stderr.fileno() if err else sys.stdout.fileno()).columns if out or err else 0
-    except (OSError, ValueError):
+        cols = os.get_terminal_size((sys.stderr if err else sys.stdout).fileno()).columns if out or err else 0
+    except (AttributeError, OSError, ValueError):
         cols = 0
     return out, err, cols
 

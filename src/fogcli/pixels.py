@@ -78,7 +78,8 @@ def _whole_pixels(a: np.ndarray) -> np.ndarray | None:
     if a.strides != (base.strides[0], k * item, item) or a.shape[1] != base.shape[1]:
         return None
     off = a.ctypes.data - base.ctypes.data
-    if off < 0 or off % (k * item) or off + a.shape[0] * base.strides[0] > base.nbytes:
+    if base.strides[0] != base.shape[1] * k * item or off < 0 or off % (k * item) \
+            or off + a.shape[0] * base.strides[0] > base.nbytes:
         return None
     return np.lib.stride_tricks.as_strided(a, (a.shape[0], a.shape[1], k), (base.strides[0], k * item, item))
 
@@ -110,6 +111,8 @@ def gather(picks: list[tuple[np.ndarray, int]], dtype) -> np.ndarray:
         return np.empty((h, w, k), dtype)
     frames, offsets, pairs = [], {}, []
     for j, (a, c) in enumerate(picks):
+        if not 0 <= int(c) < (a.shape[2] if a.ndim == 3 else 1):
+            raise IndexError(f"gather: channel {c} of an array of shape {a.shape}")
         if id(a) not in offsets:
             offsets[id(a)] = sum(x.shape[2] for x in frames)
             frames.append(_frame_of(a, dtype))    # converted first: the channel moves then carry 2 or 4 bytes

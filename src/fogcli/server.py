@@ -7,7 +7,6 @@ differs in what changes a run, is told to run the command itself. A client that 
 removed. No fork: the runs happen in this process (PoCL must not be forked)."""
 from __future__ import annotations
 
-import _thread
 import io
 import os
 import queue
@@ -22,16 +21,24 @@ from . import launch
 from .errors import UserError
 from .hostmem import keep_freed_memory
 
+# The watcher's interrupt of a run whose client went away: a real signal, so that a run
+# blocked on a lock (a batch waiting for its read or write) returns at once to raise it
+# (interrupt_main only sets a flag, seen when the wait ends). Not SIGINT (that stops the
+# server), not SIGUSR1 (PoCL installs its own handler for it when it starts).
+INTERRUPT = signal.SIGRTMIN + 1
+
 
 class _Stream(io.TextIOBase):
     """stdout or stderr of one run: text sent to the client as it is written."""
 
-    def __init__(self, conn: socket.socket, tag: bytes, tty: bool = False):
+    def __init__(self, conn: socket.socket, tag: bytes, tty: bool = False, lock: threading.Lock | None = None):
         self.conn, self.tag, self.tty = conn, tag, tty
+        self.lock = lock or threading.Lock()    # shared by a run's two streams: one frame at a time
 
     def write(self, s: str) -> int:
         try:
-            launch.send(self.conn, self.tag, s.encode("utf-8", "replace"))
+            with self.lock:     # tqdm's monitor thread writes too
+                launch.send(self.conn, self.tag, s.encode("utf-8", "replace"))
         except OSError:
             pass       # the client is gone; the watcher interrupts the run
         return len(s)
@@ -96,7 +103,7 @@ class Server:
         with self.lock:
             if self.running is conn:
                 self.running = None
-                _thread.interrupt_main(signal.SIGUSR1)    # not SIGINT: that stops the server
+                signal.pthread_kill(threading.main_thread().ident, INTERRUPT)
 
     # ------------------------------------------------------------------ main thread
     def loop(self) -> None:
@@ -118,11 +125,12 @@ class Server:
 
     def _restore(self) -> None:
         if self.saved is not None:
+            _join_io_threads()      # a batch's writes resolve their paths in the client's folder
             sys.stdout, sys.stderr, cwd, mask = self.saved
-            self.saved = None
             launch.SERVING, launch.COLUMNS = False, 0
             os.umask(mask)
             os.chdir(cwd)
+            self.saved = None       # last: an interrupt before this restores again
 
     def _next(self, last: float) -> bool:
         try:
@@ -147,7 +155,8 @@ class Server:
 
         t = time.perf_counter()
         tty = req.get("tty", (False, False, 0))
-        out, err = _Stream(conn, b"o", tty[0]), _Stream(conn, b"e", tty[1])
+        one = threading.Lock()
+        out, err = _Stream(conn, b"o", tty[0], one), _Stream(conn, b"e", tty[1], one)
         code = 1
         with self.lock:
             self.running = conn
@@ -178,6 +187,17 @@ class Server:
         except OSError:
             pass
         self.log(f"{' '.join(map(str, req['argv']))[:200]}: exit {code} ({(time.perf_counter() - t) * 1e3:.0f} ms)")
+
+
+def _join_io_threads() -> None:
+    """A batch's I/O threads (batch._overlapped) finished: an interrupt during the pool's own
+    shutdown can leave them writing."""
+    for t in threading.enumerate():
+        while t.name.startswith("fogcli-io") and t.is_alive():
+            try:
+                t.join()
+            except KeyboardInterrupt:
+                continue
 
 
 def _warm_up(device: str | None) -> None:
@@ -228,13 +248,13 @@ def serve(idle: float, device: str | None = None) -> None:
 
     signal.signal(signal.SIGINT, stop)
     signal.signal(signal.SIGTERM, stop)
-    signal.signal(signal.SIGUSR1, client_gone)
     tmp = f"{path}.{os.getpid()}"
     sock = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
     ino = None
     try:
         keep_freed_memory()
         _warm_up(device)
+        signal.signal(INTERRUPT, client_gone)     # after PoCL's start-up, in case it takes a handler
         sock.bind(tmp)
         sock.listen(16)
         os.replace(tmp, path)        # a stale socket of a killed server is replaced
