@@ -231,6 +231,16 @@ def test_a_gone_client_interrupts_a_run_waiting_on_a_thread(monkeypatch):
         ours.close()
 
 
+def test_one_server_for_fogcli_and_python_m_fogcli():
+    """The console script runs as the venv's python3, `python -m fogcli` as its python: the
+    same interpreter, the same socket."""
+    other = Path(sys.executable).with_name("python3" if Path(sys.executable).name != "python3" else "python")
+    assert other.exists() and other.name != Path(sys.executable).name
+    r = subprocess.run([str(other), "-c", "from fogcli import launch; print(launch.install_key())"],
+                       capture_output=True, text=True, timeout=60, env=_env(Path("/nonexistent")))
+    assert r.returncode == 0 and r.stdout.strip() == launch.install_key(), r.stderr
+
+
 def test_terminal_without_streams_and_with_columns(monkeypatch):
     monkeypatch.setattr(sys, "stdout", None)
     monkeypatch.setattr(sys, "stderr", None)

@@ -31,7 +31,9 @@ def relevant_env(env=None) -> dict:
 
 def install_key() -> str:
     """This interpreter and these sources: an edited or reinstalled fogcli gets a server of its own."""
-    parts = [sys.executable, PACKAGE, sys.version]
+    # the interpreter itself (`fogcli` runs as venv/bin/python3, `python -m fogcli` as
+    # venv/bin/python: one server for both) and the environment it runs in
+    parts = [os.path.realpath(sys.executable), sys.prefix, PACKAGE, sys.version]
     for d in (PACKAGE, os.path.join(PACKAGE, "kernels")):
         try:
             entries = sorted(os.scandir(d), key=lambda e: e.name)
