@@ -25,7 +25,7 @@ from .hostmem import keep_freed_memory
 # blocked on a lock (a batch waiting for its read or write) returns at once to raise it
 # (interrupt_main only sets a flag, seen when the wait ends). Not SIGINT (that stops the
 # server), not SIGUSR1 (PoCL installs its own handler for it when it starts).
-INTERRUPT = signal.SIGRTMIN + 1
+INTERRUPT = signal.SIGRTMIN + 1 if hasattr(signal, "SIGRTMIN") else signal.SIGUSR2     # macOS has no real-time ones
 
 
 class _Stream(io.TextIOBase):
