@@ -18,11 +18,11 @@ def write_block(doc: Path, begin: str, end: str, block: str, new_doc: str | None
     doc.write_text(text)
 
 
-def publish_performance(lines: list[str]) -> int:
-    """A benchmark's block (lines, markers first and last) printed and written into
-    docs/performance.md; the script's exit code."""
+def publish_performance(lines: list[str], doc: Path | None = None) -> int:
+    """A benchmark's block (lines, markers first and last) printed and written into doc
+    (docs/performance.md unless given); the script's exit code."""
     block = "\n".join(lines)
     print(block)
-    write_block(Path(__file__).resolve().parents[1] / "docs" / "performance.md", lines[0], lines[-1], block,
+    write_block(doc or Path(__file__).resolve().parents[1] / "docs" / "performance.md", lines[0], lines[-1], block,
                 new_doc="# Performance\n")
     return 0

@@ -22,7 +22,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path[:0] = [str(ROOT / "src"), str(ROOT / "benchmarks"), str(ROOT / "tests")]
 
-from docblock import write_block  # noqa: E402
+from docblock import publish_performance  # noqa: E402
 
 BEGIN, END = "<!-- end-to-end: begin -->", "<!-- end-to-end: end -->"
 W, H = 1888, 1062     # 2.0 MPx
@@ -186,10 +186,7 @@ def main() -> int:
         imp, build, first = start[c]
         lines.append(f"| {'on (default)' if c else 'off (FOGCLI_KERNEL_CACHE=0)'} | {imp:.0f} | {build:.0f} | {first:.0f} |")
     lines.append(END)
-    block = "\n".join(lines)
-    print(block)
-    write_block(Path(args.out), BEGIN, END, block, new_doc="# Performance\n")
-    return 0
+    return publish_performance(lines, Path(args.out))
 
 
 if __name__ == "__main__":

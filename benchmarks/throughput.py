@@ -27,7 +27,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path[:0] = [str(ROOT / "src"), str(ROOT / "tests"), str(ROOT / "benchmarks")]
 
-from docblock import write_block  # noqa: E402
+from docblock import publish_performance  # noqa: E402
 
 BEGIN, END = "<!-- batch-throughput: begin -->", "<!-- batch-throughput: end -->"
 
@@ -172,7 +172,6 @@ def main():
             server.wait(timeout=60)
     base = best["--jobs 1"]
     core, wall1 = sum(prof["one thread"].values()), sum(prof["all threads"].values())
-    ncpu = os.cpu_count() or 1
     ceiling = ncpu / core * 1e3
     from fogcli.runtime import get_runtime
 
@@ -218,9 +217,7 @@ def main():
               "already takes: that is the ceiling of `--jobs 2` over `--jobs 1` here, because `--jobs 1` already "
               "keeps both cores busy in the kernels (PoCL threads) and in the EXR compression (OpenEXR threads)."]
     lines.append(END)
-    block = "\n".join(lines)
-    print(block)
-    write_block(Path(args.out), BEGIN, END, block, new_doc="# Performance\n")
+    publish_performance(lines, Path(args.out))
 
 
 if __name__ == "__main__":
