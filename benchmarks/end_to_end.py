@@ -22,9 +22,9 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path[:0] = [str(ROOT / "src"), str(ROOT / "benchmarks"), str(ROOT / "tests")]
 
-from docblock import publish_performance  # noqa: E402
+from docblock import cpu_kind, cpu_name, markers, publish_performance  # noqa: E402
 
-BEGIN, END = "<!-- end-to-end: begin -->", "<!-- end-to-end: end -->"
+BEGIN, END = markers(f"end-to-end-{cpu_kind()}")
 W, H = 1888, 1062     # 2.0 MPx
 
 
@@ -166,7 +166,7 @@ def main() -> int:
             server.wait(timeout=60)
     keys = [k for k in ("kernel_ms", "io_ms", "total_ms") if k in rows[0][4]]
     start = {c: startup_ms(c, args.rounds) for c in (False, True)}
-    lines = [BEGIN, "## End to end", "",
+    lines = [BEGIN, f"## End to end on {cpu_name()}", "",
              f"`python benchmarks/end_to_end.py` on {cpu}, {os.cpu_count()} cores: `fogcli apply in.exr -o out.exr` "
              f"of a {W}x{H} half-float EXR with R, G, B, Z (the harbour sample with 2 % grain, default fog), a new process each "
              f"time, second run (kernel caches warm), best of {args.rounds}; against OpenImageIO writing the same "

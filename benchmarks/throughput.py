@@ -27,9 +27,9 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path[:0] = [str(ROOT / "src"), str(ROOT / "tests"), str(ROOT / "benchmarks")]
 
-from docblock import publish_performance  # noqa: E402
+from docblock import cpu_kind, cpu_name, markers, publish_performance  # noqa: E402
 
-BEGIN, END = "<!-- batch-throughput: begin -->", "<!-- batch-throughput: end -->"
+BEGIN, END = markers(f"batch-throughput-{cpu_kind()}")
 
 
 def make_frames(folder: Path, n: int, w: int, h: int) -> None:
@@ -176,7 +176,7 @@ def main():
     from fogcli.runtime import get_runtime
 
     cpu = get_runtime(None).info.label()
-    lines = [BEGIN, "## Batch throughput", "",
+    lines = [BEGIN, f"## Batch throughput on {cpu_name()}", "",
              f"`python benchmarks/throughput.py` on {cpu}, {ncpu} cores ({args.frames} frames of {w}x{h} = "
              f"{w * h / 1e6:.2f} MPx, EXR with embedded Z, default fog; best of {args.rounds} interleaved rounds). "
              "Images/s over the whole `fogcli batch` command (start-up, worker spawn and report included) and in "
