@@ -153,10 +153,11 @@ def main() -> int:
     text = "\n".join(lines)
     print(text)
     if args.doc:
-        from docblock import write_block
+        from docblock import cpu_kind, markers, write_block
 
-        begin, end = "<!-- vectorisation: begin -->", "<!-- vectorisation: end -->"
-        write_block(Path(args.doc), begin, end, f"{begin}\n## What PoCL vectorises\n\n{text}\n{end}", new_doc="")
+        begin, end = markers(f"vectorisation-{cpu_kind()}")
+        write_block(Path(args.doc), begin, end, f"{begin}\n## What PoCL vectorises on {cpu_name()}\n\n{text}\n{end}",
+                    new_doc="")
     return 0
 
 
