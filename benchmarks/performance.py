@@ -54,8 +54,8 @@ def copy_ms(shape, reps=7):
 
 def copy_in_place_ms(shape, reps=15):
     """A numpy copy of the image into an array that exists already (its pages faulted in),
-    median of reps: memory bandwidth alone, as the kernels write into buffers kept from frame
-    to frame. Within 3.0-3.8 ms at 2 MPx on the same AMD EPYC across processes."""
+    median of reps: no page faults, as the kernels write into buffers kept from frame to frame.
+    3.0-3.9 ms at 2 MPx on the same AMD EPYC across processes."""
     a = np.random.default_rng(0).random(shape, dtype=np.float32)
     b = np.ones_like(a)
     ts = []
@@ -208,8 +208,8 @@ def main():
           "the unit the targets were set in; it includes page faults when the allocator hands out fresh pages and "
           "not when it reuses freed ones, so it is bimodal (the same 2 MPx copy took 3.3 ms in one process, "
           "7-8.6 ms in the next on an AMD EPYC). In place (`np.copyto` into an existing array, median of 15): "
-          "memory bandwidth alone, stable within about 20 %, and what the kernels do (their buffers are kept "
-          "from frame to frame)." + scale, ""] + stage_md(rows)
+          "no page faults, as the kernels write into buffers kept from frame to frame; it still moves with the "
+          "VM, and an image that fits in the last-level cache (0.5 MPx here) is copied at the cache's speed." + scale, ""] + stage_md(rows)
     lamp = (f"One point light in fog at 2 MPx (`{LAMP.replace('=', ': ', 1)}`; "
             "its `lights` stage: the airlight kernel and the two that add its light), on top of the above: ")
     md += ["", lamp + f"{light[0]:.1f} ms = {light[0] / light[1]:.1f} copies into new memory, "
