@@ -10,6 +10,7 @@ import oracles
 from conftest import plan_for
 from fogcli import apsf
 from fogcli.pipeline import Timings, read_chain
+from fogcli.runtime import LOCAL_CPU
 
 FOG = ("medium.absorption=[0.02, 0.05, 0.1]", "medium.scattering=[0.3, 0.2, 0.25]", "medium.asymmetry=0.8",
        "camera.fov=70", "camera.depth=distance", "camera.max_depth=300")
@@ -345,8 +346,11 @@ def _view_cosines(cfg, depth):
     return np.nan_to_num(out, nan=1.0)
 
 
-@pytest.mark.parametrize("w,h,kind", [(37, 19, "z"), (64, 8, "z"), (5, 40, "z"), (37, 19, "distance"),
-                                      (64, 8, "distance")])
+LX = LOCAL_CPU[0]     # the interior (one pixel in from each edge) of 2 LX columns holds one whole group
+
+
+@pytest.mark.parametrize("w,h,kind", [(37, 19, "z"), (2 * LX, 8, "z"), (5, 40, "z"), (37, 19, "distance"),
+                                      (2 * LX, 8, "distance"), (LX + 5, 19, "z")])
 def test_view_cosines_match_oracle(rt, rng, w, h, kind):
     """view_cosines (view_cosines_inner on the interior's whole work-groups where the frame
     holds one, the checked per-pixel kernel on the strips around it) against the oracle on a

@@ -94,8 +94,9 @@ def test_damaged_binary_is_rebuilt(cache, monkeypatch):
 def test_cache_off_and_same_results(cache, monkeypatch, rng):
     """FOGCLI_KERNEL_CACHE=0 writes nothing; programs from binaries compute what programs
     from source do (bit for bit: the same machine code)."""
-    img = rng.uniform(0, 2, (24, 32, 3)).astype(np.float32)
-    depth = rng.uniform(2, 80, (24, 32)).astype(np.float32)
+    w = runtime.LOCAL_CPU[0] + 32          # whole work-groups: their programs are built too
+    img = rng.uniform(0, 2, (24, w, 3)).astype(np.float32)
+    depth = rng.uniform(2, 80, (24, w)).astype(np.float32)
     cfg = make_config("fog")
     monkeypatch.setenv("FOGCLI_KERNEL_CACHE", "0")
     monkeypatch.setattr(runtime, "_RUNTIMES", {})
@@ -121,7 +122,8 @@ __kernel void count(__global int *c, const int w, const int h)
 '''
 
 
-@pytest.mark.parametrize("w,h", [(1, 1), (5, 3), (31, 7), (32, 4), (33, 5), (64, 8), (100, 37)])
+@pytest.mark.parametrize("w,h", [(1, 1), (5, 3), (31, 7), (32, 4), (33, 5), (64, 8), (100, 37),
+                                 (runtime.LOCAL_CPU[0] - 1, 3), (runtime.LOCAL_CPU[0] + 1, 9), (2 * runtime.LOCAL_CPU[0], 4)])
 def test_launch2d_covers_every_pixel_once(rt, w, h):
     """launch2d: the whole-groups kernel (no bounds check) stays inside the image, the
     checked one fills the strips, and no pixel is done twice."""
