@@ -5,7 +5,7 @@ reports its best and median kernel_ms, a numpy copy of the image, and the median
 run's kernel_ms over an in-place copy of the image taken right after it (the drift moves
 both alike, so this ratio is the one to compare).
 
-    python benchmarks/ab_kernels.py <commit> [--rounds 3] [--frames 8] [--avx2]
+    python benchmarks/ab_kernels.py <commit> [--rounds 3] [--frames 8] [--avx2] [--medium M] [--set K=V ...]
 
 The other commit is checked out in a temporary git worktree; --avx2 runs both under
 benchmarks/avx2/run.sh znver1 (the kernels as an AMD EPYC Zen 1 compiles them).
@@ -46,9 +46,10 @@ print(json.dumps(dict(best=min(ts), median=float(np.median(ts)), copy=copy_ms((h
 """
 
 
-def run(tree: Path, frames: int, avx2: bool) -> dict:
+def run(tree: Path, frames: int, avx2: bool, medium: str = "fog", sets: tuple = ()) -> dict:
     cmd = ([str(ROOT / "benchmarks" / "avx2" / "run.sh"), "znver1"] if avx2 else []) + [
-        sys.executable, "-c", CHILD.format(bench=str(ROOT / "benchmarks"), frames=frames)]
+        sys.executable, "-c", CHILD.format(bench=str(ROOT / "benchmarks"), frames=frames, medium=medium,
+                                           sets=list(sets))]
     r = subprocess.run(cmd, capture_output=True, text=True, check=True,
                        env={**os.environ, "PYTHONPATH": str(tree / "src")})
     return json.loads(r.stdout.strip().splitlines()[-1])
@@ -60,6 +61,8 @@ def main() -> int:
     ap.add_argument("--rounds", type=int, default=3)
     ap.add_argument("--frames", type=int, default=8)
     ap.add_argument("--avx2", action="store_true")
+    ap.add_argument("--medium", default="fog", help="a preset or config file (default fog)")
+    ap.add_argument("--set", action="append", default=[], dest="sets", help="a config key, as fogcli apply --set")
     args = ap.parse_args()
     with tempfile.TemporaryDirectory() as tmp:
         other = Path(tmp) / "other"
@@ -68,7 +71,7 @@ def main() -> int:
             res = {args.commit: [], "this tree": []}
             for _ in range(args.rounds):
                 for name, tree in ((args.commit, other), ("this tree", ROOT)):
-                    r = run(tree, args.frames, args.avx2)
+                    r = run(tree, args.frames, args.avx2, args.medium, args.sets)
                     res[name].append(r)
                     print(f"{name}: best {r['best']:.1f} ms, median {r['median']:.1f} ms, copy {r['copy']:.2f} ms "
                           f"({r['best'] / r['copy']:.1f} copies), each run in the in-place copy after it {r['paired']:.1f} (median)",
