@@ -15,12 +15,13 @@ from pathlib import Path
 from .errors import ProcessingError, UserError
 
 KERNEL_DIR = Path(__file__).resolve().parent / "kernels"
-# Work-group size on a CPU. 64 x 4 against the 32 x 4 before it, 2 MPx default pipeline on an
-# AMD EPYC (Zen 3, AVX2; benchmarks/ab_kernels.py, 6 rounds): 0.80x the kernel time (0.74x as
-# compiled for Zen 1); 64 x 2, 128 x 2 and 128 x 4 were 0.81-0.91x. The gain is in the two-pixel
-# kernels (composite_source_pairs 18.2 -> 14.2 ms, collapse_pairs 4.6 -> 3.2; composite_source
-# on the wider strips around them 1.8 -> 2.9). Other pipelines, same A/B: a point light 0.82x, with
-# screen shadows 0.82x, sea 0.88x, smoke-ball 0.87x, psf gaussian 0.81x. Not yet measured on AVX-512.
+# Work-group size on a CPU: 64 x 4, against the 32 x 4 before it on an AMD EPYC (Zen 3, AVX2),
+# 2 MPx default pipeline (benchmarks/ab_kernels.py, kernel_ms paired with a copy): 0.92x in 8
+# rounds (best 68.8 against 78.2 ms), 0.80x in 6 (0.74x compiled for Zen 1); 64 x 2, 128 x 2 and
+# 128 x 4 were 0.81-0.91x in 6. The gain is in the two-pixel kernels (composite_source_pairs 18.2
+# -> 14.2 ms, collapse_pairs 4.6 -> 3.2; composite_source on the wider strips around them
+# 1.8 -> 2.9). Other pipelines, 4 rounds: a point light 0.82x, with screen shadows 0.82x, sea
+# 0.88x, smoke-ball 0.87x, psf gaussian 0.81x. Not yet measured on AVX-512.
 LOCAL_CPU = tuple(int(v) for v in os.environ.get("FOGCLI_LOCAL", "64,4").split(","))
 
 
