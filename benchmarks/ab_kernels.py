@@ -3,7 +3,8 @@ alternating processes: this VM's speed drifts up to 2x within minutes, so only a
 comparison says whether a change is faster. Each process runs `--frames` frames and
 reports its best and median kernel_ms, a numpy copy of the image, and the median of each
 run's kernel_ms over an in-place copy of the image taken right after it (the drift moves
-both alike, so this ratio is the one to compare).
+both alike, so this ratio is the one to compare). Its spread on an AMD EPYC VM: two 5-round
+runs of the same change gave 1.15x and 0.97x, so a change under ~10 % needs 8+ rounds, twice.
 
     python benchmarks/ab_kernels.py <commit> [--rounds 3] [--frames 8] [--avx2] [--medium M] [--set K=V ...]
 
