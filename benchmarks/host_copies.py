@@ -16,10 +16,10 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path[:0] = [str(ROOT / "src"), str(ROOT / "benchmarks")]
 
-from docblock import publish_performance  # noqa: E402
+from docblock import cpu_kind, cpu_name, markers, publish_performance  # noqa: E402
 from fogcli import pixels  # noqa: E402
 
-BEGIN, END = "<!-- host-copies: begin -->", "<!-- host-copies: end -->"
+BEGIN, END = markers(f"host-copies-{cpu_kind()}")
 W, H = 1888, 1062
 
 
@@ -59,7 +59,7 @@ def main() -> int:
                                             dst.__setitem__((slice(None), slice(None), 3), 1.0)),
          lambda: pixels.pack_rgba(dst, rgb, None)),
     ]
-    lines = [BEGIN, "## Host copies", "",
+    lines = [BEGIN, f"## Host copies on {cpu_name()}", "",
              f"`python benchmarks/host_copies.py` on {cpu}, {os.cpu_count()} cores: the whole-frame moves of reading "
              f"and uploading a {W}x{H} frame, numpy's expression against `fogcli/pixels.py` (OpenCV; the same bits), "
              "best of 9 each, in one run.", "",

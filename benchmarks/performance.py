@@ -4,7 +4,11 @@ kernels compile for an AVX2-only AMD EPYC (Zen 1, LLVM znver1); the reference at
 fidelity of pyramid and naive against the reference on held-out scenes. Prints a table and
 writes docs/performance.md.
 
-    python benchmarks/performance.py [--quick]
+    python benchmarks/performance.py [--quick] [--all]
+
+--all first runs the scripts that own the doc's other blocks (end to end, batch throughput,
+vectorisation, host copies, the huge image; ~20 minutes): every number of the doc for this
+kind of CPU.
 """
 from __future__ import annotations
 
@@ -98,6 +102,11 @@ def stage_table(mpxs, reps):
 
 LAMP = "lights=[{type: point, position: [2, 3, -15], intensity: 400}]"    # also benchmarks/lights.py's
 
+# The scripts that write the other blocks of docs/performance.md, run by --all (host_copies.py
+# and huge_image.py write docs/performance.md itself, whatever --out says)
+OTHERS = [("end_to_end.py", "--rounds", "7", "--out", "{out}"), ("throughput.py", "--rounds", "3", "--out", "{out}"),
+          ("pocl_vectorisation.py", "--doc", "{out}"), ("host_copies.py",), ("huge_image.py",)]
+
 
 def light_stage(reps):
     """The `lights` stage of one point light in fog at 2 MPx (its airlight kernel and the two
@@ -177,6 +186,8 @@ def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--quick", action="store_true")
     ap.add_argument("--out", default=str(ROOT / "docs" / "performance.md"))
+    ap.add_argument("--all", action="store_true",
+                    help="first run every script that owns a block of the doc (OTHERS), for this CPU's kind")
     ap.add_argument("--stages-json", help=argparse.SUPPRESS)      # the child of avx2_rows
     ap.add_argument("--sizes", help=argparse.SUPPRESS)
     ap.add_argument("--reps", type=int, default=3, help=argparse.SUPPRESS)
@@ -186,6 +197,11 @@ def main():
         Path(args.stages_json).write_text(json.dumps(dict(device=get_runtime(None).device.version, rows=rows,
                                                           light=light_stage(args.reps))))
         return
+    if args.all:          # before this process touches OpenCL: nothing forks after it
+        for script, *rest in OTHERS:
+            rest = [args.out if a == "{out}" else a for a in rest]
+            print("+", script, *rest, flush=True)
+            subprocess.run([sys.executable, str(ROOT / "benchmarks" / script), *rest], check=True)
     reps = 2 if args.quick else 5
     amd = avx2_rows((1, 2) if args.quick else (1, 2, 8), reps)
     dev = get_runtime(None).info.label()
@@ -244,8 +260,9 @@ def main():
     old = Path(args.out).read_text() if Path(args.out).exists() else ""
     blocks = {m.group(1): m.group(0) for m in re.finditer(r"<!-- ([\w-]+): begin -->.*?<!-- \1: end -->", old, flags=re.S)}
     blocks.pop(f"kernels-{kind}", None)
-    head = ["# Performance", "", "Each kind of CPU's kernel times come from a run of this script on such a machine; "
-            "a run replaces its own kind's block and keeps the others.", ""]
+    head = ["# Performance", "", "Every number here comes from `python benchmarks/performance.py --all` (or the "
+            "script each block names) on the CPU the block names. Each kind of CPU (AVX-512, AVX2) has blocks of "
+            "its own: a run replaces its kind's and keeps the others.", ""]
     kernels = {k: b for k, b in blocks.items() if k.startswith("kernels-")} | {f"kernels-{kind}": "\n".join(md)}
     md = head + ["\n\n".join(b for _, b in sorted(kernels.items()))]
     md += ["", f"Reference (default psf) at {ref[0]}x{ref[1]} on {cpu_name()}: {ref[2]:.0f} ms of kernels ({ref[3]:.0f} ms wall), "
