@@ -138,7 +138,7 @@ def main() -> int:
             r = subprocess.run(cmd, env={**os.environ, "POCL_CACHE_DIR": str(Path(tmp) / f"pocl-{cpu or 'host'}")})
             runs.append(json.loads(out.read_text()) if r.returncode == 0 and out.exists() else None)
     host, amd = runs
-    from performance import cpu_name
+    from docblock import cpu_name
 
     lines = [f"`python benchmarks/pocl_vectorisation.py` on {cpu_name()}: micro-kernels on 2M floats "
              "(2048 x 1024 for the 2-D ones), kernel ms, best of 7; the AVX2 column as PoCL compiles for an AMD "

@@ -21,10 +21,9 @@ sys.path.insert(0, str(ROOT / "src"))
 sys.path.insert(0, str(ROOT / "benchmarks"))
 
 import fogcli  # noqa: E402
-from docblock import write_block  # noqa: E402
+from docblock import cpu_name, write_block  # noqa: E402
 from fogcli.config import LightsRender  # noqa: E402
 from fogcli.pipeline import Timings  # noqa: E402
-from lights import cpu_name  # noqa: E402
 from performance import copy_ms  # noqa: E402
 
 DOC = ROOT / "docs" / "lights.md"

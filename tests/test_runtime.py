@@ -122,8 +122,11 @@ __kernel void count(__global int *c, const int w, const int h)
 '''
 
 
+LX = runtime.LOCAL_CPU[0]
+
+
 @pytest.mark.parametrize("w,h", [(1, 1), (5, 3), (31, 7), (32, 4), (33, 5), (64, 8), (100, 37),
-                                 (runtime.LOCAL_CPU[0] - 1, 3), (runtime.LOCAL_CPU[0] + 1, 9), (2 * runtime.LOCAL_CPU[0], 4)])
+                                 (LX - 1, 3), (LX + 1, 9), (2 * LX, 4)])
 def test_launch2d_covers_every_pixel_once(rt, w, h):
     """launch2d: the whole-groups kernel (no bounds check) stays inside the image, the
     checked one fills the strips, and no pixel is done twice."""
