@@ -142,3 +142,26 @@ def test_launch2d_covers_every_pixel_once(rt, w, h):
     out = np.empty(w * h + guard, np.int32)
     cl.enqueue_copy(rt.queue, out, buf)
     assert (out[: w * h] == 1).all() and not out[w * h:].any()
+
+
+def test_scalar_arguments_are_declared_at_the_first_launch(rt, rng):
+    """The first launch declares the scalar types (runtime._Kernel): later launches pack plain
+    Python numbers as the kernel's int (pyopencl refuses them undeclared), with the same result."""
+    cl, q = rt.cl, rt.queue
+    n = 37
+    rgba = rng.random((n + 5, 4), dtype=np.float32)
+    chain = cl.Buffer(rt.ctx, cl.mem_flags.READ_ONLY | cl.mem_flags.COPY_HOST_PTR, hostbuf=rgba)
+    planes = cl.Buffer(rt.ctx, cl.mem_flags.READ_WRITE, 3 * n * 4)
+    k = rt.program("pyramid", **D4).up_planes
+    got = []
+    for off, count in ((np.int32(5), np.int32(n)), (5, n)):
+        out = np.zeros(3 * n, np.float32)
+        cl.enqueue_copy(q, planes, out)
+        k(q, (n,), None, chain, off, count, planes)
+        cl.enqueue_copy(q, out, planes)
+        got.append(out)
+    want = rgba[5:, :3].T.ravel()
+    assert np.array_equal(got[0], want) and np.array_equal(got[1], want)
+    assert [runtime._arg_dtype(a) for a in (chain, np.int32(1), np.float32(1), np.zeros((), [("a", "f4")]),
+                                            np.zeros(4, np.float32), 3)] == [
+        None, np.dtype(np.int32), np.dtype(np.float32), np.dtype([("a", "f4")]), None, None]

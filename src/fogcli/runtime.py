@@ -130,21 +130,40 @@ class _Kernels:
         return self._cl.Kernel(self.build()._program, name)
 
 
-class _Kernel:
-    """One kernel, retrieved (and its program built) at its first launch."""
+def _arg_dtype(arg):
+    """What pyopencl should pack an argument as: numpy scalars and structs (camera_t, ...)
+    by their dtype, anything else (buffers) as it is."""
+    import numpy as np
 
-    __slots__ = ("_owner", "_name", "_k")
+    if isinstance(arg, np.generic) or (isinstance(arg, np.ndarray) and arg.dtype.kind == "V"):
+        return arg.dtype
+    return None
+
+
+class _Kernel:
+    """One kernel, retrieved (and its program built) at its first launch. Its scalar
+    argument types are declared from that launch's arguments: undeclared, pyopencl sets
+    each scalar through a generic path of ~9 us (PoCL, pyopencl 2026.1), which made an
+    enqueue of 18 arguments ~100 us and the ~140 launches of a 2 MPx frame ~14 ms of
+    host time, taken from the cores the kernels run on; declared, ~3 us
+    (benchmarks/enqueue_cost.py)."""
+
+    __slots__ = ("_owner", "_name", "_k", "_typed")
 
     def __init__(self, owner: _Kernels, name: str):
-        self._owner, self._name, self._k = owner, name, None
+        self._owner, self._name, self._k, self._typed = owner, name, None, False
 
     def _get(self):
         if self._k is None:
             self._k = self._owner.kernel(self._name)
         return self._k
 
-    def __call__(self, *args, **kwargs):
-        return self._get()(*args, **kwargs)
+    def __call__(self, queue, global_size, local_size, *args, **kwargs):
+        k = self._get()
+        if not self._typed:
+            k.set_scalar_arg_dtypes([_arg_dtype(a) for a in args])
+            self._typed = True
+        return k(queue, global_size, local_size, *args, **kwargs)
 
     def __getattr__(self, attr):
         return getattr(self._get(), attr)
