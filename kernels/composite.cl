@@ -148,7 +148,7 @@ __kernel void composite_source(COMP_SOURCE_ARGS)
 }
 
 /* pairs px0 + i of row py0 + j (pairs.h, Addressing; launched with no global offset);
- * up_planes: level 1 as colour planes (up_planes, pyramid.cl) */
+ * up_planes: level 1 up-sampled along y to level 0's rows (up_rows, pyramid.cl) */
 __kernel void composite_source_pairs(COMP_SOURCE_ARGS, __global const float *up_planes, const int px0,
                                      const int py0)
 {
@@ -159,7 +159,7 @@ __kernel void composite_source_pairs(COMP_SOURCE_ARGS, __global const float *up_
     __global const float *dr = (__global const float *)direct + r4, *mr = (__global const float *)medium_term + r4;
     __global float *orow = (__global float *)out + r4, *srow = (__global float *)scattered_aov + r4;
     float e0, e1, e2, o0, o1, o2, s0, s1, s2;
-    pair_up(up_planes, lv[1].y * lv[1].z, lv[1].y, px0, i, j, &e0, &e1, &e2, &o0, &o1, &o2);
+    pair_up(up_planes, height * lv[1].y, lv[1].y, px0, i, j, &e0, &e1, &e2, &o0, &o1, &o2);
     PAIR_ROWS(half_img, j, width, height, 2 * px0)
     float he[3], ho[3];
     pair_half(r0, r1, r2, i, a, he, ho);

@@ -31,33 +31,21 @@ __constant float UP_WE[4] = {0.00260417f, 0.31510417f, 0.61197917f, 0.0703125f};
 __constant float UP_WO[4] = {0.0703125f, 0.61197917f, 0.31510417f, 0.00260417f};
 #endif
 
-/* level k+1 (width w1, n1 pixels; as three colour planes, up_planes in pyramid.cl)
- * up-sampled at the two pixels of pair px0 + i of row j: e (even x = 2 i2) and o (odd):
- * columns i2 - UP_NT / 2 .. i2 + UP_NT / 2, the even pixel's taps the first UP_NT, the odd
- * one's the last UP_NT; the rows and their weights are the row's own. From the planes every
- * tap is a unit-stride load; from the RGBA level each was four loads and their shuffles
- * (the taps overlap between work-items, which LLVM cannot share). With the planes and the
- * separable sums composite_source_pairs went from ~50 to ~30 ms of its stage at 2 MPx. */
-ALWAYS_INLINE void pair_up(__global const float *planes, int n1, int w1, int px0, int i, int j, float *e0,
+/* level k+1 (width w1) up-sampled at the two pixels of pair px0 + i of row j: e (even
+ * x = 2 i2) and o (odd): columns i2 - UP_NT / 2 .. i2 + UP_NT / 2, the even pixel's taps the
+ * first UP_NT, the odd one's the last UP_NT. `rows` holds level k+1 already up-sampled along
+ * y to this level's rows (up_rows in pyramid.cl: three planes of n floats, row j at j w1),
+ * so each tap is one unit-stride load per channel and only the horizontal sums are left
+ * (the same sums in the same order as when the vertical ones were made here: 15 loads of a
+ * pair where they took 60; composite_source_pairs ~1.5 ms less at 2 MPx). */
+ALWAYS_INLINE void pair_up(__global const float *rows, int n, int w1, int px0, int i, int j, float *e0,
                            float *e1, float *e2, float *o0, float *o1, float *o2)
 {
-    int y0 = (j >> 1) - UP_NT / 2 + (j & 1);
-    __global const float *base = planes + y0 * w1 + px0 - UP_NT / 2 + i;
-    /* separable: the UP_NT rows first, per column and channel, then the columns for the
-     * even and the odd pixel (90 products where the rows-inside form had 144) */
+    __global const float *base = rows + j * w1 + px0 - UP_NT / 2 + i;
     float v0[UP_NT + 1], v1[UP_NT + 1], v2[UP_NT + 1];
 #pragma unroll
     for (int t = 0; t <= UP_NT; ++t) {
-        float c0 = 0.0f, c1 = 0.0f, c2 = 0.0f;
-#pragma unroll
-        for (int r = 0; r < UP_NT; ++r) {
-            float wr = (j & 1) ? UP_WO[r] : UP_WE[r];
-            __global const float *q = base + r * w1 + t;
-            c0 += wr * q[0];
-            c1 += wr * q[n1];
-            c2 += wr * q[2 * n1];
-        }
-        v0[t] = c0; v1[t] = c1; v2[t] = c2;
+        v0[t] = base[t]; v1[t] = base[t + n]; v2[t] = base[t + 2 * n];
     }
     float a0 = 0.0f, a1 = 0.0f, a2 = 0.0f, b0 = 0.0f, b1 = 0.0f, b2 = 0.0f;
 #pragma unroll

@@ -265,8 +265,8 @@ __kernel void collapse_level(COLLAPSE_ARGS)
 }
 
 /* collapse_level on two pixels per work-item, away from the level's edges: pairs px0 + i of
- * row py0 + j (pairs.h, Addressing; launched with no global offset); up_planes: level k+1 as
- * colour planes (up_planes) */
+ * row py0 + j (pairs.h, Addressing; launched with no global offset); up_planes: level k+1
+ * up-sampled along y to level k's rows (up_rows) */
 __kernel void collapse_pairs(COLLAPSE_ARGS, __global const float *up_planes, const int px0, const int py0)
 {
     int i = get_global_id(0), y = get_global_id(1) + py0;
@@ -274,7 +274,7 @@ __kernel void collapse_pairs(COLLAPSE_ARGS, __global const float *up_planes, con
     __global const float *pr = (__global const float *)prep + 4 * (off + y * w + 2 * px0);
     __global const float *edge_l = edge + edge_off;
     float e0, e1, e2, o0, o1, o2, s0, s1, s2;
-    pair_up(up_planes, uw * uh, uw, px0, i, y, &e0, &e1, &e2, &o0, &o1, &o2);
+    pair_up(up_planes, h * uw, uw, px0, i, y, &e0, &e1, &e2, &o0, &o1, &o2);
     PAIR_ROWS(half_img, y, w, h, 2 * px0)
     /* each pixel reads only its own value of level k before writing it */
     float he[3], ho[3];
@@ -287,16 +287,33 @@ __kernel void collapse_pairs(COLLAPSE_ARGS, __global const float *up_planes, con
     ch[8 * i + 4] = s0; ch[8 * i + 5] = s1; ch[8 * i + 6] = s2; ch[8 * i + 7] = vw;
 }
 
-/* The colour of level k+1 (n pixels at `off` in the chain) as three planes, R then G then
- * B, for the pair kernels at level k (pairs.h, pair_up). */
-__kernel void up_planes(__global const float4 *chain, const int off, const int n, __global float *planes)
+/* Level k+1 (uw x uh at `off` in the chain) up-sampled along y to the h rows of level k,
+ * as three colour planes of h x uw, R then G then B, for the pair kernels at level k
+ * (pairs.h, pair_up): row j holds the UP_NT rows about j / 2 with row j's fixed-phase
+ * weights, summed in up2_fetch4's order. The pair kernels then sum UP_NT + 1 columns of one
+ * row: the vertical sums, which they did for each pair (4 of their 5 loads a tap), are
+ * made once per level-k row and level-(k+1) column here. Rows beyond level k+1 are clamped;
+ * the pair kernels read only rows whose taps are inside it. */
+__kernel void up_rows(__global const float4 *chain, const int off, const int uw, const int uh, const int h,
+                      __global float *planes)
 {
-    int i = get_global_id(0);
-    if (i >= n) return;
-    __global const float *c = (__global const float *)(chain + off);
-    planes[i] = c[4 * i];
-    planes[n + i] = c[4 * i + 1];
-    planes[2 * n + i] = c[4 * i + 2];
+    int x = get_global_id(0), j = get_global_id(1);
+    if (OUTSIDE(x, j, uw, h)) return;
+    int y0 = (j >> 1) - UP_NT / 2 + (j & 1);
+    __global const float *col = (__global const float *)(chain + off) + 4 * x;
+    float c0 = 0.0f, c1 = 0.0f, c2 = 0.0f;
+#pragma unroll
+    for (int r = 0; r < UP_NT; ++r) {
+        float wr = (j & 1) ? UP_WO[r] : UP_WE[r];
+        __global const float *q = col + 4 * clampi_(y0 + r, 0, uh - 1) * uw;
+        c0 += wr * q[0];
+        c1 += wr * q[1];
+        c2 += wr * q[2];
+    }
+    int n = h * uw, o = j * uw + x;
+    planes[o] = c0;
+    planes[n + o] = c1;
+    planes[2 * n + o] = c2;
 }
 
 /* Level 0 of the prep chain from level 0 of the colour chain (tests set level 0 directly;

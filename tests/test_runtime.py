@@ -146,22 +146,27 @@ def test_launch2d_covers_every_pixel_once(rt, w, h):
 
 def test_scalar_arguments_are_declared_at_the_first_launch(rt, rng):
     """The first launch declares the scalar types (runtime._Kernel): later launches pack plain
-    Python numbers as the kernel's int (pyopencl refuses them undeclared), with the same result."""
+    Python numbers as the kernel's int and floats (pyopencl refuses them undeclared), with the
+    same result."""
     cl, q = rt.cl, rt.queue
     n = 37
-    rgba = rng.random((n + 5, 4), dtype=np.float32)
-    chain = cl.Buffer(rt.ctx, cl.mem_flags.READ_ONLY | cl.mem_flags.COPY_HOST_PTR, hostbuf=rgba)
-    planes = cl.Buffer(rt.ctx, cl.mem_flags.READ_WRITE, 3 * n * 4)
-    k = rt.program("pyramid", **D4).up_planes
+    chain = rng.random((n + 5, 4), dtype=np.float32) + 0.5
+    chain[:, 3] = np.where(np.arange(n + 5) % 2, 4.0, 0.25)      # clear of the mask's ramp (1 .. 1.5)
+    src = cl.Buffer(rt.ctx, cl.mem_flags.READ_ONLY | cl.mem_flags.COPY_HOST_PTR, hostbuf=chain)
+    dst = cl.Buffer(rt.ctx, cl.mem_flags.READ_WRITE, chain.nbytes)
+    k = rt.program("pyramid", **D4).prep_level0
     got = []
-    for off, count in ((np.int32(5), np.int32(n)), (5, n)):
-        out = np.zeros(3 * n, np.float32)
-        cl.enqueue_copy(q, planes, out)
-        k(q, (n,), None, chain, off, count, planes)
-        cl.enqueue_copy(q, out, planes)
+    for count, thresh, eps in ((np.int32(n), np.float32(1.0), np.float32(0.5)), (n, 1.0, 0.5)):
+        out = np.zeros_like(chain)
+        cl.enqueue_copy(q, dst, out)
+        k(q, (n,), None, src, dst, count, thresh, eps)
+        cl.enqueue_copy(q, out, dst)
         got.append(out)
-    want = rgba[5:, :3].T.ravel()
-    assert np.array_equal(got[0], want) and np.array_equal(got[1], want)
-    assert [runtime._arg_dtype(a) for a in (chain, np.int32(1), np.float32(1), np.zeros((), [("a", "f4")]),
+    want = np.zeros_like(chain)
+    want[:n, :3] = chain[:n, :3] * (chain[:n, 3:] > 1.0)
+    want[:n, 3] = np.log(chain[:n, 3])
+    for g in got:
+        assert np.allclose(g, want, rtol=0, atol=2e-6) and not g[n:].any()
+    assert [runtime._arg_dtype(a) for a in (src, np.int32(1), np.float32(1), np.zeros((), [("a", "f4")]),
                                             np.zeros(4, np.float32), 3)] == [
         None, np.dtype(np.int32), np.dtype(np.float32), np.dtype([("a", "f4")]), None, None]

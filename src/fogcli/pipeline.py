@@ -200,7 +200,9 @@ BUFFERS = {
     "chain": lambda n, t, f: 16 * t,                       # colour chain, every level
     "spread": lambda n, t, f: 4 * t,
     "prep": lambda n, t, f: 16 * t * f.source,
-    "up_planes": lambda n, t, f: 12 * (t - n) * f.source,  # a level >= 1 as colour planes (pair kernels)
+    # level k+1 up-sampled along y to level k's rows, as colour planes (the pair kernels, up_rows):
+    # 12 h ceil(w / 2) <= 6 n + 6 h bytes at level 0, within 6 t wherever pair kernels run (w >= 4)
+    "up_planes": lambda n, t, f: 6 * t * f.source,
     "chain2": lambda n, t, f: 16 * t * f.sep,
     "prep2": lambda n, t, f: 16 * t * f.sep,
     "half2": lambda n, t, f: 16 * n * f.sep,
@@ -346,12 +348,12 @@ class Plan:
         pyr = rt.program("pyramid", **d)
         self.k_reduce, self.k_reduce_src = pyr.reduce_level, pyr.reduce_level_source
         self.k_reduce_inner = pyr.reduce_source_inner
-        self.k_up_planes = pyr.up_planes
         self.k_prep0 = pyr.prep_level0
         whole = rt.program("pyramid", WHOLE_GROUPS=1, **d)     # launch2d / launch1d: no bounds check
         self.k_collapse = (whole.collapse_level, pyr.collapse_level)
         self.k_collapse_pairs = whole.collapse_pairs
         self.k_split = (whole.split_level, pyr.split_level)
+        self.k_up_rows = (whole.up_rows, pyr.up_rows)
         self.k_comp = rt.program("composite", **d).composite
         # composite_source: what it writes fixed at build time, on whole work-groups (as preprocess);
         # [True]: the separated chain's pass, which adds its light
@@ -795,12 +797,12 @@ class Plan:
     def _launch_pairs(self, t: Timings, region, pairs, kernels, w: int, h: int, args: tuple, chain, up: int) -> None:
         """A w x h level through its two-pixel kernel (`pairs`, pairs.h) on `region`, the
         per-pixel kernel around it (_launch_inner). The pair kernels read level `up` of
-        `chain` as colour planes (up_planes, made here) and take the region's corner as
-        arguments (pairs.h, Addressing)."""
+        `chain` up-sampled along y to this level's rows, as colour planes (up_rows, made
+        here), and take the region's corner as arguments (pairs.h, Addressing)."""
         if region is not None:
             o, uw, uh, _ = (int(v) for v in self.lv[up])
-            t.add("composite", self.rt.launch1d((self.k_up_planes, self.k_up_planes), uw * uh, chain, np.int32(o),
-                                                np.int32(uw * uh), self.up_planes))
+            t.add("composite", self.rt.launch2d(self.k_up_rows, uw, h, chain, np.int32(o), np.int32(uw), np.int32(uh),
+                                                np.int32(h), self.up_planes))
         self._launch_inner(t, "composite", region, pairs, kernels, w, h, args, per=2, corner_args=True,
                            extra=(self.up_planes,))
 
