@@ -198,20 +198,22 @@ __kernel void preprocess(__global const float4 *image, __global const float *dep
     int nlev = (int)lut[3];
     float lf;
     int li = lut_pos(lut, lp, &lf);
+#ifdef EMISSION_LAMBERT
+    /* the energy ratio times the Lambertian weight at this pixel's view cosine, one table */
+    float lw0, lw1, lw2;
+    lambert_at(lut, nlev, li, lf, cosines[idx], &lw0, &lw1, &lw2, 1);
+    sc[0] *= lw0; sc[1] *= lw1; sc[2] *= lw2;
+#else
     sc[0] *= lut_get(lut, lut_ratio(nlev, 0), li, lf);
     sc[1] *= lut_get(lut, lut_ratio(nlev, 1), li, lf);
     sc[2] *= lut_get(lut, lut_ratio(nlev, 2), li, lf);
+#endif
 #if PRE_SOURCE
     /* level 0's shares passed up (store_prep_apsf's), read here with the other table reads:
      * after the stores below LLVM must assume they changed the table and reads it again,
      * by gathers (measured ~7 ms of the stage at 2 MPx) */
     float up0 = lut_get(lut, lut_updown(0, 0, 0), li, lf), up1 = lut_get(lut, lut_updown(0, 1, 0), li, lf),
           up2 = lut_get(lut, lut_updown(0, 2, 0), li, lf);
-#endif
-#ifdef EMISSION_LAMBERT
-    float lw0, lw1, lw2;
-    lambert_at(lut, nlev, li, lf, cosines[idx], &lw0, &lw1, &lw2);
-    sc[0] *= lw0; sc[1] *= lw1; sc[2] *= lw2;
 #endif
     float wv = lp;
 #else
@@ -286,7 +288,7 @@ __kernel void coverage(__global float4 *direct, __global const float *P_empty, c
     for (int c = 0; c < 3; ++c) r[c] = lut_get(lut, lut_ratio(nlev, c), li, lf);
 #ifdef EMISSION_LAMBERT
     float lw[3];
-    lambert_at(lut, nlev, li, lf, 1.0f, &lw[0], &lw[1], &lw[2]);
+    lambert_at(lut, nlev, li, lf, 1.0f, &lw[0], &lw[1], &lw[2], 0);
     for (int c = 0; c < 3; ++c) r[c] *= lw[c];
 #endif
 #endif
