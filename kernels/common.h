@@ -444,24 +444,22 @@ inline int lut_ratio(int nlev, int ch) { return 4 + nlev * 6 * APSF_NP + LUT_CH(
 inline int lut_shape(int nlev, int j, int ch) { return 4 + nlev * 6 * APSF_NP + 3 * APSF_NP + (j * 3 + LUT_CH(ch)) * APSF_NP; }
 
 #ifdef EMISSION_LAMBERT
-/* Lambertian over isotropic scattered energy at the view cosine cosv, per channel, at the
- * log-P sample (li, lf) of lut_pos: bilinear in (cosine, log P) */
+/* Lambertian over isotropic scattered energy at the view cosine cosv, times the energy
+ * ratio (one table: apsf.build_lut), per channel, at the log-P sample (li, lf) of lut_pos:
+ * bilinear in (cosine, log P) */
 inline float lambert_ch(__global const float *lut, int base, int li, float lf, float f)
 {
     float a = lut_get(lut, base, li, lf);
     return a + (lut_get(lut, base + 3 * APSF_NP, li, lf) - a) * f;
 }
-/* with_ratio: the table of the weight times the energy ratio (apsf.build_lut), which
- * preprocess reads in place of the two */
 inline void lambert_at(__global const float *lut, int nlev, int li, float lf, float cosv,
-                       float *w0, float *w1, float *w2, int with_ratio)
+                       float *w0, float *w1, float *w2)
 {
     float u = clampf_((cosv - APSF_COS_MIN) / (1.0f - APSF_COS_MIN) * (float)(APSF_NC - 1), 0.0f,
                       (float)APSF_NC - 1.001f);
     int ci = (int)u;
     float f = u - (float)ci;
-    /* just after the Gaussians' weights; the product's table after the weight's */
-    int base = lut_shape(nlev, APSF_J, 0) + (with_ratio ? APSF_NC * 3 * APSF_NP : 0) + ci * 3 * APSF_NP;
+    int base = lut_shape(nlev, APSF_J, 0) + ci * 3 * APSF_NP;   /* just after the Gaussians' weights */
     *w0 = lambert_ch(lut, base, li, lf, f);
     *w1 = lambert_ch(lut, base + LUT_CH(1) * APSF_NP, li, lf, f);
     *w2 = lambert_ch(lut, base + LUT_CH(2) * APSF_NP, li, lf, f);

@@ -201,7 +201,7 @@ __kernel void preprocess(__global const float4 *image, __global const float *dep
 #ifdef EMISSION_LAMBERT
     /* the energy ratio times the Lambertian weight at this pixel's view cosine, one table */
     float lw0, lw1, lw2;
-    lambert_at(lut, nlev, li, lf, cosines[idx], &lw0, &lw1, &lw2, 1);
+    lambert_at(lut, nlev, li, lf, cosines[idx], &lw0, &lw1, &lw2);
     sc[0] *= lw0; sc[1] *= lw1; sc[2] *= lw2;
 #else
     sc[0] *= lut_get(lut, lut_ratio(nlev, 0), li, lf);
@@ -285,11 +285,10 @@ __kernel void coverage(__global float4 *direct, __global const float *P_empty, c
     int nlev = (int)lut[3];
     float lf;
     int li = lut_pos(lut, lp, &lf);
-    for (int c = 0; c < 3; ++c) r[c] = lut_get(lut, lut_ratio(nlev, c), li, lf);
 #ifdef EMISSION_LAMBERT
-    float lw[3];
-    lambert_at(lut, nlev, li, lf, 1.0f, &lw[0], &lw[1], &lw[2], 0);
-    for (int c = 0; c < 3; ++c) r[c] *= lw[c];
+    lambert_at(lut, nlev, li, lf, 1.0f, &r[0], &r[1], &r[2]);   /* the ratio times the weight, as preprocess */
+#else
+    for (int c = 0; c < 3; ++c) r[c] = lut_get(lut, lut_ratio(nlev, c), li, lf);
 #endif
 #endif
     float te = 0.0f;

@@ -252,8 +252,8 @@ def in_frame(sigma: np.ndarray, width: int, height: int) -> np.ndarray:
 def build_lut(sa, ss, g: float, focal_px: float, spread_scale: float, levels: int, c: float,
               half_var: float, tab: dict | None = None, frame: tuple[int, int] | None = None) -> np.ndarray:
     """The device table: header, then up/half per (level, channel), the energy ratio per
-    channel, the weight of each table Gaussian per channel (reference), the Lambertian
-    weight per view cosine and channel, and that weight times the ratio. float32.
+    channel, the weight of each table Gaussian per channel (reference), and the Lambertian
+    weight per view cosine and channel times the energy ratio. float32.
     frame: (width, height) with the open border. The top level is a single blur about as
     wide as the frame; light of the table's wider Gaussians mostly leaves an open frame,
     so of what reaches the top level only the share that such a Gaussian would leave in
@@ -290,10 +290,10 @@ def build_lut(sa, ss, g: float, focal_px: float, spread_scale: float, levels: in
         if "emit_mu" in tab:
             lambert[:, ch, :] = lambert_weight(tab, g, a, ss[ch] * P, cos_grid).T
     head = np.array([lp0, (NP - 1) / (lp1 - lp0), NP, levels + 1])
-    # the ratio times the Lambertian weight, which preprocess interpolates as one table:
-    # 4 table reads a pixel fewer than the two apart (gathers: ~0.6 ms each at 2 MPx)
+    # the Lambertian weight times the ratio, which the kernels interpolate as one table where
+    # they need both: 4 table reads a pixel fewer than the two apart (gathers, on AVX2)
     return np.concatenate([head, updown.ravel(), ratio.ravel(), shape.ravel(),
-                           lambert.ravel(), (lambert * ratio[None]).ravel()]).astype(np.float32)
+                           (lambert * ratio[None]).ravel()]).astype(np.float32)
 
 
 def edge_tables(sizes: list[tuple[int, int]], c: float, half_var: float) -> tuple[np.ndarray, list[int]]:
@@ -379,6 +379,4 @@ def lut_offsets(levels: int, J: int) -> dict:
     ratio = up + (levels + 1) * 3 * 2 * NP
     shape = ratio + 3 * NP
     lambert = shape + J * 3 * NP
-    ratio_lambert = lambert + NC * 3 * NP
-    return {"updown": up, "ratio": ratio, "shape": shape, "lambert": lambert, "ratio_lambert": ratio_lambert,
-            "end": ratio_lambert + NC * 3 * NP}
+    return {"updown": up, "ratio": ratio, "shape": shape, "lambert": lambert, "end": lambert + NC * 3 * NP}
