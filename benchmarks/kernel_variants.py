@@ -9,8 +9,7 @@ A variant is a set of text substitutions in kernels/ (a copy of it), as JSON:
         [--rounds 15] [--lanes 1]
 
 The first two arguments: the kernel's name and its program (kernels/<program>.cl). The
-variants build with the whole-groups options the pipeline used for that program (or its
-checked build where it has none). --lanes 1 makes the pipeline take the paths it takes on a
+variants build with the options of the program the pipeline launched the kernel from. --lanes 1 makes the pipeline take the paths it takes on a
 CPU that is not 8 wide (reduce_source_inner, for one). A variant that only removes work
 measures that work's cost; one that reads other data (a faked layout) measures its access
 pattern, not its result.
@@ -19,6 +18,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import shlex
 import shutil
 import sys
 import tempfile
@@ -50,32 +50,29 @@ def main() -> int:
     from fogcli.scenes import harbour_sample
     from performance import size_for
 
-    opts, calls = {}, []
-    real_build, real_call = R.Runtime._build, cl.Kernel.__call__
-
-    def build(self, name, src, o):
-        if name == args.program and ("WHOLE_GROUPS=1" in o or "checked" not in opts):
-            opts["whole" if "WHOLE_GROUPS=1" in o else "checked"] = list(o)
-        return real_build(self, name, src, o)
+    calls = []
+    real_call = cl.Kernel.__call__
 
     def call(self, queue, global_size, local_size, *a, **kw):
         if self.function_name == args.kernel and not kw:
-            calls.append((global_size, local_size, a))
+            prog = self.get_info(cl.kernel_info.PROGRAM)
+            built = prog.get_build_info(queue.device, cl.program_build_info.OPTIONS)
+            calls.append((global_size, local_size, a, shlex.split(built)))
         return real_call(self, queue, global_size, local_size, *a, **kw)
 
-    R.Runtime._build, cl.Kernel.__call__ = build, call
+    cl.Kernel.__call__ = call
     w, h = (int(v) for v in args.size.split("x")) if args.size else size_for(args.mpx)
     rgb, z, _ = harbour_sample(w, h)
     rt = R.get_runtime(None)
     if args.lanes:
         rt.lanes = args.lanes
     apply(rgb, z, make_config("fog"))
-    R.Runtime._build, cl.Kernel.__call__ = real_build, real_call
+    cl.Kernel.__call__ = real_call
     if not calls:
         print(f"{args.kernel} was not launched by the default pipeline at {w}x{h}", file=sys.stderr)
         return 2
-    gsize, lsize, kargs = max(calls, key=lambda c: int(np.prod(c[0])))
-    base_opts = opts.get("whole") or opts["checked"]
+    # the largest launch, with the options its own program was built with
+    gsize, lsize, kargs, base_opts = max(calls, key=lambda c: int(np.prod(c[0])))
     kernels = {}
     with tempfile.TemporaryDirectory() as tmp:
         for name, subs in {"as it is": {}, **variants}.items():
