@@ -149,18 +149,19 @@ def main() -> int:
                 alone, served = dict(FOGCLI_SERVER="0"), dict(FOGCLI_RUN_DIR=str(run_dir))
                 fogcli_once(src, out, **alone)          # the first runs: caches, the server's buffers
                 fogcli_once(src, out, **served)
-                o, f, s, st = 1e9, 1e9, 1e9, {}
+                o, f, s, st, fp = 1e9, 1e9, 1e9, {}, 1e9
                 for _ in range(args.rounds):             # interleaved: the machine's speed drifts
                     o = min(o, oiio_ms(src, Path(tmp) / "oiio.exr", comp, 1))
                     fi, sti = fogcli_once(src, out, **alone)
                     f, st = (fi, sti) if fi < f else (f, st)
+                    fp = min(fp, fogcli_once(src, out, FOGCLI_PREFAULT="0", **alone)[0])
                     si, ssti = fogcli_once(src, out, **served)
                     s = min(s, si)
                     if not ssti.get("served"):
                         raise SystemExit(f"the server did not take the command: {(Path(tmp) / 'serve.log').read_text()}")
-                rows.append((comp, src.stat().st_size / 1e6, o, f, st, s))
-                print(comp, f"{o:.0f} ms oiio, {f:.0f} ms fogcli = {f / o:.2f}x, served {s:.0f} ms = {s / o:.2f}x",
-                      st, flush=True)
+                rows.append((comp, src.stat().st_size / 1e6, o, f, st, s, fp))
+                print(comp, f"{o:.0f} ms oiio, {f:.0f} ms fogcli = {f / o:.2f}x (FOGCLI_PREFAULT=0: {fp:.0f} ms), "
+                      f"served {s:.0f} ms = {s / o:.2f}x", st, flush=True)
         finally:
             server.terminate()
             server.wait(timeout=60)
@@ -172,12 +173,13 @@ def main() -> int:
              f"time, second run (kernel caches warm), best of {args.rounds}; against OpenImageIO writing the same "
              "pixels to an EXR of the same compression and reading them back, in the same run. `served`: the same "
              "command handed to a running `fogcli serve` (docs/distributed.md); the stage times are those of the "
-             "new process.", "",
-             "| compression | file MB | OpenImageIO write + read ms | fogcli apply ms | ratio | served ms | "
-             "served ratio | " + " | ".join(f"{k} ms" for k in keys) + " |",
-             "|---|---|---|---|---|---|---|" + "---|" * len(keys)]
-    for comp, mb, o, f, st, s in rows:
-        lines.append(f"| {comp} | {mb:.1f} | {o:.0f} | {f:.0f} | {f / o:.2f}x | {s:.0f} | {s / o:.2f}x | "
+             "new process. `without prefault`: the new process with FOGCLI_PREFAULT=0 (the heap the previous run "
+             "needed is not touched ahead while Python imports; docs/distributed.md), in the same rounds.", "",
+             "| compression | file MB | OpenImageIO write + read ms | fogcli apply ms | ratio | without prefault ms | "
+             "served ms | served ratio | " + " | ".join(f"{k} ms" for k in keys) + " |",
+             "|---|---|---|---|---|---|---|---|" + "---|" * len(keys)]
+    for comp, mb, o, f, st, s, fp in rows:
+        lines.append(f"| {comp} | {mb:.1f} | {o:.0f} | {f:.0f} | {f / o:.2f}x | {fp:.0f} | {s:.0f} | {s / o:.2f}x | "
                      + " | ".join(f"{st.get(k, 0):.0f}" for k in keys) + " |")
     lines += ["", "Start-up of a new process (ms, best of the rounds): importing fogcli, then the first `apply` of a "
               "64 x 48 frame, of which building the default pipeline's programs; PoCL's own cache warm.", "",

@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 
 from . import depth as depth_mod
-from . import inputs, outputs
+from . import hostmem, inputs, outputs
 from .config import Config
 from .errors import UserError
 from .media import hidden_warning
@@ -127,6 +127,7 @@ def compute(st: Staged, cfg: Config, aovs=(), device=None, timings: Timings | No
 def store(st: Staged, cfg: Config) -> Result:
     """The atomic write (and the lamps found). No OpenCL: a batch writes on a thread."""
     t0 = time.perf_counter()
+    hostmem.note_in_use()
     job = st.job
     outputs.write(Path(job.output), st.rgb, st.alpha, st.planes, st.frame, cfg.output.type, cfg.output.exposure,
                   cfg.output.compression, job.drop_channels)

@@ -200,9 +200,23 @@ def forward(argv: list[str]) -> int | None:
 
 
 def main() -> None:
-    code = forward(sys.argv[1:])
+    argv = sys.argv[1:]
+    code = forward(argv)
     if code is not None:
         sys.exit(code)
+    # a command that runs frames here: the heap its last run needed is faulted in on another
+    # core while the imports run (hostmem.warm_heap), and what this run needed is recorded
+    warm = bool(argv) and argv[0] in FORWARDED and served_here(argv) and not ({"-h", "--help"} & set(argv))
+    if warm:
+        from . import hostmem
+
+        hostmem.warm_heap()
     from .cli import main as cli_main
 
-    cli_main()
+    if warm:
+        hostmem.join_warm()
+    try:
+        cli_main()
+    finally:
+        if warm:
+            hostmem.record_heap()

@@ -21,7 +21,9 @@ KERNEL_DIR = Path(__file__).resolve().parent / "kernels"
 # 128 x 4 were 0.81-0.91x in 6. The gain is in the two-pixel kernels (composite_source_pairs 18.2
 # -> 14.2 ms, collapse_pairs 4.6 -> 3.2; composite_source on the wider strips around them
 # 1.8 -> 2.9). Other pipelines, 4 rounds: a point light 0.82x, with screen shadows 0.82x, sea
-# 0.88x, smoke-ball 0.87x, psf gaussian 0.81x. Not yet measured on AVX-512.
+# 0.88x, smoke-ball 0.87x, psf gaussian 0.81x. On an Intel Xeon (AVX-512), against 32 x 4 and
+# the kernels before this choice (ab_kernels.py fd3efff, 8 rounds, twice): best kernel_ms 0.83x
+# and 0.89x, paired 1.02x and 1.01x; 32 x 4, 128 x 4 and 64 x 8 alone there: within the noise.
 LOCAL_CPU = tuple(int(v) for v in os.environ.get("FOGCLI_LOCAL", "64,4").split(","))
 
 
