@@ -83,23 +83,36 @@ def test_record_holds_what_the_run_held_at_most(tmp_path):
 
 
 def test_apply_leaves_a_record_for_the_next_run(tmp_path):
-    """The command's path (launch.main): `fogcli apply` records its heap; with
-    FOGCLI_PREFAULT=0 nothing is recorded (and nothing prefaulted)."""
+    """The command's path (launch.main): `fogcli apply` records what it held; the next run
+    prefaults that, frees it before the frame (else it would record nothing) and records
+    about the same again (the prefault does not feed the record); FOGCLI_PREFAULT=0 does
+    neither."""
     import os
 
     import numpy as np
     from test_cli import write_img
 
-    src = tmp_path / "in.exr"
-    write_img(src, np.dstack([np.full((24, 32, 3), 0.5, np.float32), np.full((24, 32), 10.0, np.float32)]),
-              ["R", "G", "B", "Z"])
     from fogcli.runtime import _user_cache_dir
 
+    src = tmp_path / "in.exr"
+    write_img(src, np.dstack([np.full((300, 400, 3), 0.5, np.float32), np.full((300, 400), 10.0, np.float32)]),
+              ["R", "G", "B", "Z"])
     pocl = os.environ.get("POCL_CACHE_DIR") or str(_user_cache_dir() / "pocl")     # compiled kernels: warm
-    for prefault, cache in (("0", tmp_path / "off"), ("1", tmp_path / "on")):
+
+    def apply(prefault, cache):
         env = dict(os.environ, XDG_CACHE_HOME=str(cache), FOGCLI_PREFAULT=prefault, FOGCLI_SERVER="0",
                    POCL_CACHE_DIR=pocl)
         subprocess.run([sys.executable, "-m", "fogcli", "apply", str(src), "-o", str(tmp_path / f"o{prefault}.exr")],
                        check=True, env=env, capture_output=True)
+
+    apply("0", tmp_path / "off")
     assert not (tmp_path / "off" / "fogcli" / "heap").exists()
-    assert int((tmp_path / "on" / "fogcli" / "heap").read_text()) > (1 << 20)
+    record = tmp_path / "on" / "fogcli" / "heap"
+    apply("1", tmp_path / "on")
+    first = int(record.read_text())
+    (record.parent / "heap").write_text(f"{first + (64 << 20)}\n")     # more than it needs
+    ino = record.stat().st_ino
+    apply("1", tmp_path / "on")
+    second = int(record.read_text())
+    assert record.stat().st_ino != ino                  # written again: the prefault was freed in time
+    assert first > (16 << 20) and abs(second - first) < 0.25 * first, (first, second)

@@ -204,9 +204,9 @@ def main() -> None:
     code = forward(argv)
     if code is not None:
         sys.exit(code)
-    # a command that runs frames here: the heap its last run needed is faulted in on another
-    # core while the imports run (hostmem.warm_heap), and what this run needed is recorded
-    warm = bool(argv) and argv[0] in FORWARDED and served_here(argv) and not ({"-h", "--help"} & set(argv))
+    # apply by itself: the heap its last run held is faulted in on another core while the
+    # imports run (hostmem.warm_heap), and what this run held is recorded for the next
+    warm = bool(argv) and argv[0] == "apply" and not ({"-h", "--help"} & set(argv))
     if warm:
         from . import hostmem
 
