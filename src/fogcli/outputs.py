@@ -4,7 +4,9 @@ target folder and renamed, so a reader never sees a partial file."""
 from __future__ import annotations
 
 import os
+import stat
 import tempfile
+import threading
 from pathlib import Path
 
 import numpy as np
@@ -56,6 +58,24 @@ def _write_bytes(tmp: str, buf) -> None:
         os.fsync(f.fileno())
 
 
+def _hold(path: Path) -> int | None:
+    """An open descriptor of the regular file at path, or None. Replacing a file frees its
+    blocks in the rename itself (6 MB written a moment ago: 6 ms on ext4); held open, they
+    are freed when it is closed, which atomic_write leaves to a thread (in a process of its
+    own: at exit, as before)."""
+    try:
+        fd = os.open(path, os.O_RDONLY | getattr(os, "O_NOFOLLOW", 0) | getattr(os, "O_NONBLOCK", 0))
+    except OSError:
+        return None
+    try:
+        if stat.S_ISREG(os.fstat(fd).st_mode):
+            return fd
+    except OSError:
+        pass
+    os.close(fd)
+    return None
+
+
 def atomic_write(path: Path, write) -> None:
     if len(path.name.encode()) > 255:
         raise UserError(f"{path.name[:40]}...: file name longer than 255 bytes")
@@ -71,7 +91,10 @@ def atomic_write(path: Path, write) -> None:
         mask = os.umask(0)
         os.umask(mask)
         os.chmod(tmp, 0o666 & ~mask)
+        old = _hold(path)
         os.replace(tmp, path)
+        if old is not None:
+            threading.Thread(target=os.close, args=(old,), daemon=True).start()
     except BaseException as exc:
         try:
             os.unlink(tmp)
