@@ -46,3 +46,24 @@ def test_hold_takes_regular_files_only(tmp_path):
     assert outputs._hold(fifo) is None
     assert outputs._hold(tmp_path) is None
     assert outputs._hold(tmp_path / "missing.exr") is None
+
+
+def test_a_failed_rename_leaks_no_descriptor(tmp_path, monkeypatch):
+    out = tmp_path / "o.exr"
+    out.write_bytes(b"old")
+    before = _fds()
+
+    def fail(*a):
+        raise OSError(28, "No space left on device")
+
+    monkeypatch.setattr(os, "replace", fail)
+    try:
+        outputs.atomic_write(out, lambda tmp: open(tmp, "wb").write(b"new"))
+    except Exception as exc:       # ProcessingError naming the file
+        assert "o.exr" in str(exc)
+    else:
+        raise AssertionError("the failed rename was not reported")
+    _settle()
+    time.sleep(0.05)
+    assert _fds() == before and out.read_bytes() == b"old"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["o.exr"]

@@ -76,6 +76,13 @@ def _hold(path: Path) -> int | None:
     return None
 
 
+def _close_later(fd: int) -> None:
+    try:
+        threading.Thread(target=os.close, args=(fd,), daemon=True).start()
+    except RuntimeError:        # no thread to be had: close it here
+        os.close(fd)
+
+
 def atomic_write(path: Path, write) -> None:
     if len(path.name.encode()) > 255:
         raise UserError(f"{path.name[:40]}...: file name longer than 255 bytes")
@@ -92,9 +99,11 @@ def atomic_write(path: Path, write) -> None:
         os.umask(mask)
         os.chmod(tmp, 0o666 & ~mask)
         old = _hold(path)
-        os.replace(tmp, path)
-        if old is not None:
-            threading.Thread(target=os.close, args=(old,), daemon=True).start()
+        try:
+            os.replace(tmp, path)
+        finally:
+            if old is not None:
+                _close_later(old)
     except BaseException as exc:
         try:
             os.unlink(tmp)
