@@ -1,5 +1,6 @@
 """hostmem: a process that runs many frames reuses the pages of the last frame's
 arrays instead of faulting in fresh ones (measured in a child: the setting is process-wide)."""
+import os
 import subprocess
 import sys
 
@@ -47,7 +48,7 @@ print(resource.getrusage(resource.RUSAGE_SELF).ru_minflt - f0)
 def _warm_faults(tmp_path, prefault: str) -> int:
     (tmp_path / "fogcli").mkdir(exist_ok=True)
     (tmp_path / "fogcli" / "heap").write_text(f"{96 << 20}\n")
-    env = dict(__import__("os").environ, XDG_CACHE_HOME=str(tmp_path), FOGCLI_PREFAULT=prefault)
+    env = dict(os.environ, XDG_CACHE_HOME=str(tmp_path), FOGCLI_PREFAULT=prefault)
     r = subprocess.run([sys.executable, "-c", WARM], capture_output=True, text=True, check=True, env=env)
     return int(r.stdout.strip())
 
@@ -73,8 +74,6 @@ hostmem.record_heap()
 
 
 def test_record_holds_what_the_run_held_at_most(tmp_path):
-    import os
-
     env = dict(os.environ, XDG_CACHE_HOME=str(tmp_path))
     env.pop("FOGCLI_PREFAULT", None)
     subprocess.run([sys.executable, "-c", RECORD], check=True, env=env)
@@ -87,8 +86,6 @@ def test_apply_leaves_a_record_for_the_next_run(tmp_path):
     prefaults that, frees it before the frame (else it would record nothing) and records
     about the same again (the prefault does not feed the record); FOGCLI_PREFAULT=0 does
     neither."""
-    import os
-
     import numpy as np
     from test_cli import write_img
 

@@ -40,8 +40,9 @@ def keep_freed_memory() -> None:
 
 
 def record_path() -> str:
-    base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
-    return os.path.join(base, "fogcli", "heap")
+    from .launch import cache_dir
+
+    return os.path.join(cache_dir(), "heap")
 
 
 def available_bytes() -> int:

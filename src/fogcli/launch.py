@@ -47,14 +47,20 @@ def install_key() -> str:
     return f"{zlib.crc32(text):08x}{zlib.adler32(text[::-1]):08x}"
 
 
+def cache_dir() -> str:
+    """fogcli's folder of the user's cache: compiled kernels (runtime.py), the heap record
+    (hostmem.py), and the server's sockets where there is no runtime dir."""
+    base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
+    return os.path.join(base, "fogcli")
+
+
 def run_dir() -> str:
     """A folder only this user can enter (sockets in it need no other protection)."""
     d = os.environ.get("FOGCLI_RUN_DIR")
     if not d:
         base = os.environ.get("XDG_RUNTIME_DIR")
         if not base or not os.path.isdir(base):
-            base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
-            base = os.path.join(base, "fogcli")
+            base = cache_dir()
         d = os.path.join(base, "fogcli-run")
     return d
 

@@ -13,6 +13,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from .errors import ProcessingError, UserError
+from .launch import cache_dir
 
 KERNEL_DIR = Path(__file__).resolve().parent / "kernels"
 # Work-group size on a CPU: 64 x 4, against the 32 x 4 before it on an AMD EPYC (Zen 3, AVX2),
@@ -28,8 +29,7 @@ LOCAL_CPU = tuple(int(v) for v in os.environ.get("FOGCLI_LOCAL", "64,4").split("
 
 
 def _user_cache_dir() -> Path:
-    base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
-    return Path(base) / "fogcli"
+    return Path(cache_dir())
 
 
 def _prepare_environment() -> None:
