@@ -1,5 +1,6 @@
 """End to end (issue 12): `fogcli apply` of a 2 MPx EXR with an embedded Z, as a user runs
-it (a new process; second run, so PoCL's and fogcli's kernel caches are warm), against
+it (a new process by itself; and the first, second and later runs with the server the
+first one starts; kernel caches warm), against
 OpenImageIO's own write + read of the same file in the same run. Per EXR compression (the
 output follows the input's), with the stage times fogcli reports (`--timings`). Writes its
 block of docs/performance.md.
@@ -123,6 +124,57 @@ def startup_ms(cache: bool, rounds: int) -> tuple[float, float, float]:
     return best
 
 
+def stop_server(run_dir: Path) -> None:
+    """Stop the server that a `fogcli apply` started in run_dir (its pid is in its lock file)
+    and wait until it is gone."""
+    import fcntl
+    import signal
+
+    for lock in run_dir.glob("serve-*.lock"):
+        try:
+            os.kill(int(lock.read_text()), signal.SIGTERM)
+        except (ValueError, ProcessLookupError):
+            pass
+        fd = os.open(lock, os.O_RDONLY)
+        try:
+            t = time.monotonic()
+            while True:
+                try:
+                    fcntl.flock(fd, fcntl.LOCK_SH | fcntl.LOCK_NB)
+                    break
+                except OSError:
+                    if time.monotonic() - t > 60:
+                        raise SystemExit(f"the server in {run_dir} did not stop")
+                    time.sleep(0.05)
+        finally:
+            os.close(fd)
+
+
+def server_rss_mb(run_dir: Path) -> float:
+    """Resident memory of the server whose pid its lock holds, MB."""
+    pid = int(next(run_dir.glob("serve-*.lock")).read_text())
+    for ln in Path(f"/proc/{pid}/status").read_text().splitlines():
+        if ln.startswith("VmRSS:"):
+            return int(ln.split()[1]) / 1024
+    return float("nan")
+
+
+def auto_rounds(src: Path, out: Path, run_dir: Path) -> tuple[float, float, float, bool, float]:
+    """As a user meets it: the first `fogcli apply` (no server yet; it starts one as it ends),
+    the second at once (it waits for that server, which first runs the first command again to
+    warm up), and the third (served, warm). Wall ms of each; True if the second and third
+    were served."""
+    env = dict(FOGCLI_RUN_DIR=str(run_dir), FOGCLI_AUTOSERVE="600")
+    try:
+        first, st1 = fogcli_once(src, out, **env)
+        second, st2 = fogcli_once(src, out, **env)
+        third, st3 = fogcli_once(src, out, **env)
+        rss = server_rss_mb(run_dir)
+    finally:
+        stop_server(run_dir)
+    return first, second, third, not st1.get("served") and bool(st2.get("served")) and bool(st3.get("served")), rss
+
+
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--rounds", type=int, default=3)
@@ -139,47 +191,51 @@ def main() -> int:
     rgb = rgb * (1.0 + 0.02 * rng.standard_normal(rgb.shape, dtype=np.float32))
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
-        run_dir = Path(tmp) / "run"
-        server = start_server(run_dir, Path(tmp) / "serve.log")
-        try:
-            for comp in ("zip", "zips", "piz", "none"):
-                src = Path(tmp) / f"in_{comp}.exr"
-                write_exr(src, np.dstack([rgb, z]).astype(np.float32), ["R", "G", "B", "Z"], comp)
-                out = Path(tmp) / f"out_{comp}.exr"
-                alone, served = dict(FOGCLI_SERVER="0"), dict(FOGCLI_RUN_DIR=str(run_dir))
-                fogcli_once(src, out, **alone)          # the first runs: caches, the server's buffers
-                fogcli_once(src, out, **served)
-                o, f, s, st, fp = 1e9, 1e9, 1e9, {}, 1e9
-                for _ in range(args.rounds):             # interleaved: the machine's speed drifts
-                    o = min(o, oiio_ms(src, Path(tmp) / "oiio.exr", comp, 1))
-                    fi, sti = fogcli_once(src, out, **alone)
-                    f, st = (fi, sti) if fi < f else (f, st)
-                    fp = min(fp, fogcli_once(src, out, FOGCLI_PREFAULT="0", **alone)[0])
-                    si, ssti = fogcli_once(src, out, **served)
-                    s = min(s, si)
-                    if not ssti.get("served"):
-                        raise SystemExit(f"the server did not take the command: {(Path(tmp) / 'serve.log').read_text()}")
-                rows.append((comp, src.stat().st_size / 1e6, o, f, st, s, fp))
-                print(comp, f"{o:.0f} ms oiio, {f:.0f} ms fogcli = {f / o:.2f}x (FOGCLI_PREFAULT=0: {fp:.0f} ms), "
-                      f"served {s:.0f} ms = {s / o:.2f}x", st, flush=True)
-        finally:
-            server.terminate()
-            server.wait(timeout=60)
+        for comp in ("zip", "zips", "piz", "none"):
+            src = Path(tmp) / f"in_{comp}.exr"
+            write_exr(src, np.dstack([rgb, z]).astype(np.float32), ["R", "G", "B", "Z"], comp)
+            out = Path(tmp) / f"out_{comp}.exr"
+            alone = dict(FOGCLI_SERVER="0")
+            fogcli_once(src, out, **alone)          # the first run: caches
+            o, f, st, fp = 1e9, 1e9, {}, 1e9
+            first, second, third, rss = [], [], [], []
+            for i in range(args.rounds):             # interleaved: the machine's speed drifts
+                o = min(o, oiio_ms(src, Path(tmp) / "oiio.exr", comp, 1))
+                fi, sti = fogcli_once(src, out, **alone)
+                f, st = (fi, sti) if fi < f else (f, st)
+                fp = min(fp, fogcli_once(src, out, FOGCLI_PREFAULT="0", **alone)[0])
+                a, b, c, ok, m = auto_rounds(src, out, Path(tmp) / f"run_{comp}_{i}")
+                if not ok:
+                    logs = "".join(p.read_text() for p in (Path(tmp) / f"run_{comp}_{i}").glob("*.log"))
+                    raise SystemExit(f"the started server did not take the second and third commands: {logs}")
+                first.append(a), second.append(b), third.append(c), rss.append(m)
+            sec, srv = min(second), min(third)
+            rows.append((comp, src.stat().st_size / 1e6, o, f, st, srv, fp, min(first), sec, float(np.median(second)), max(rss)))
+            print(comp, f"{o:.0f} ms oiio, {f:.0f} ms fogcli = {f / o:.2f}x (FOGCLI_PREFAULT=0: {fp:.0f} ms); "
+                  f"first {min(first):.0f}, second at once {sec:.0f} ms = {sec / o:.2f}x (median "
+                  f"{np.median(second):.0f}), served {srv:.0f} ms = {srv / o:.2f}x, server {max(rss):.0f} MB", st, flush=True)
     keys = [k for k in ("kernel_ms", "io_ms", "total_ms") if k in rows[0][4]]
     start = {c: startup_ms(c, args.rounds) for c in (False, True)}
     lines = [BEGIN, f"## End to end on {cpu_name()}", "",
              f"`python benchmarks/end_to_end.py` on {cpu}, {os.cpu_count()} cores: `fogcli apply in.exr -o out.exr` "
-             f"of a {W}x{H} half-float EXR with R, G, B, Z (the harbour sample with 2 % grain, default fog), a new process each "
-             f"time, second run (kernel caches warm), best of {args.rounds}; against OpenImageIO writing the same "
-             "pixels to an EXR of the same compression and reading them back, in the same run. `served`: the same "
-             "command handed to a running `fogcli serve` (docs/distributed.md); the stage times are those of the "
-             "new process. `without prefault`: the new process with FOGCLI_PREFAULT=0 (the heap the previous run "
-             "needed is not touched ahead while Python imports; docs/distributed.md), in the same rounds.", "",
-             "| compression | file MB | OpenImageIO write + read ms | fogcli apply ms | ratio | without prefault ms | "
-             "served ms | served ratio | " + " | ".join(f"{k} ms" for k in keys) + " |",
-             "|---|---|---|---|---|---|---|---|" + "---|" * len(keys)]
-    for comp, mb, o, f, st, s, fp in rows:
-        lines.append(f"| {comp} | {mb:.1f} | {o:.0f} | {f:.0f} | {f / o:.2f}x | {fp:.0f} | {s:.0f} | {s / o:.2f}x | "
+             f"of a {W}x{H} half-float EXR with R, G, B, Z (the harbour sample with 2 % grain, default fog), best of "
+             f"{args.rounds} rounds, kernel caches warm; against OpenImageIO writing the same pixels to an EXR of the "
+             "same compression and reading them back, in the same run.", "",
+             "- `by itself`: a new process with FOGCLI_SERVER=0 (no server used or started); `without prefault`: "
+             "the same with FOGCLI_PREFAULT=0 (the heap the previous run needed is not touched ahead while Python "
+             "imports). The stage times are this run's.",
+             "- `first`, `second at once`, `served`: as a user meets it with no server running. The first "
+             "`fogcli apply` runs by itself and starts a server as it ends; the second, started the moment the "
+             "first ended, waits for that server to start and to run the first command once more (its warm-up), "
+             "then is served (median of the rounds in brackets); `served` is the third, and every later one "
+             "(docs/distributed.md); `server MB`: that server's resident memory after the third (largest of the "
+             "rounds), which it holds until it stops.", "",
+             "| compression | file MB | OpenImageIO write + read ms | by itself ms | ratio | without prefault ms | "
+             "first ms | second at once ms | ratio | served ms | served ratio | server MB | " + " | ".join(f"{k} ms" for k in keys) + " |",
+             "|---|---|---|---|---|---|---|---|---|---|---|---|" + "---|" * len(keys)]
+    for comp, mb, o, f, st, s, fp, first, sec, secm, srss in rows:
+        lines.append(f"| {comp} | {mb:.1f} | {o:.0f} | {f:.0f} | {f / o:.2f}x | {fp:.0f} | {first:.0f} | "
+                     f"{sec:.0f} ({secm:.0f}) | {sec / o:.2f}x | {s:.0f} | {s / o:.2f}x | {srss:.0f} | "
                      + " | ".join(f"{st.get(k, 0):.0f}" for k in keys) + " |")
     lines += ["", "Start-up of a new process (ms, best of the rounds): importing fogcli, then the first `apply` of a "
               "64 x 48 frame, of which building the default pipeline's programs; PoCL's own cache warm.", "",

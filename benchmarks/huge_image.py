@@ -47,7 +47,7 @@ def write_big(path: Path) -> None:
 def refuse(src: Path, out: Path, **extra) -> tuple[int, str, float, float]:
     """(exit code, stderr, wall s, peak RSS MiB) of `fogcli apply src -o out` in a new process
     (its own rusage, from wait4)."""
-    env = dict(os.environ, PYTHONPATH=str(ROOT / "src"), **extra)
+    env = dict(os.environ, PYTHONPATH=str(ROOT / "src"), FOGCLI_SERVER="0", **extra)     # its own peak, not a server's
     t = time.perf_counter()
     p = subprocess.Popen([sys.executable, "-m", "fogcli", "apply", str(src), "-o", str(out)],
                          stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True, env=env)

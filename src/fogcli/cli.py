@@ -199,13 +199,16 @@ def batch(input_dir, output_dir, depth_pattern, medium, config_file, camera_file
 @click.option("--idle", type=click.FloatRange(1, 86400), default=900, show_default=True,
               help="Stop after this many seconds without a command.")
 @click.option("--device", metavar="SPEC", help="OpenCL device for the warm-up (P:D, cpu, gpu or a name).")
+@click.option("--lock-fd", type=int, hidden=True)     # a server started by `fogcli apply` (launch.autostart) ...
+@click.option("--rehearse", hidden=True)              # ... and that command, to warm up with
 @guarded
-def serve(idle, device):
+def serve(idle, device, lock_fd, rehearse):
     """Keep fogcli loaded: while this runs, `fogcli apply` in this user's other shells hands
-    its command to it and skips a new process's start-up (FOGCLI_SERVER=0: it does not)."""
+    its command to it and skips a new process's start-up (FOGCLI_SERVER=0: it does not).
+    `fogcli apply` starts one by itself after a run (FOGCLI_AUTOSERVE)."""
     from .server import serve as run_server
 
-    run_server(idle, device)
+    run_server(idle, device, lock_fd, rehearse)
 
 
 @main.command()

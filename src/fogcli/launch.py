@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import os
 import sys
+import time
 import zlib
 
 import _socket      # not socket: its import costs more than all of this module's work
@@ -16,9 +17,11 @@ import _socket      # not socket: its import costs more than all of this module'
 PACKAGE = os.path.dirname(os.path.abspath(__file__))
 ENV_PREFIXES = ("FOGCLI_", "POCL_", "PYOPENCL_", "OCL_", "OPENIMAGEIO_", "OIIO_")
 ENV_KEYS = ("HOME", "XDG_CACHE_HOME", "LD_LIBRARY_PATH", "LD_PRELOAD", "TMPDIR", "CUDA_VISIBLE_DEVICES")
-ENV_ROUTING = ("FOGCLI_SERVER", "FOGCLI_RUN_DIR")   # where to send, not how to run: not compared
+ENV_ROUTING = ("FOGCLI_SERVER", "FOGCLI_RUN_DIR", "FOGCLI_AUTOSERVE")   # where to send, not how to run: not compared
 FORWARDED = ("apply", "batch")
 SERVING = False          # set by the server while it runs a client's command
+AUTOSERVE_IDLE = 300     # s: how long a server started by `fogcli apply` waits for the next one
+START_LIMIT = 15.0       # s: a server that is not ready this long after its start is not waited for
 COLUMNS = 0              # ... and the width of the client's terminal (0: none)
 
 
@@ -67,6 +70,31 @@ def run_dir() -> str:
 
 def socket_path(key: str | None = None) -> str:
     return os.path.join(run_dir(), f"serve-{key or install_key()}.sock")
+
+
+def lock_path(key: str | None = None) -> str:
+    """Held (flock) by a server from before its start to its exit: one server per
+    installation, and clients know one is starting."""
+    return os.path.join(run_dir(), f"serve-{key or install_key()}.lock")
+
+
+def autoserve_idle() -> float:
+    """Seconds of idleness after which a server that `fogcli apply` started stops; 0: start
+    none (FOGCLI_AUTOSERVE=0, or FOGCLI_SERVER=0: no server at all). ValueError: not a number
+    of seconds."""
+    if os.environ.get("FOGCLI_SERVER") == "0":
+        return 0.0
+    v = os.environ.get("FOGCLI_AUTOSERVE", "").strip()
+    if not v:
+        return float(AUTOSERVE_IDLE)
+    try:
+        idle = float(v)
+    except ValueError:
+        idle = -1.0
+    if idle != 0 and not 1 <= idle <= 86400:
+        raise ValueError(f"FOGCLI_AUTOSERVE: expected the seconds an automatic server waits for the next "
+                         f"command (1 to 86400; 0: never start one), got {v!r}")
+    return idle
 
 
 def private_dir(d: str) -> bool:
@@ -165,8 +193,11 @@ def forward(argv: list[str]) -> int | None:
         return None
     if any(a in ("-", "-h", "--help") for a in argv) or not served_here(argv):
         return None
-    path = socket_path()
-    if not os.path.exists(path) or not private_dir(os.path.dirname(path)):
+    key = install_key()
+    path = socket_path(key)
+    if not private_dir(os.path.dirname(path)):
+        return None
+    if not os.path.exists(path) and not _starting(key, path):
         return None
     sock = _socket.socket(_socket.AF_UNIX, _socket.SOCK_STREAM)
     try:
@@ -205,14 +236,103 @@ def forward(argv: list[str]) -> int | None:
     return 1
 
 
+def _starting(key: str, path: str) -> bool:
+    """A server for this installation is starting (its lock is held and was taken lately):
+    wait for its socket, as a run here would take longer than the wait, and compete with
+    the server's start for the cores. False: none is starting, or it did not get ready."""
+    import fcntl
+
+    deadline = None
+    while True:
+        try:
+            fd = os.open(lock_path(key), os.O_RDONLY | os.O_CLOEXEC)
+        except OSError:
+            return False
+        try:
+            try:
+                fcntl.flock(fd, fcntl.LOCK_SH | fcntl.LOCK_NB)
+                return os.path.exists(path)       # nobody holds it: no server is starting
+            except OSError:
+                pass
+            if deadline is None:
+                deadline = os.fstat(fd).st_mtime + START_LIMIT
+        finally:
+            os.close(fd)
+        if os.path.exists(path):
+            return True
+        if time.time() > deadline:
+            return False
+        time.sleep(0.01)
+
+
+def autostart(idle: float, env: dict, argv: list[str]) -> bool:
+    """After `fogcli apply` ran by itself: start `fogcli serve --idle <idle>` in a session of
+    its own, so that the next commands skip the start-up. Spawned, never forked (PoCL); the
+    lock is taken here and handed down, so that no second client starts another meanwhile.
+    `env`: this process's environment as it began (the runtime adds POCL_CACHE_DIR, which the
+    next clients will not have); `argv`: the command, which the server runs once more to warm
+    up for the frames like it (server._rehearse). True: started."""
+    import fcntl
+
+    key = install_key()
+    path = socket_path(key)
+    d = os.path.dirname(path)
+    if not idle or len(os.fsencode(path)) + 12 > 107:
+        return False
+    try:
+        os.makedirs(d, mode=0o700, exist_ok=True)
+    except OSError:
+        return False
+    if not private_dir(d) or os.path.exists(path):
+        return False
+    try:
+        fd = os.open(lock_path(key), os.O_RDWR | os.O_CREAT | os.O_CLOEXEC, 0o600)
+    except OSError:
+        return False
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        os.utime(fd)        # the clients' wait for it counts from now
+        # the server gets no descriptor of this process but the lock: a caller reading this
+        # command's output (a pipe) must see its end when this process exits
+        actions = [(os.POSIX_SPAWN_OPEN, 0, os.devnull, os.O_RDONLY, 0),
+                   (os.POSIX_SPAWN_OPEN, 1, os.devnull, os.O_WRONLY, 0),
+                   (os.POSIX_SPAWN_DUP2, 1, 2)]
+        for name in os.listdir("/proc/self/fd") if os.path.isdir("/proc/self/fd") else ():
+            n = int(name)
+            try:
+                if n > 2 and n != fd and os.get_inheritable(n):
+                    actions.append((os.POSIX_SPAWN_CLOSE, n))
+            except OSError:
+                pass
+        os.set_inheritable(fd, True)
+        import json
+
+        cwd = os.getcwd()
+        os.posix_spawn(sys.executable, [sys.executable, "-m", "fogcli", "serve", "--idle", f"{idle:g}",
+                                        "--lock-fd", str(fd), "--rehearse", json.dumps([cwd, *argv])],
+                       env, file_actions=actions, setsid=True)
+        return True
+    except OSError:         # another client holds the lock, or the spawn failed: no server this time
+        return False
+    finally:
+        os.close(fd)
+
+
 def main() -> None:
     argv = sys.argv[1:]
+    env = dict(os.environ)
+    is_apply = bool(argv) and argv[0] == "apply" and not ({"-h", "--help"} & set(argv))
+    try:
+        idle = autoserve_idle() if is_apply else 0.0
+    except ValueError as exc:
+        sys.stderr.write(f"fogcli: {exc}\n")
+        sys.exit(2)
     code = forward(argv)
     if code is not None:
         sys.exit(code)
     # apply by itself: the heap its last run held is faulted in on another core while the
     # imports run (hostmem.warm_heap), and what this run held is recorded for the next
-    warm = bool(argv) and argv[0] == "apply" and not ({"-h", "--help"} & set(argv))
+    warm = is_apply
     if warm:
         from . import hostmem
 
@@ -221,8 +341,14 @@ def main() -> None:
 
     if warm:
         hostmem.join_warm()
+    done = False
     try:
         cli_main()
+    except SystemExit as exc:
+        done = exc.code in (0, None)
+        raise
     finally:
         if warm:
             hostmem.record_heap()
+        if done and idle:       # a failed command (a typo, a bad file) starts nothing
+            autostart(idle, env, argv)

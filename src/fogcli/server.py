@@ -63,6 +63,15 @@ class Server:
         self.filters = list(warnings.filters)
         self.saved = None                      # what a run changes: stdout, stderr, folder, umask
 
+    def waiting(self, seconds: float) -> bool:
+        """A command is queued now or within `seconds`."""
+        end = time.monotonic() + seconds
+        while self.jobs.empty():
+            if time.monotonic() > end:
+                return False
+            time.sleep(0.005)
+        return True
+
     # ------------------------------------------------------------------ acceptor thread
     def accept_loop(self, sock: socket.socket) -> None:
         while True:
@@ -209,7 +218,66 @@ def _warm_up(device: str | None) -> None:
     apply(np.ones((48, 64, 3), np.float32), np.full((48, 64), 10.0, np.float32), make_config("fog"), device=device)
 
 
-def serve(idle: float, device: str | None = None) -> None:
+def _rehearse(spec: str, scratch_dir: str, log) -> bool:
+    """The command of the `fogcli apply` that started this server, run once more with its
+    output to a scratch file: the programs, plan, device buffers and heap of that frame size
+    and config are then ready for the next command. spec: JSON [cwd, "apply", args...].
+    False: it could not run (the input is gone, ...)."""
+    import json
+    from pathlib import Path
+
+    from . import cli, outputs
+
+    t = time.perf_counter()
+    scratch = None
+    try:
+        cwd, *argv = json.loads(spec)
+        os.chdir(cwd)
+        ctx = cli.apply.make_context("apply", [str(a) for a in argv[1:]])
+        out = ctx.params.get("output")
+        ext = Path(out).suffix if out else outputs.default_ext(Path(ctx.params["input"]))
+        scratch = os.path.join(scratch_dir, f"rehearsal-{os.getpid()}{ext}")
+        ctx.params.update(output=scratch, save_depth=None, lamps=None, timings=False)
+        with ctx:
+            ctx.invoke(cli.apply.callback, **ctx.params)
+        ok = True
+    except SystemExit as exc:       # the command's own one-line error, in this log
+        ok = exc.code in (0, None)
+    except Exception as exc:  # noqa: BLE001  (a warm-up that fails only costs the next command time)
+        log(f"rehearsal failed: {exc.__class__.__name__}: {exc}")
+        ok = False
+    finally:
+        os.chdir("/")
+        if scratch:
+            try:
+                os.unlink(scratch)
+            except OSError:
+                pass
+    log(f"rehearsed the first command ({(time.perf_counter() - t) * 1e3:.0f} ms){'' if ok else ': failed'}")
+    return ok
+
+
+def _take_lock(key: str, lock_fd: int | None) -> int:
+    """The installation's server lock (launch.lock_path), held until this process exits; a
+    server that `fogcli apply` started was handed it already locked."""
+    import fcntl
+
+    if lock_fd is not None:
+        os.set_inheritable(lock_fd, False)
+        fd = lock_fd
+    else:
+        fd = os.open(launch.lock_path(key), os.O_RDWR | os.O_CREAT | os.O_CLOEXEC, 0o600)
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError:
+            os.close(fd)
+            raise UserError(f"a server for this installation is running already ({launch.socket_path(key)})") from None
+    os.ftruncate(fd, 0)
+    os.pwrite(fd, f"{os.getpid()}\n".encode(), 0)      # also dates the start: clients wait from here
+    return fd
+
+
+def serve(idle: float, device: str | None = None, lock_fd: int | None = None, rehearse: str | None = None) -> None:
     key = launch.install_key()
     path = launch.socket_path(key)
     d = os.path.dirname(path)
@@ -221,6 +289,7 @@ def serve(idle: float, device: str | None = None) -> None:
         raise UserError(f"{d}: cannot make the server's folder ({exc.strerror})") from None
     if not launch.private_dir(d):
         raise UserError(f"{d}: must belong to you and be closed to others (chmod 700)")
+    _take_lock(key, lock_fd)
     probe = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
     probe.settimeout(5)
     try:
@@ -232,6 +301,16 @@ def serve(idle: float, device: str | None = None) -> None:
         probe.close()
 
     own = sys.stderr       # a run replaces sys.stderr with its client's; the log stays here
+    if lock_fd is not None:
+        # started by `fogcli apply`: no terminal, a log of its own beside the socket, and no
+        # hold on the folder the first client ran in
+        log_path = os.path.join(d, f"serve-{key}.log")
+        fd = os.open(log_path, os.O_WRONLY | os.O_CREAT | os.O_TRUNC | os.O_CLOEXEC, 0o600)
+        os.dup2(fd, 1)
+        os.dup2(fd, 2)     # PoCL's own messages too
+        os.close(fd)
+        own = sys.stderr = open(2, "w", buffering=1, closefd=False)
+        os.chdir("/")
 
     def log(msg: str) -> None:
         own.write(f"fogcli serve: {msg}\n")
@@ -253,14 +332,21 @@ def serve(idle: float, device: str | None = None) -> None:
     ino = None
     try:
         keep_freed_memory()
-        _warm_up(device)
-        signal.signal(INTERRUPT, client_gone)     # after PoCL's start-up, in case it takes a handler
+        # listening before the warm-up: a client that comes meanwhile waits in the queue
+        # rather than starting a process of its own beside it
         sock.bind(tmp)
         sock.listen(16)
         os.replace(tmp, path)        # a stale socket of a killed server is replaced
         ino = os.stat(path).st_ino
-        log(f"ready on {path} (stops after {idle:g} s idle; FOGCLI_SERVER=0 runs a command without it)")
         threading.Thread(target=srv.accept_loop, args=(sock,), daemon=True).start()
+        # a client already waiting (the next command came at once) is served first: its own
+        # run warms up what the rehearsal would, a frame sooner for it
+        if srv.waiting(0.05):
+            log("a command is waiting: no warm-up")
+        elif not (rehearse and _rehearse(rehearse, d, log)):
+            _warm_up(device)
+        signal.signal(INTERRUPT, client_gone)     # after PoCL's start-up, in case it takes a handler
+        log(f"ready on {path} (stops after {idle:g} s idle; FOGCLI_SERVER=0 runs a command without it)")
         srv.loop()
     except KeyboardInterrupt:
         log("interrupted: stopping")

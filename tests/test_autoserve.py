@@ -1,0 +1,158 @@
+"""`fogcli apply` starts a server as it ends (launch.autostart): the next command is served,
+with the same pixels; nothing is started by a failed command or when told not to; the
+server holds no descriptor of its first client nor its folder."""
+from __future__ import annotations
+
+import fcntl
+import os
+import signal
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+
+import numpy as np
+
+from fogcli import launch
+from test_serve import _env, _fogcli, _pixels, _timings, _write
+
+
+def _auto_env(run_dir: Path, idle: str = "120", **extra) -> dict:
+    env = _env(run_dir, **extra)
+    env["FOGCLI_AUTOSERVE"] = idle       # conftest turns it off for every other test
+    return env
+
+
+def _stop(run_dir: Path) -> None:
+    """SIGTERM to the server whose pid its lock holds; back once the lock is free."""
+    locks = list(run_dir.glob("serve-*.lock"))
+    assert len(locks) == 1, locks
+    os.kill(int(locks[0].read_text()), signal.SIGTERM)
+    fd = os.open(locks[0], os.O_RDONLY)
+    try:
+        t = time.monotonic()
+        while True:
+            try:
+                fcntl.flock(fd, fcntl.LOCK_SH | fcntl.LOCK_NB)
+                return
+            except OSError:
+                assert time.monotonic() - t < 60, "the server did not stop"
+                time.sleep(0.05)
+    finally:
+        os.close(fd)
+
+
+def test_apply_starts_a_server_that_serves_the_next_commands(tmp_path):
+    run_dir = tmp_path / "run"
+    d = tmp_path / "work"
+    d.mkdir()
+    _write(d / "in.exr", 96, 64, seed=3)
+    env = _auto_env(run_dir)
+    # a pipe that the first command holds besides its stdout: the server must not keep it
+    rfd, wfd = os.pipe()
+    try:
+        t = time.monotonic()
+        first = subprocess.run([sys.executable, "-m", "fogcli", "apply", "in.exr", "-o", "a.exr", "--timings"],
+                               cwd=d, env=env, capture_output=True, text=True, timeout=300, pass_fds=(wfd,))
+        took = time.monotonic() - t
+        os.close(wfd)
+        wfd = -1
+        assert first.returncode == 0 and _timings(first.stderr)["served"] is False, first.stderr
+        # its stdout and stderr reached their end when it exited, not when the server stops (120 s)
+        assert took < 100, took
+        os.set_blocking(rfd, False)
+        assert os.read(rfd, 1) == b"", "the server holds the client's pipe"
+    finally:
+        os.close(rfd)
+        if wfd >= 0:
+            os.close(wfd)
+    try:
+        # at once: the server is starting, the command waits for it rather than running by itself
+        second = _fogcli(["apply", "in.exr", "-o", "b.exr", "--timings"], d, env)
+        assert second.returncode == 0 and _timings(second.stderr)["served"] is True, second.stderr
+        third = _fogcli(["apply", "in.exr", "-o", "c.exr", "--timings", "--medium", "sea"], d, env)
+        assert third.returncode == 0 and _timings(third.stderr)["served"] is True, third.stderr
+        assert np.array_equal(_pixels(d / "a.exr"), _pixels(d / "b.exr"))
+        assert not np.array_equal(_pixels(d / "a.exr"), _pixels(d / "c.exr"))
+        pid = int(next(run_dir.glob("serve-*.lock")).read_text())
+        assert os.readlink(f"/proc/{pid}/cwd") == "/", "the server keeps its first client's folder"
+        log = next(run_dir.glob("serve-*.log")).read_text()
+        assert "apply in.exr -o b.exr --timings: exit 0" in log, log
+        assert sorted(p.name for p in d.iterdir()) == ["a.exr", "b.exr", "c.exr", "in.exr"]
+    finally:
+        _stop(run_dir)
+    assert not list(run_dir.glob("*.sock")), "the server left its socket behind"
+
+
+def test_a_server_with_time_to_spare_rehearses_the_first_command(tmp_path):
+    run_dir = tmp_path / "run"
+    d = tmp_path / "work"
+    d.mkdir()
+    _write(d / "in.exr", 96, 64, seed=4)
+    env = _auto_env(run_dir)
+    first = _fogcli(["apply", "in.exr", "-o", "a.png", "--medium", "sea"], d, env)
+    assert first.returncode == 0, first.stderr
+    try:
+        t = time.monotonic()
+        while "ready on" not in "".join(p.read_text() for p in run_dir.glob("serve-*.log")):
+            assert time.monotonic() - t < 120, list(run_dir.iterdir())
+            time.sleep(0.05)
+        log = next(run_dir.glob("serve-*.log")).read_text()
+        assert "rehearsed the first command" in log and ": failed" not in log, log
+        # its scratch output (a PNG, as the command's) is gone; nothing was written in the client's folder
+        assert sorted(p.suffix for p in run_dir.iterdir()) == [".lock", ".log", ".sock"], list(run_dir.iterdir())
+        assert sorted(p.name for p in d.iterdir()) == ["a.png", "in.exr"]
+        second = _fogcli(["apply", "in.exr", "-o", "b.png", "--medium", "sea", "--timings"], d, env)
+        assert second.returncode == 0 and _timings(second.stderr)["served"] is True, second.stderr
+        assert (d / "a.png").read_bytes() == (d / "b.png").read_bytes()
+    finally:
+        _stop(run_dir)
+
+
+def test_nothing_starts_after_a_failed_command_or_when_told_not_to(tmp_path):
+    _write(tmp_path / "in.exr", 16, 12)
+    cases = [(["apply", "missing.exr"], {}, 2), (["apply", "in.exr", "-o", "o1.exr"], {"FOGCLI_AUTOSERVE": "0"}, 0),
+             (["apply", "in.exr", "-o", "o2.exr"], {"FOGCLI_SERVER": "0"}, 0), (["media"], {}, 0)]
+    for args, extra, code in cases:
+        run_dir = tmp_path / f"run{len(list(tmp_path.glob('run*')))}"
+        env = _auto_env(run_dir)
+        env.update(extra)
+        r = _fogcli(args, tmp_path, env)
+        assert r.returncode == code, (args, extra, r.stderr)
+        assert not run_dir.exists() or not list(run_dir.iterdir()), (args, extra, list(run_dir.iterdir()))
+
+
+def test_a_bad_autoserve_value_is_one_line_exit_2(tmp_path):
+    _write(tmp_path / "in.exr", 16, 12)
+    for bad in ("soon", "0.5", "-3", "1e9"):
+        r = _fogcli(["apply", "in.exr", "-o", "o.exr"], tmp_path, _auto_env(tmp_path / "run", bad))
+        assert r.returncode == 2 and len(r.stderr.splitlines()) == 1, (bad, r.stderr)
+        assert "FOGCLI_AUTOSERVE" in r.stderr and repr(bad) in r.stderr, r.stderr
+        assert not (tmp_path / "o.exr").exists()
+
+
+def test_no_second_server_while_one_holds_the_lock(tmp_path, monkeypatch):
+    run_dir = tmp_path / "run"
+    run_dir.mkdir(mode=0o700)
+    monkeypatch.setenv("FOGCLI_RUN_DIR", str(run_dir))
+    monkeypatch.delenv("FOGCLI_SERVER", raising=False)
+    fd = os.open(launch.lock_path(), os.O_RDWR | os.O_CREAT, 0o600)
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX)
+        assert launch.autostart(30, dict(os.environ), ["apply", "x.exr"]) is False
+        # a starting server (the lock held, lately): the client waits for its socket, and
+        # gives up when its lock is let go without one
+        os.utime(fd)
+        t = time.monotonic()
+        threading.Timer(0.3, lambda: fcntl.flock(fd, fcntl.LOCK_UN)).start()
+        assert launch._starting(launch.install_key(), launch.socket_path()) is False
+        assert 0.25 < time.monotonic() - t < 5
+    finally:
+        os.close(fd)
+    assert list(run_dir.iterdir()) == [Path(launch.lock_path())]
+    for v, want in (("", float(launch.AUTOSERVE_IDLE)), ("0", 0.0), ("45", 45.0)):
+        monkeypatch.setenv("FOGCLI_AUTOSERVE", v)
+        assert launch.autoserve_idle() == want
+    monkeypatch.setenv("FOGCLI_SERVER", "0")
+    assert launch.autoserve_idle() == 0.0
