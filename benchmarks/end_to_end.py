@@ -5,7 +5,7 @@ OpenImageIO's own write + read of the same file in the same run. Per EXR compres
 output follows the input's), with the stage times fogcli reports (`--timings`). Writes its
 block of docs/performance.md.
 
-    python benchmarks/end_to_end.py [--rounds 3]        # about 2 minutes
+    python benchmarks/end_to_end.py [--rounds 3]        # about 4 minutes
 """
 from __future__ import annotations
 
@@ -125,29 +125,10 @@ def startup_ms(cache: bool, rounds: int) -> tuple[float, float, float]:
 
 
 def stop_server(run_dir: Path) -> None:
-    """Stop the server that a `fogcli apply` started in run_dir (its pid is in its lock file)
-    and wait until it is gone."""
-    import fcntl
-    import signal
-
-    for lock in run_dir.glob("serve-*.lock"):
-        try:
-            os.kill(int(lock.read_text()), signal.SIGTERM)
-        except (ValueError, ProcessLookupError):
-            pass
-        fd = os.open(lock, os.O_RDONLY)
-        try:
-            t = time.monotonic()
-            while True:
-                try:
-                    fcntl.flock(fd, fcntl.LOCK_SH | fcntl.LOCK_NB)
-                    break
-                except OSError:
-                    if time.monotonic() - t > 60:
-                        raise SystemExit(f"the server in {run_dir} did not stop")
-                    time.sleep(0.05)
-        finally:
-            os.close(fd)
+    """`fogcli serve --stop` for the server that a `fogcli apply` started in run_dir: back
+    once it has gone."""
+    subprocess.run([sys.executable, "-m", "fogcli", "serve", "--stop"], check=True, capture_output=True,
+                   env=user_env(FOGCLI_RUN_DIR=str(run_dir)))
 
 
 def server_rss_mb(run_dir: Path) -> float:
@@ -159,20 +140,35 @@ def server_rss_mb(run_dir: Path) -> float:
     return float("nan")
 
 
-def auto_rounds(src: Path, out: Path, run_dir: Path) -> tuple[float, float, float, bool, float]:
-    """As a user meets it: the first `fogcli apply` (no server yet; it starts one as it ends),
-    the second at once (it waits for that server, which first runs the first command again to
-    warm up), and the third (served, warm). Wall ms of each; True if the second and third
-    were served."""
+def auto_round(src: Path, out: Path, run_dir: Path, pause: bool) -> dict:
+    """As a user meets it with no server running: the first `fogcli apply` runs by itself and
+    starts a server as it ends. pause=False: the second comes at once (it waits for that
+    server to start, and is its first frame), then a third. pause=True: the second comes
+    once the server is ready (it has run the first command again to warm up; `ready` is the
+    ms from the first's end to that). Wall ms of each and the server's resident MB at the end."""
     env = dict(FOGCLI_RUN_DIR=str(run_dir), FOGCLI_AUTOSERVE="600")
+    got = {}
     try:
-        first, st1 = fogcli_once(src, out, **env)
-        second, st2 = fogcli_once(src, out, **env)
-        third, st3 = fogcli_once(src, out, **env)
-        rss = server_rss_mb(run_dir)
+        got["first"], st1 = fogcli_once(src, out, **env)
+        if pause:
+            t = time.perf_counter()
+            while "ready on" not in "".join(p.read_text() for p in run_dir.glob("serve-*.log")):
+                if time.perf_counter() - t > 120:
+                    raise SystemExit(f"the started server in {run_dir} did not get ready")
+                time.sleep(0.005)
+            got["ready"] = (time.perf_counter() - t) * 1e3
+        names = ("second",) if pause else ("second", "third")
+        served = []
+        for name in names:
+            got[name], st = fogcli_once(src, out, **env)
+            served.append(bool(st.get("served")))
+        got["rss"] = server_rss_mb(run_dir)
     finally:
         stop_server(run_dir)
-    return first, second, third, not st1.get("served") and bool(st2.get("served")) and bool(st3.get("served")), rss
+    if st1.get("served") or not all(served):
+        logs = "".join(p.read_text() for p in run_dir.glob("serve-*.log"))
+        raise SystemExit(f"the started server did not take the next commands: {logs}")
+    return got
 
 
 def main() -> int:
@@ -198,45 +194,57 @@ def main() -> int:
             alone = dict(FOGCLI_SERVER="0")
             fogcli_once(src, out, **alone)          # the first run: caches
             o, f, st, fp = 1e9, 1e9, {}, 1e9
-            first, second, third, rss = [], [], [], []
+            at_once, paused = [], []
             for i in range(args.rounds):             # interleaved: the machine's speed drifts
                 o = min(o, oiio_ms(src, Path(tmp) / "oiio.exr", comp, 1))
                 fi, sti = fogcli_once(src, out, **alone)
                 f, st = (fi, sti) if fi < f else (f, st)
                 fp = min(fp, fogcli_once(src, out, FOGCLI_PREFAULT="0", **alone)[0])
-                a, b, c, ok, m = auto_rounds(src, out, Path(tmp) / f"run_{comp}_{i}")
-                if not ok:
-                    logs = "".join(p.read_text() for p in (Path(tmp) / f"run_{comp}_{i}").glob("*.log"))
-                    raise SystemExit(f"the started server did not take the second and third commands: {logs}")
-                first.append(a), second.append(b), third.append(c), rss.append(m)
-            sec, srv = min(second), min(third)
-            rows.append((comp, src.stat().st_size / 1e6, o, f, st, srv, fp, min(first), sec, float(np.median(second)), max(rss)))
-            print(comp, f"{o:.0f} ms oiio, {f:.0f} ms fogcli = {f / o:.2f}x (FOGCLI_PREFAULT=0: {fp:.0f} ms); "
-                  f"first {min(first):.0f}, second at once {sec:.0f} ms = {sec / o:.2f}x (median "
-                  f"{np.median(second):.0f}), served {srv:.0f} ms = {srv / o:.2f}x, server {max(rss):.0f} MB", st, flush=True)
-    keys = [k for k in ("kernel_ms", "io_ms", "total_ms") if k in rows[0][4]]
+                at_once.append(auto_round(src, out, Path(tmp) / f"run_{comp}_{i}", pause=False))
+                paused.append(auto_round(src, out, Path(tmp) / f"run_{comp}_{i}p", pause=True))
+
+            def best(rows, k):
+                return min(r[k] for r in rows)
+
+            row = dict(comp=comp, mb=src.stat().st_size / 1e6, oiio=o, alone=f, stages=st, noprefault=fp,
+                       first=best(at_once + paused, "first"), at_once=best(at_once, "second"),
+                       at_once_median=float(np.median([r["second"] for r in at_once])),
+                       ready=float(np.median([r["ready"] for r in paused])), paused=best(paused, "second"),
+                       served=best(at_once, "third"), rss=max(r["rss"] for r in at_once + paused))
+            rows.append(row)
+            print(comp, f"{o:.0f} ms oiio, by itself {f:.0f} ms = {f / o:.2f}x (FOGCLI_PREFAULT=0: {fp:.0f}); "
+                  f"first {row['first']:.0f}, second at once {row['at_once']:.0f} = {row['at_once'] / o:.2f}x, "
+                  f"ready {row['ready']:.0f} ms after the first, second then {row['paused']:.0f} = "
+                  f"{row['paused'] / o:.2f}x, served {row['served']:.0f} = {row['served'] / o:.2f}x, "
+                  f"server {row['rss']:.0f} MB", st, flush=True)
+    keys = [k for k in ("kernel_ms", "io_ms", "total_ms") if k in rows[0]["stages"]]
     start = {c: startup_ms(c, args.rounds) for c in (False, True)}
     lines = [BEGIN, f"## End to end on {cpu_name()}", "",
              f"`python benchmarks/end_to_end.py` on {cpu}, {os.cpu_count()} cores: `fogcli apply in.exr -o out.exr` "
              f"of a {W}x{H} half-float EXR with R, G, B, Z (the harbour sample with 2 % grain, default fog), best of "
              f"{args.rounds} rounds, kernel caches warm; against OpenImageIO writing the same pixels to an EXR of the "
-             "same compression and reading them back, in the same run.", "",
+             "same compression and reading them back, in the same run (ratios are to that).", "",
              "- `by itself`: a new process with FOGCLI_SERVER=0 (no server used or started); `without prefault`: "
              "the same with FOGCLI_PREFAULT=0 (the heap the previous run needed is not touched ahead while Python "
              "imports). The stage times are this run's.",
-             "- `first`, `second at once`, `served`: as a user meets it with no server running. The first "
-             "`fogcli apply` runs by itself and starts a server as it ends; the second, started the moment the "
-             "first ended, waits for that server to start and to run the first command once more (its warm-up), "
-             "then is served (median of the rounds in brackets); `served` is the third, and every later one "
-             "(docs/distributed.md); `server MB`: that server's resident memory after the third (largest of the "
-             "rounds), which it holds until it stops.", "",
+             "- As a user meets it with no server running (docs/distributed.md): the `first` `fogcli apply` runs "
+             "by itself and starts a server as it ends. A second command `at once` (the moment the first ended) "
+             "waits for that server to start and is its first frame (median of the rounds in brackets). The "
+             "server is `ready` (it has run the first command again to warm up) this many ms after the first "
+             "ended (median); a second command `then` is served warm. `served`: a third command, as every later "
+             "one; `server MB`: the server's resident memory at the end (largest of the rounds), which it holds "
+             "until it stops.", "",
              "| compression | file MB | OpenImageIO write + read ms | by itself ms | ratio | without prefault ms | "
-             "first ms | second at once ms | ratio | served ms | served ratio | server MB | " + " | ".join(f"{k} ms" for k in keys) + " |",
-             "|---|---|---|---|---|---|---|---|---|---|---|---|" + "---|" * len(keys)]
-    for comp, mb, o, f, st, s, fp, first, sec, secm, srss in rows:
-        lines.append(f"| {comp} | {mb:.1f} | {o:.0f} | {f:.0f} | {f / o:.2f}x | {fp:.0f} | {first:.0f} | "
-                     f"{sec:.0f} ({secm:.0f}) | {sec / o:.2f}x | {s:.0f} | {s / o:.2f}x | {srss:.0f} | "
-                     + " | ".join(f"{st.get(k, 0):.0f}" for k in keys) + " |")
+             "first ms | second at once ms | ratio | ready after ms | second then ms | ratio | served ms | ratio | "
+             "server MB | " + " | ".join(f"{k} ms" for k in keys) + " |",
+             "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|" + "---|" * len(keys)]
+    for r in rows:
+        o = r["oiio"]
+        lines.append(f"| {r['comp']} | {r['mb']:.1f} | {o:.0f} | {r['alone']:.0f} | {r['alone'] / o:.2f}x | "
+                     f"{r['noprefault']:.0f} | {r['first']:.0f} | {r['at_once']:.0f} ({r['at_once_median']:.0f}) | "
+                     f"{r['at_once'] / o:.2f}x | {r['ready']:.0f} | {r['paused']:.0f} | {r['paused'] / o:.2f}x | "
+                     f"{r['served']:.0f} | {r['served'] / o:.2f}x | {r['rss']:.0f} | "
+                     + " | ".join(f"{r['stages'].get(k, 0):.0f}" for k in keys) + " |")
     lines += ["", "Start-up of a new process (ms, best of the rounds): importing fogcli, then the first `apply` of a "
               "64 x 48 frame, of which building the default pipeline's programs; PoCL's own cache warm.", "",
               "| fogcli's binary cache | import | build programs | first apply (all) |", "|---|---|---|---|"]

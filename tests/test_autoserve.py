@@ -24,23 +24,18 @@ def _auto_env(run_dir: Path, idle: str = "120", **extra) -> dict:
     return env
 
 
-def _stop(run_dir: Path) -> None:
-    """SIGTERM to the server whose pid its lock holds; back once the lock is free."""
-    locks = list(run_dir.glob("serve-*.lock"))
-    assert len(locks) == 1, locks
-    os.kill(int(locks[0].read_text()), signal.SIGTERM)
-    fd = os.open(locks[0], os.O_RDONLY)
-    try:
-        t = time.monotonic()
-        while True:
-            try:
-                fcntl.flock(fd, fcntl.LOCK_SH | fcntl.LOCK_NB)
-                return
-            except OSError:
-                assert time.monotonic() - t < 60, "the server did not stop"
-                time.sleep(0.05)
-    finally:
-        os.close(fd)
+def _stop(run_dir: Path, env: dict) -> None:
+    """`fogcli serve --stop`: back once the server has gone."""
+    r = _fogcli(["serve", "--stop"], run_dir.parent, env)
+    assert r.returncode == 0 and "stopped the server (pid " in r.stderr, r.stderr
+
+
+def _ready(run_dir: Path) -> str:
+    t = time.monotonic()
+    while "ready on" not in (log := "".join(p.read_text() for p in run_dir.glob("serve-*.log"))):
+        assert time.monotonic() - t < 120, (log, list(run_dir.iterdir()))
+        time.sleep(0.05)
+    return log
 
 
 def test_apply_starts_a_server_that_serves_the_next_commands(tmp_path):
@@ -81,33 +76,65 @@ def test_apply_starts_a_server_that_serves_the_next_commands(tmp_path):
         assert "apply in.exr -o b.exr --timings: exit 0" in log, log
         assert sorted(p.name for p in d.iterdir()) == ["a.exr", "b.exr", "c.exr", "in.exr"]
     finally:
-        _stop(run_dir)
+        _stop(run_dir, env)
     assert not list(run_dir.glob("*.sock")), "the server left its socket behind"
+    again = _fogcli(["serve", "--stop"], d, env)
+    assert again.returncode == 0 and "no server was running" in again.stderr, again.stderr
 
 
 def test_a_server_with_time_to_spare_rehearses_the_first_command(tmp_path):
     run_dir = tmp_path / "run"
-    d = tmp_path / "work"
+    d, scratch = tmp_path / "work", tmp_path / "tmp"
     d.mkdir()
+    scratch.mkdir()
     _write(d / "in.exr", 96, 64, seed=4)
-    env = _auto_env(run_dir)
-    first = _fogcli(["apply", "in.exr", "-o", "a.png", "--medium", "sea"], d, env)
+    # modules named as the ones fogcli imports, in the command's folder: the server must not run them
+    for name in ("fogcli", "queue", "json"):
+        (d / f"{name}.py").write_text(f"open({str(tmp_path / 'ran')!r}, 'a').write({name!r})\n")
+    env = _auto_env(run_dir, TMPDIR=str(scratch))
+    # as a user runs it: the installed script (`python -m` would import this folder's fogcli.py itself)
+    script = str(Path(sys.executable).parent / "fogcli")
+
+    def run(*args):
+        return subprocess.run([script, *args], cwd=d, env=env, capture_output=True, text=True, timeout=300)
+
+    first = run("apply", "in.exr", "-o", "a.png", "--medium", "sea")
     assert first.returncode == 0, first.stderr
     try:
-        t = time.monotonic()
-        while "ready on" not in "".join(p.read_text() for p in run_dir.glob("serve-*.log")):
-            assert time.monotonic() - t < 120, list(run_dir.iterdir())
-            time.sleep(0.05)
-        log = next(run_dir.glob("serve-*.log")).read_text()
+        log = _ready(run_dir)
         assert "rehearsed the first command" in log and ": failed" not in log, log
+        assert not (tmp_path / "ran").exists(), (tmp_path / "ran").read_text()
         # its scratch output (a PNG, as the command's) is gone; nothing was written in the client's folder
         assert sorted(p.suffix for p in run_dir.iterdir()) == [".lock", ".log", ".sock"], list(run_dir.iterdir())
-        assert sorted(p.name for p in d.iterdir()) == ["a.png", "in.exr"]
-        second = _fogcli(["apply", "in.exr", "-o", "b.png", "--medium", "sea", "--timings"], d, env)
+        assert not list(scratch.iterdir()), list(scratch.iterdir())
+        assert sorted(p.name for p in d.iterdir()) == ["a.png", "fogcli.py", "in.exr", "json.py", "queue.py"]
+        second = run("apply", "in.exr", "-o", "b.png", "--medium", "sea", "--timings")
         assert second.returncode == 0 and _timings(second.stderr)["served"] is True, second.stderr
         assert (d / "a.png").read_bytes() == (d / "b.png").read_bytes()
     finally:
-        _stop(run_dir)
+        _stop(run_dir, env)
+
+
+def test_a_killed_server_is_replaced_and_a_relative_run_folder_works(tmp_path):
+    _write(tmp_path / "in.exr", 32, 24)
+    env = _auto_env(Path("run"))        # relative to the command's folder
+    run_dir = tmp_path / "run"
+    assert _fogcli(["apply", "in.exr", "-o", "a.exr"], tmp_path, env).returncode == 0
+    _ready(run_dir)
+    pid = int(next(run_dir.glob("serve-*.lock")).read_text())
+    os.kill(pid, signal.SIGKILL)
+    while Path(f"/proc/{pid}").exists() and "zombie" not in Path(f"/proc/{pid}/status").read_text():
+        time.sleep(0.02)
+    assert list(run_dir.glob("*.sock")), "the test wants the killed server's socket left behind"
+    next(run_dir.glob("serve-*.log")).unlink()       # the dead server's
+    r = _fogcli(["apply", "in.exr", "-o", "b.exr", "--timings"], tmp_path, env)
+    assert r.returncode == 0 and _timings(r.stderr)["served"] is False, r.stderr
+    try:
+        _ready(run_dir)         # a new one, in spite of the old socket
+        r = _fogcli(["apply", "in.exr", "-o", "c.exr", "--timings"], tmp_path, env)
+        assert r.returncode == 0 and _timings(r.stderr)["served"] is True, r.stderr
+    finally:
+        _stop(run_dir, env)
 
 
 def test_nothing_starts_after_a_failed_command_or_when_told_not_to(tmp_path):
@@ -140,7 +167,7 @@ def test_no_second_server_while_one_holds_the_lock(tmp_path, monkeypatch):
     fd = os.open(launch.lock_path(), os.O_RDWR | os.O_CREAT, 0o600)
     try:
         fcntl.flock(fd, fcntl.LOCK_EX)
-        assert launch.autostart(30, dict(os.environ), ["apply", "x.exr"]) is False
+        assert launch.autostart(30, dict(os.environ), ["apply", "x.exr"], str(tmp_path)) is False
         # a starting server (the lock held, lately): the client waits for its socket, and
         # gives up when its lock is let go without one
         os.utime(fd)
@@ -151,6 +178,10 @@ def test_no_second_server_while_one_holds_the_lock(tmp_path, monkeypatch):
     finally:
         os.close(fd)
     assert list(run_dir.iterdir()) == [Path(launch.lock_path())]
+    # where there is no fcntl (Windows), nothing is started and nothing fails
+    monkeypatch.setitem(sys.modules, "fcntl", None)
+    assert launch.autostart(30, dict(os.environ), ["apply", "x.exr"], str(tmp_path)) is False
+    monkeypatch.delitem(sys.modules, "fcntl")
     for v, want in (("", float(launch.AUTOSERVE_IDLE)), ("0", 0.0), ("45", 45.0)):
         monkeypatch.setenv("FOGCLI_AUTOSERVE", v)
         assert launch.autoserve_idle() == want

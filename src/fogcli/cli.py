@@ -199,13 +199,21 @@ def batch(input_dir, output_dir, depth_pattern, medium, config_file, camera_file
 @click.option("--idle", type=click.FloatRange(1, 86400), default=900, show_default=True,
               help="Stop after this many seconds without a command.")
 @click.option("--device", metavar="SPEC", help="OpenCL device for the warm-up (P:D, cpu, gpu or a name).")
+@click.option("--stop", is_flag=True, help="Stop this installation's running server (started by hand or by "
+              "`fogcli apply`) and return once it has gone.")
 @click.option("--lock-fd", type=int, hidden=True)     # a server started by `fogcli apply` (launch.autostart) ...
 @click.option("--rehearse", hidden=True)              # ... and that command, to warm up with
 @guarded
-def serve(idle, device, lock_fd, rehearse):
+def serve(idle, device, stop, lock_fd, rehearse):
     """Keep fogcli loaded: while this runs, `fogcli apply` in this user's other shells hands
     its command to it and skips a new process's start-up (FOGCLI_SERVER=0: it does not).
     `fogcli apply` starts one by itself after a run (FOGCLI_AUTOSERVE)."""
+    if stop:
+        from .server import stop_running
+
+        pid = stop_running()
+        click.echo(f"fogcli: stopped the server (pid {pid})" if pid else "fogcli: no server was running", err=True)
+        return
     from .server import serve as run_server
 
     run_server(idle, device, lock_fd, rehearse)

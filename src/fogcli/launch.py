@@ -65,7 +65,7 @@ def run_dir() -> str:
         if not base or not os.path.isdir(base):
             base = cache_dir()
         d = os.path.join(base, "fogcli-run")
-    return d
+    return os.path.abspath(d)       # the same folder for a server that runs in /
 
 
 def socket_path(key: str | None = None) -> str:
@@ -240,7 +240,10 @@ def _starting(key: str, path: str) -> bool:
     """A server for this installation is starting (its lock is held and was taken lately):
     wait for its socket, as a run here would take longer than the wait, and compete with
     the server's start for the cores. False: none is starting, or it did not get ready."""
-    import fcntl
+    try:
+        import fcntl
+    except ImportError:
+        return False
 
     deadline = None
     while True:
@@ -265,54 +268,53 @@ def _starting(key: str, path: str) -> bool:
         time.sleep(0.01)
 
 
-def autostart(idle: float, env: dict, argv: list[str]) -> bool:
+def autostart(idle: float, env: dict, argv: list[str], cwd: str) -> bool:
     """After `fogcli apply` ran by itself: start `fogcli serve --idle <idle>` in a session of
-    its own, so that the next commands skip the start-up. Spawned, never forked (PoCL); the
-    lock is taken here and handed down, so that no second client starts another meanwhile.
-    `env`: this process's environment as it began (the runtime adds POCL_CACHE_DIR, which the
-    next clients will not have); `argv`: the command, which the server runs once more to warm
-    up for the frames like it (server._rehearse). True: started."""
-    import fcntl
-
+    its own, so that the next commands skip the start-up. The lock is taken here and handed
+    down, so that no second client starts another meanwhile. `env`: this process's
+    environment as it began (the runtime adds POCL_CACHE_DIR, which the next clients will not
+    have); `argv` and `cwd`: the command, which the server runs once more to warm up for the
+    frames like it (server._rehearse). True: started. POSIX only."""
+    try:
+        import fcntl
+        import subprocess
+    except ImportError:
+        return False
     key = install_key()
     path = socket_path(key)
     d = os.path.dirname(path)
-    if not idle or len(os.fsencode(path)) + 12 > 107:
+    if not idle or os.name != "posix" or len(os.fsencode(path)) + 12 > 107:
         return False
     try:
         os.makedirs(d, mode=0o700, exist_ok=True)
     except OSError:
         return False
-    if not private_dir(d) or os.path.exists(path):
+    if not private_dir(d):
         return False
     try:
         fd = os.open(lock_path(key), os.O_RDWR | os.O_CREAT | os.O_CLOEXEC, 0o600)
     except OSError:
         return False
     try:
+        # the lock decides, not the socket: a killed server leaves its socket behind (the
+        # new server replaces it)
         fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
         os.utime(fd)        # the clients' wait for it counts from now
-        # the server gets no descriptor of this process but the lock: a caller reading this
-        # command's output (a pipe) must see its end when this process exits
-        actions = [(os.POSIX_SPAWN_OPEN, 0, os.devnull, os.O_RDONLY, 0),
-                   (os.POSIX_SPAWN_OPEN, 1, os.devnull, os.O_WRONLY, 0),
-                   (os.POSIX_SPAWN_DUP2, 1, 2)]
-        for name in os.listdir("/proc/self/fd") if os.path.isdir("/proc/self/fd") else ():
-            n = int(name)
-            try:
-                if n > 2 and n != fd and os.get_inheritable(n):
-                    actions.append((os.POSIX_SPAWN_CLOSE, n))
-            except OSError:
-                pass
-        os.set_inheritable(fd, True)
         import json
 
-        cwd = os.getcwd()
-        os.posix_spawn(sys.executable, [sys.executable, "-m", "fogcli", "serve", "--idle", f"{idle:g}",
-                                        "--lock-fd", str(fd), "--rehearse", json.dumps([cwd, *argv])],
-                       env, file_actions=actions, setsid=True)
+        env = dict(env, FOGCLI_RUN_DIR=os.path.dirname(path))      # absolute: the server runs in /
+        with open(os.path.join(d, f"serve-{key}.log"), "wb") as log:     # its start-up errors too
+            # in /, and with nothing of this process but the lock and its log: no module of
+            # the user's folder on its path, no hold on that folder, and a caller reading this
+            # command's output (a pipe) sees its end when this process exits. The child runs no
+            # Python before exec (PoCL must not be forked into)
+            subprocess.Popen([sys.executable, "-c", "import sys; del sys.path[0]; from fogcli.launch import main; main()",
+                              "serve", "--idle", f"{idle:g}", "--lock-fd", str(fd),
+                              "--rehearse", json.dumps([cwd, *argv])],
+                             env=env, cwd="/", stdin=subprocess.DEVNULL, stdout=log, stderr=log,
+                             close_fds=True, pass_fds=(fd,), start_new_session=True)
         return True
-    except OSError:         # another client holds the lock, or the spawn failed: no server this time
+    except (OSError, subprocess.SubprocessError):    # another client holds the lock, or no spawn
         return False
     finally:
         os.close(fd)
@@ -321,6 +323,10 @@ def autostart(idle: float, env: dict, argv: list[str]) -> bool:
 def main() -> None:
     argv = sys.argv[1:]
     env = dict(os.environ)
+    try:
+        cwd = os.getcwd()
+    except OSError:         # a removed folder: nothing to rehearse in
+        cwd = ""
     is_apply = bool(argv) and argv[0] == "apply" and not ({"-h", "--help"} & set(argv))
     try:
         idle = autoserve_idle() if is_apply else 0.0
@@ -350,5 +356,8 @@ def main() -> None:
     finally:
         if warm:
             hostmem.record_heap()
-        if done and idle:       # a failed command (a typo, a bad file) starts nothing
-            autostart(idle, env, argv)
+        if done and idle and cwd:       # a failed command (a typo, a bad file) starts nothing
+            try:
+                autostart(idle, env, argv, cwd)
+            except Exception:  # noqa: BLE001  (the command succeeded: a server that cannot start changes nothing)
+                pass

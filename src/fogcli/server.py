@@ -218,12 +218,13 @@ def _warm_up(device: str | None) -> None:
     apply(np.ones((48, 64, 3), np.float32), np.full((48, 64), 10.0, np.float32), make_config("fog"), device=device)
 
 
-def _rehearse(spec: str, scratch_dir: str, log) -> bool:
+def _rehearse(spec: str, log) -> bool:
     """The command of the `fogcli apply` that started this server, run once more with its
     output to a scratch file: the programs, plan, device buffers and heap of that frame size
     and config are then ready for the next command. spec: JSON [cwd, "apply", args...].
     False: it could not run (the input is gone, ...)."""
     import json
+    import tempfile
     from pathlib import Path
 
     from . import cli, outputs
@@ -236,13 +237,17 @@ def _rehearse(spec: str, scratch_dir: str, log) -> bool:
         ctx = cli.apply.make_context("apply", [str(a) for a in argv[1:]])
         out = ctx.params.get("output")
         ext = Path(out).suffix if out else outputs.default_ext(Path(ctx.params["input"]))
-        scratch = os.path.join(scratch_dir, f"rehearsal-{os.getpid()}{ext}")
+        # the temporary folder, not the run folder: that is often a small tmpfs
+        fd, scratch = tempfile.mkstemp(prefix="fogcli-rehearsal-", suffix=ext)
+        os.close(fd)
         ctx.params.update(output=scratch, save_depth=None, lamps=None, timings=False)
         with ctx:
             ctx.invoke(cli.apply.callback, **ctx.params)
         ok = True
-    except SystemExit as exc:       # the command's own one-line error, in this log
+    except SystemExit as exc:       # the command's own one-line error (or SIGTERM's), in this log
         ok = exc.code in (0, None)
+    except KeyboardInterrupt:
+        ok = False
     except Exception as exc:  # noqa: BLE001  (a warm-up that fails only costs the next command time)
         log(f"rehearsal failed: {exc.__class__.__name__}: {exc}")
         ok = False
@@ -255,6 +260,39 @@ def _rehearse(spec: str, scratch_dir: str, log) -> bool:
                 pass
     log(f"rehearsed the first command ({(time.perf_counter() - t) * 1e3:.0f} ms){'' if ok else ': failed'}")
     return ok
+
+
+def stop_running(limit: float = 60.0) -> int | None:
+    """`fogcli serve --stop`: SIGTERM to this installation's server, back once it has gone
+    (its lock is free). Its pid, or None if none was running."""
+    import fcntl
+
+    try:
+        fd = os.open(launch.lock_path(), os.O_RDONLY | os.O_CLOEXEC)
+    except FileNotFoundError:
+        return None
+    try:
+        end = time.monotonic() + limit
+        pid = 0
+        while True:
+            try:
+                fcntl.flock(fd, fcntl.LOCK_SH | fcntl.LOCK_NB)
+                return pid or None          # free: it has gone (or none ran)
+            except OSError:
+                pass
+            if not pid:     # a server being handed its lock writes its pid as it starts
+                text = os.pread(fd, 32, 0).decode(errors="replace").strip()
+                if text.isdigit():
+                    pid = int(text)
+                    try:
+                        os.kill(pid, signal.SIGTERM)
+                    except ProcessLookupError:
+                        pass
+            if time.monotonic() > end:
+                raise UserError(f"{launch.lock_path()}: the server (pid {pid or '?'}) did not stop within {limit:g} s")
+            time.sleep(0.02)
+    finally:
+        os.close(fd)
 
 
 def _take_lock(key: str, lock_fd: int | None) -> int:
@@ -289,7 +327,7 @@ def serve(idle: float, device: str | None = None, lock_fd: int | None = None, re
         raise UserError(f"{d}: cannot make the server's folder ({exc.strerror})") from None
     if not launch.private_dir(d):
         raise UserError(f"{d}: must belong to you and be closed to others (chmod 700)")
-    _take_lock(key, lock_fd)
+    lock = _take_lock(key, lock_fd)
     probe = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
     probe.settimeout(5)
     try:
@@ -301,16 +339,6 @@ def serve(idle: float, device: str | None = None, lock_fd: int | None = None, re
         probe.close()
 
     own = sys.stderr       # a run replaces sys.stderr with its client's; the log stays here
-    if lock_fd is not None:
-        # started by `fogcli apply`: no terminal, a log of its own beside the socket, and no
-        # hold on the folder the first client ran in
-        log_path = os.path.join(d, f"serve-{key}.log")
-        fd = os.open(log_path, os.O_WRONLY | os.O_CREAT | os.O_TRUNC | os.O_CLOEXEC, 0o600)
-        os.dup2(fd, 1)
-        os.dup2(fd, 2)     # PoCL's own messages too
-        os.close(fd)
-        own = sys.stderr = open(2, "w", buffering=1, closefd=False)
-        os.chdir("/")
 
     def log(msg: str) -> None:
         own.write(f"fogcli serve: {msg}\n")
@@ -343,8 +371,10 @@ def serve(idle: float, device: str | None = None, lock_fd: int | None = None, re
         # run warms up what the rehearsal would, a frame sooner for it
         if srv.waiting(0.05):
             log("a command is waiting: no warm-up")
-        elif not (rehearse and _rehearse(rehearse, d, log)):
+        elif not (rehearse and _rehearse(rehearse, log)) and not srv.stopping:
             _warm_up(device)
+        if srv.stopping:        # SIGTERM during the warm-up: a run's own Ctrl-C handling took it
+            raise KeyboardInterrupt
         signal.signal(INTERRUPT, client_gone)     # after PoCL's start-up, in case it takes a handler
         log(f"ready on {path} (stops after {idle:g} s idle; FOGCLI_SERVER=0 runs a command without it)")
         srv.loop()
@@ -352,6 +382,10 @@ def serve(idle: float, device: str | None = None, lock_fd: int | None = None, re
         log("interrupted: stopping")
     finally:
         sock.close()
+        try:
+            os.ftruncate(lock, 0)       # no pid of a gone server left for `fogcli serve --stop`
+        except OSError:
+            pass
         try:
             if ino is None:
                 os.unlink(tmp)
