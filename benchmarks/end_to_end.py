@@ -1,6 +1,6 @@
 """End to end (issue 12): `fogcli apply` of a 2 MPx EXR with an embedded Z, as a user runs
-it (a new process by itself; and the first, second and later runs with the server the
-first one starts; kernel caches warm), against
+it (a new process by itself; and the first, second and later runs with the server that
+the first one starts; kernel caches warm), against
 OpenImageIO's own write + read of the same file in the same run. Per EXR compression (the
 output follows the input's), with the stage times fogcli reports (`--timings`). Writes its
 block of docs/performance.md.
@@ -140,34 +140,22 @@ def server_rss_mb(run_dir: Path) -> float:
     return float("nan")
 
 
-def auto_round(src: Path, out: Path, run_dir: Path, pause: bool) -> dict:
-    """As a user meets it with no server running: the first `fogcli apply` runs by itself and
-    starts a server as it ends. pause=False: the second comes at once (it waits for that
-    server to start, and is its first frame), then a third. pause=True: the second comes
-    once the server is ready (it has run the first command again to warm up; `ready` is the
-    ms from the first's end to that). Wall ms of each and the server's resident MB at the end."""
+def auto_round(src: Path, out: Path, run_dir: Path) -> dict:
+    """As a user meets it with no server running: the first `fogcli apply` starts a server and
+    hands its own command to it; the second comes the moment the first ended, then a third.
+    Wall ms of each, and the server's resident MB at the end."""
     env = dict(FOGCLI_RUN_DIR=str(run_dir), FOGCLI_AUTOSERVE="600")
-    got = {}
+    got, served = {}, []
     try:
-        got["first"], st1 = fogcli_once(src, out, **env)
-        if pause:
-            t = time.perf_counter()
-            while "ready on" not in "".join(p.read_text() for p in run_dir.glob("serve-*.log")):
-                if time.perf_counter() - t > 120:
-                    raise SystemExit(f"the started server in {run_dir} did not get ready")
-                time.sleep(0.005)
-            got["ready"] = (time.perf_counter() - t) * 1e3
-        names = ("second",) if pause else ("second", "third")
-        served = []
-        for name in names:
+        for name in ("first", "second", "third"):
             got[name], st = fogcli_once(src, out, **env)
             served.append(bool(st.get("served")))
         got["rss"] = server_rss_mb(run_dir)
     finally:
         stop_server(run_dir)
-    if st1.get("served") or not all(served):
+    if not all(served):
         logs = "".join(p.read_text() for p in run_dir.glob("serve-*.log"))
-        raise SystemExit(f"the started server did not take the next commands: {logs}")
+        raise SystemExit(f"the started server did not take the commands: {logs}")
     return got
 
 
@@ -194,29 +182,26 @@ def main() -> int:
             alone = dict(FOGCLI_SERVER="0")
             fogcli_once(src, out, **alone)          # the first run: caches
             o, f, st, fp = 1e9, 1e9, {}, 1e9
-            at_once, paused = [], []
+            auto = []
             for i in range(args.rounds):             # interleaved: the machine's speed drifts
                 o = min(o, oiio_ms(src, Path(tmp) / "oiio.exr", comp, 1))
                 fi, sti = fogcli_once(src, out, **alone)
                 f, st = (fi, sti) if fi < f else (f, st)
                 fp = min(fp, fogcli_once(src, out, FOGCLI_PREFAULT="0", **alone)[0])
-                at_once.append(auto_round(src, out, Path(tmp) / f"run_{comp}_{i}", pause=False))
-                paused.append(auto_round(src, out, Path(tmp) / f"run_{comp}_{i}p", pause=True))
+                auto.append(auto_round(src, out, Path(tmp) / f"run_{comp}_{i}"))
 
-            def best(rows, k):
-                return min(r[k] for r in rows)
+            def best(k):
+                return min(r[k] for r in auto)
 
             row = dict(comp=comp, mb=src.stat().st_size / 1e6, oiio=o, alone=f, stages=st, noprefault=fp,
-                       first=best(at_once + paused, "first"), at_once=best(at_once, "second"),
-                       at_once_median=float(np.median([r["second"] for r in at_once])),
-                       ready=float(np.median([r["ready"] for r in paused])), paused=best(paused, "second"),
-                       served=best(at_once, "third"), rss=max(r["rss"] for r in at_once + paused))
+                       first=best("first"), second=best("second"),
+                       second_median=float(np.median([r["second"] for r in auto])), served=best("third"),
+                       rss=max(r["rss"] for r in auto))
             rows.append(row)
             print(comp, f"{o:.0f} ms oiio, by itself {f:.0f} ms = {f / o:.2f}x (FOGCLI_PREFAULT=0: {fp:.0f}); "
-                  f"first {row['first']:.0f}, second at once {row['at_once']:.0f} = {row['at_once'] / o:.2f}x, "
-                  f"ready {row['ready']:.0f} ms after the first, second then {row['paused']:.0f} = "
-                  f"{row['paused'] / o:.2f}x, served {row['served']:.0f} = {row['served'] / o:.2f}x, "
-                  f"server {row['rss']:.0f} MB", st, flush=True)
+                  f"first {row['first']:.0f} = {row['first'] / o:.2f}x, second {row['second']:.0f} = "
+                  f"{row['second'] / o:.2f}x (median {row['second_median']:.0f}), third {row['served']:.0f} = "
+                  f"{row['served'] / o:.2f}x, server {row['rss']:.0f} MB", st, flush=True)
     keys = [k for k in ("kernel_ms", "io_ms", "total_ms") if k in rows[0]["stages"]]
     start = {c: startup_ms(c, args.rounds) for c in (False, True)}
     lines = [BEGIN, f"## End to end on {cpu_name()}", "",
@@ -227,22 +212,19 @@ def main() -> int:
              "- `by itself`: a new process with FOGCLI_SERVER=0 (no server used or started); `without prefault`: "
              "the same with FOGCLI_PREFAULT=0 (the heap the previous run needed is not touched ahead while Python "
              "imports). The stage times are this run's.",
-             "- As a user meets it with no server running (docs/distributed.md): the `first` `fogcli apply` runs "
-             "by itself and starts a server as it ends. A second command `at once` (the moment the first ended) "
-             "waits for that server to start and is its first frame (median of the rounds in brackets). The "
-             "server is `ready` (it has run the first command again to warm up) this many ms after the first "
-             "ended (median); a second command `then` is served warm. `served`: a third command, as every later "
-             "one; `server MB`: the server's resident memory at the end (largest of the rounds), which it holds "
-             "until it stops.", "",
+             "- As a user meets it with no server running (docs/distributed.md): the `first` `fogcli apply` "
+             "starts a server and hands its own command to it; the `second` comes the moment the first ended "
+             "(median of the rounds in brackets), the `third` as every later one. `server MB`: the server's "
+             "resident memory at the end (largest of the rounds), which it holds until it stops.", "",
              "| compression | file MB | OpenImageIO write + read ms | by itself ms | ratio | without prefault ms | "
-             "first ms | second at once ms | ratio | ready after ms | second then ms | ratio | served ms | ratio | "
-             "server MB | " + " | ".join(f"{k} ms" for k in keys) + " |",
-             "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|" + "---|" * len(keys)]
+             "first ms | ratio | second ms | ratio | third ms | ratio | server MB | "
+             + " | ".join(f"{k} ms" for k in keys) + " |",
+             "|---|---|---|---|---|---|---|---|---|---|---|---|---|" + "---|" * len(keys)]
     for r in rows:
         o = r["oiio"]
         lines.append(f"| {r['comp']} | {r['mb']:.1f} | {o:.0f} | {r['alone']:.0f} | {r['alone'] / o:.2f}x | "
-                     f"{r['noprefault']:.0f} | {r['first']:.0f} | {r['at_once']:.0f} ({r['at_once_median']:.0f}) | "
-                     f"{r['at_once'] / o:.2f}x | {r['ready']:.0f} | {r['paused']:.0f} | {r['paused'] / o:.2f}x | "
+                     f"{r['noprefault']:.0f} | {r['first']:.0f} | {r['first'] / o:.2f}x | "
+                     f"{r['second']:.0f} ({r['second_median']:.0f}) | {r['second'] / o:.2f}x | "
                      f"{r['served']:.0f} | {r['served'] / o:.2f}x | {r['rss']:.0f} | "
                      + " | ".join(f"{r['stages'].get(k, 0):.0f}" for k in keys) + " |")
     lines += ["", "Start-up of a new process (ms, best of the rounds): importing fogcli, then the first `apply` of a "

@@ -201,10 +201,9 @@ def batch(input_dir, output_dir, depth_pattern, medium, config_file, camera_file
 @click.option("--device", metavar="SPEC", help="OpenCL device for the warm-up (P:D, cpu, gpu or a name).")
 @click.option("--stop", is_flag=True, help="Stop this installation's running server (started by hand or by "
               "`fogcli apply`) and return once it has gone.")
-@click.option("--lock-fd", type=int, hidden=True)     # a server started by `fogcli apply` (launch.autostart) ...
-@click.option("--rehearse", hidden=True)              # ... and that command, to warm up with
+@click.option("--lock-fd", type=int, hidden=True)     # a server started by `fogcli apply` (launch.autostart)
 @guarded
-def serve(idle, device, stop, lock_fd, rehearse):
+def serve(idle, device, stop, lock_fd):
     """Keep fogcli loaded: while this runs, `fogcli apply` in this user's other shells hands
     its command to it and skips a new process's start-up (FOGCLI_SERVER=0: it does not).
     `fogcli apply` starts one by itself after a run (FOGCLI_AUTOSERVE)."""
@@ -216,7 +215,7 @@ def serve(idle, device, stop, lock_fd, rehearse):
         return
     from .server import serve as run_server
 
-    run_server(idle, device, lock_fd, rehearse)
+    run_server(idle, device, lock_fd)
 
 
 @main.command()

@@ -3,8 +3,9 @@
 what it sends back: the server has numpy, OpenCL, the built programs and the device
 buffers of the last frame sizes ready, so a frame costs its I/O and kernels, not a new
 process's start-up (docs/distributed.md, One command per frame).
-Anything else, or no server, runs here as usual. This module imports only the standard
-library's light parts: it is on every command's path."""
+With no server running, `fogcli apply` starts one (autostart) and hands it its own command.
+Anything else, or where no server can run, runs here as usual. This module imports only the
+standard library's light parts: it is on every command's path."""
 from __future__ import annotations
 
 import os
@@ -268,13 +269,11 @@ def _starting(key: str, path: str) -> bool:
         time.sleep(0.01)
 
 
-def autostart(idle: float, env: dict, argv: list[str], cwd: str) -> bool:
-    """After `fogcli apply` ran by itself: start `fogcli serve --idle <idle>` in a session of
-    its own, so that the next commands skip the start-up. The lock is taken here and handed
-    down, so that no second client starts another meanwhile. `env`: this process's
-    environment as it began (the runtime adds POCL_CACHE_DIR, which the next clients will not
-    have); `argv` and `cwd`: the command, which the server runs once more to warm up for the
-    frames like it (server._rehearse). True: started. POSIX only."""
+def autostart(idle: float, env: dict) -> bool:
+    """`fogcli apply` found no server: start `fogcli serve --idle <idle>` in a session of its
+    own, to run this command and the next ones (forward() then waits for it). The lock is
+    taken here and handed down, so that no second client starts another meanwhile. `env`:
+    this process's environment as it began. True: started. POSIX only."""
     try:
         import fcntl
         import subprocess
@@ -296,21 +295,22 @@ def autostart(idle: float, env: dict, argv: list[str], cwd: str) -> bool:
     except OSError:
         return False
     try:
-        # the lock decides, not the socket: a killed server leaves its socket behind (the
-        # new server replaces it)
+        # the lock decides, not the socket: a killed server leaves its socket behind, which
+        # is removed so that forward() waits for the new one
         fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        try:
+            os.unlink(path)
+        except FileNotFoundError:
+            pass
         os.utime(fd)        # the clients' wait for it counts from now
-        import json
-
-        env = dict(env, FOGCLI_RUN_DIR=os.path.dirname(path))      # absolute: the server runs in /
+        env = dict(env, FOGCLI_RUN_DIR=d)      # absolute: the server runs in /
         with open(os.path.join(d, f"serve-{key}.log"), "wb") as log:     # its start-up errors too
             # in /, and with nothing of this process but the lock and its log: no module of
             # the user's folder on its path, no hold on that folder, and a caller reading this
             # command's output (a pipe) sees its end when this process exits. The child runs no
             # Python before exec (PoCL must not be forked into)
             subprocess.Popen([sys.executable, "-c", "import sys; del sys.path[0]; from fogcli.launch import main; main()",
-                              "serve", "--idle", f"{idle:g}", "--lock-fd", str(fd),
-                              "--rehearse", json.dumps([cwd, *argv])],
+                              "serve", "--idle", f"{idle:g}", "--lock-fd", str(fd)],
                              env=env, cwd="/", stdin=subprocess.DEVNULL, stdout=log, stderr=log,
                              close_fds=True, pass_fds=(fd,), start_new_session=True)
         return True
@@ -322,11 +322,6 @@ def autostart(idle: float, env: dict, argv: list[str], cwd: str) -> bool:
 
 def main() -> None:
     argv = sys.argv[1:]
-    env = dict(os.environ)
-    try:
-        cwd = os.getcwd()
-    except OSError:         # a removed folder: nothing to rehearse in
-        cwd = ""
     is_apply = bool(argv) and argv[0] == "apply" and not ({"-h", "--help"} & set(argv))
     try:
         idle = autoserve_idle() if is_apply else 0.0
@@ -334,11 +329,20 @@ def main() -> None:
         sys.stderr.write(f"fogcli: {exc}\n")
         sys.exit(2)
     code = forward(argv)
+    if code is None and idle:
+        # no server: start one and hand it this command, so that the next finds it warm
+        try:
+            started = autostart(idle, dict(os.environ))
+        except Exception:  # noqa: BLE001  (a server that cannot start: the command runs here)
+            started = False
+        if started:
+            code = forward(argv)
     if code is not None:
         sys.exit(code)
-    # apply by itself: the heap its last run held is faulted in on another core while the
-    # imports run (hostmem.warm_heap), and what this run held is recorded for the next
-    warm = is_apply
+    # apply by itself, or the server that `fogcli apply` started (`serve --lock-fd`): the heap
+    # the last run held is faulted in on another core while the imports run
+    # (hostmem.warm_heap), and what this process held is recorded for the next
+    warm = is_apply or (bool(argv) and argv[0] == "serve" and any(a.startswith("--lock-fd") for a in argv))
     if warm:
         from . import hostmem
 
@@ -347,17 +351,8 @@ def main() -> None:
 
     if warm:
         hostmem.join_warm()
-    done = False
     try:
         cli_main()
-    except SystemExit as exc:
-        done = exc.code in (0, None)
-        raise
     finally:
         if warm:
             hostmem.record_heap()
-        if done and idle and cwd:       # a failed command (a typo, a bad file) starts nothing
-            try:
-                autostart(idle, env, argv, cwd)
-            except Exception:  # noqa: BLE001  (the command succeeded: a server that cannot start changes nothing)
-                pass

@@ -62,6 +62,7 @@ class Server:
         self.stopping = False                  # Ctrl-C or SIGTERM of the server itself
         self.filters = list(warnings.filters)
         self.saved = None                      # what a run changes: stdout, stderr, folder, umask
+        self.on_trial = False                  # started by `fogcli apply`: stop if its command fails
 
     def waiting(self, seconds: float) -> bool:
         """A command is queued now or within `seconds`."""
@@ -150,16 +151,21 @@ class Server:
             self.log(f"idle for {self.idle:g} s: stopping")
             return False
         try:
-            self.run(conn, req)
+            code = self.run(conn, req)
         finally:
             try:
                 conn.shutdown(socket.SHUT_RDWR)     # wakes the watcher's recv
             except OSError:
                 pass
             conn.close()
+        if self.on_trial:       # started by a `fogcli apply` that failed (a typo, a bad file): no server
+            self.on_trial = False
+            if code != 0:
+                self.log(f"the command that started this server ended with exit {code}: stopping")
+                return False
         return True
 
-    def run(self, conn: socket.socket, req: dict) -> None:
+    def run(self, conn: socket.socket, req: dict) -> int:
         from .cli import main as cli_main
 
         t = time.perf_counter()
@@ -196,6 +202,7 @@ class Server:
         except OSError:
             pass
         self.log(f"{' '.join(map(str, req['argv']))[:200]}: exit {code} ({(time.perf_counter() - t) * 1e3:.0f} ms)")
+        return code
 
 
 def _join_io_threads() -> None:
@@ -216,50 +223,6 @@ def _warm_up(device: str | None) -> None:
     from .api import apply, make_config
 
     apply(np.ones((48, 64, 3), np.float32), np.full((48, 64), 10.0, np.float32), make_config("fog"), device=device)
-
-
-def _rehearse(spec: str, log) -> bool:
-    """The command of the `fogcli apply` that started this server, run once more with its
-    output to a scratch file: the programs, plan, device buffers and heap of that frame size
-    and config are then ready for the next command. spec: JSON [cwd, "apply", args...].
-    False: it could not run (the input is gone, ...)."""
-    import json
-    import tempfile
-    from pathlib import Path
-
-    from . import cli, outputs
-
-    t = time.perf_counter()
-    scratch = None
-    try:
-        cwd, *argv = json.loads(spec)
-        os.chdir(cwd)
-        ctx = cli.apply.make_context("apply", [str(a) for a in argv[1:]])
-        out = ctx.params.get("output")
-        ext = Path(out).suffix if out else outputs.default_ext(Path(ctx.params["input"]))
-        # the temporary folder, not the run folder: that is often a small tmpfs
-        fd, scratch = tempfile.mkstemp(prefix="fogcli-rehearsal-", suffix=ext)
-        os.close(fd)
-        ctx.params.update(output=scratch, save_depth=None, lamps=None, timings=False)
-        with ctx:
-            ctx.invoke(cli.apply.callback, **ctx.params)
-        ok = True
-    except SystemExit as exc:       # the command's own one-line error (or SIGTERM's), in this log
-        ok = exc.code in (0, None)
-    except KeyboardInterrupt:
-        ok = False
-    except Exception as exc:  # noqa: BLE001  (a warm-up that fails only costs the next command time)
-        log(f"rehearsal failed: {exc.__class__.__name__}: {exc}")
-        ok = False
-    finally:
-        os.chdir("/")
-        if scratch:
-            try:
-                os.unlink(scratch)
-            except OSError:
-                pass
-    log(f"rehearsed the first command ({(time.perf_counter() - t) * 1e3:.0f} ms){'' if ok else ': failed'}")
-    return ok
 
 
 def stop_running(limit: float = 60.0) -> int | None:
@@ -315,7 +278,7 @@ def _take_lock(key: str, lock_fd: int | None) -> int:
     return fd
 
 
-def serve(idle: float, device: str | None = None, lock_fd: int | None = None, rehearse: str | None = None) -> None:
+def serve(idle: float, device: str | None = None, lock_fd: int | None = None) -> None:
     key = launch.install_key()
     path = launch.socket_path(key)
     d = os.path.dirname(path)
@@ -345,6 +308,7 @@ def serve(idle: float, device: str | None = None, lock_fd: int | None = None, re
         own.flush()
 
     srv = Server(idle, log)
+    srv.on_trial = lock_fd is not None
 
     def stop(signum, frame):
         srv.stopping = True
@@ -367,13 +331,10 @@ def serve(idle: float, device: str | None = None, lock_fd: int | None = None, re
         os.replace(tmp, path)        # a stale socket of a killed server is replaced
         ino = os.stat(path).st_ino
         threading.Thread(target=srv.accept_loop, args=(sock,), daemon=True).start()
-        # a client already waiting (the next command came at once) is served first: its own
-        # run warms up what the rehearsal would, a frame sooner for it
-        if srv.waiting(0.05):
-            log("a command is waiting: no warm-up")
-        elif not (rehearse and _rehearse(rehearse, log)) and not srv.stopping:
+        # started by `fogcli apply`, whose command is waiting: its own run is the warm-up
+        if not srv.waiting(0.05 if lock_fd is None else 1.0):
             _warm_up(device)
-        if srv.stopping:        # SIGTERM during the warm-up: a run's own Ctrl-C handling took it
+        if srv.stopping:
             raise KeyboardInterrupt
         signal.signal(INTERRUPT, client_gone)     # after PoCL's start-up, in case it takes a handler
         log(f"ready on {path} (stops after {idle:g} s idle; FOGCLI_SERVER=0 runs a command without it)")
