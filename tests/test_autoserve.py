@@ -143,15 +143,15 @@ def test_a_killed_server_is_replaced_and_a_relative_run_folder_works(tmp_path):
 
 def test_nothing_starts_when_told_not_to(tmp_path):
     _write(tmp_path / "in.exr", 16, 12)
-    cases = [(["apply", "in.exr", "-o", "o1.exr"], {"FOGCLI_AUTOSERVE": "0"}),
-             (["apply", "in.exr", "-o", "o2.exr"], {"FOGCLI_SERVER": "0"}), (["media"], {}),
-             (["apply", "--help"], {})]
-    for args, extra in cases:
+    cases = [(["apply", "in.exr", "-o", "o1.exr"], {"FOGCLI_AUTOSERVE": "0"}, 0),
+             (["apply", "in.exr", "-o", "o2.exr"], {"FOGCLI_SERVER": "0"}, 0), (["media"], {}, 0),
+             (["apply", "--help"], {}, 0), (["apply", "-", "-o", "o3.exr"], {}, 2)]     # not a command a server runs
+    for args, extra, code in cases:
         run_dir = tmp_path / f"run{len(list(tmp_path.glob('run*')))}"
         env = _auto_env(run_dir)
         env.update(extra)
         r = _fogcli(args, tmp_path, env)
-        assert r.returncode == 0, (args, extra, r.stderr)
+        assert r.returncode == code, (args, extra, r.stderr)
         assert not run_dir.exists() or not list(run_dir.iterdir()), (args, extra, list(run_dir.iterdir()))
 
 

@@ -188,11 +188,17 @@ def _exactly(sock, n: int) -> bytes | None:
     return bytes(buf)
 
 
+def forwardable(argv: list[str]) -> bool:
+    """A command that a server would run: apply and batch on one process, without reading
+    stdin or asking for help, unless FOGCLI_SERVER=0."""
+    if os.environ.get("FOGCLI_SERVER") == "0" or not argv or argv[0] not in FORWARDED:
+        return False
+    return not any(a in ("-", "-h", "--help") for a in argv) and served_here(argv)
+
+
 def forward(argv: list[str]) -> int | None:
     """The exit code of the command run by the server, or None: run it here."""
-    if os.environ.get("FOGCLI_SERVER") == "0" or not argv or argv[0] not in FORWARDED:
-        return None
-    if any(a in ("-", "-h", "--help") for a in argv) or not served_here(argv):
+    if not forwardable(argv):
         return None
     key = install_key()
     path = socket_path(key)
@@ -328,15 +334,19 @@ def main() -> None:
     except ValueError as exc:
         sys.stderr.write(f"fogcli: {exc}\n")
         sys.exit(2)
-    code = forward(argv)
-    if code is None and idle:
-        # no server: start one and hand it this command, so that the next finds it warm
-        try:
-            started = autostart(idle, dict(os.environ))
-        except Exception:  # noqa: BLE001  (a server that cannot start: the command runs here)
-            started = False
-        if started:
-            code = forward(argv)
+    try:
+        code = forward(argv)
+        if code is None and idle and forwardable(argv):
+            # no server: start one and hand it this command, so that the next finds it warm
+            try:
+                started = autostart(idle, dict(os.environ))
+            except Exception:  # noqa: BLE001  (a server that cannot start: the command runs here)
+                started = False
+            if started:
+                code = forward(argv)
+    except KeyboardInterrupt:       # while waiting for a starting server
+        sys.stderr.write("fogcli: interrupted\n")
+        sys.exit(130)
     if code is not None:
         sys.exit(code)
     # apply by itself, or the server that `fogcli apply` started (`serve --lock-fd`): the heap
