@@ -192,3 +192,14 @@ def test_no_second_server_while_one_holds_the_lock(tmp_path, monkeypatch):
         assert launch.autoserve_idle() == want
     monkeypatch.setenv("FOGCLI_SERVER", "0")
     assert launch.autoserve_idle() == 0.0
+
+
+def test_a_server_for_another_copy_of_fogcli_stops_at_once(tmp_path):
+    """A client whose fogcli is another copy than the interpreter's would wait for a socket
+    that server never makes: it refuses before taking anything."""
+    t = time.monotonic()
+    r = _fogcli(["serve", "--key", "0123456789abcdef", "--idle", "30"], tmp_path, _env(tmp_path / "run"))
+    assert r.returncode == 2 and len(r.stderr.splitlines()) == 1 and "not serving" in r.stderr, r.stderr
+    assert time.monotonic() - t < 60
+    assert not (tmp_path / "run").exists() or not list((tmp_path / "run").glob("*.sock"))
+

@@ -201,9 +201,10 @@ def batch(input_dir, output_dir, depth_pattern, medium, config_file, camera_file
 @click.option("--device", metavar="SPEC", help="OpenCL device for the warm-up (P:D, cpu, gpu or a name).")
 @click.option("--stop", is_flag=True, help="Stop this installation's running server (started by hand or by "
               "`fogcli apply`) and return once it has gone.")
-@click.option("--lock-fd", type=int, hidden=True)     # a server started by `fogcli apply` (launch.autostart)
+@click.option("--lock-fd", type=int, hidden=True)     # a server started by `fogcli apply` (launch.autostart) ...
+@click.option("--key", hidden=True)                   # ... for this installation
 @guarded
-def serve(idle, device, stop, lock_fd):
+def serve(idle, device, stop, lock_fd, key):
     """Keep fogcli loaded: while this runs, `fogcli apply` in this user's other shells hands
     its command to it and skips a new process's start-up (FOGCLI_SERVER=0: it does not).
     `fogcli apply` starts one by itself after a run (FOGCLI_AUTOSERVE)."""
@@ -215,7 +216,7 @@ def serve(idle, device, stop, lock_fd):
         return
     from .server import serve as run_server
 
-    run_server(idle, device, lock_fd)
+    run_server(idle, device, lock_fd, key)
 
 
 @main.command()

@@ -125,13 +125,22 @@ def join_warm(timeout: float = 2.0) -> None:
 def note_in_use() -> None:
     """Called where a frame holds the most (its arrays, the output, the device buffers):
     the largest figure is what record_heap leaves for the next run. Only counts in a
-    process that warm_heap set up (not in the server, workers or the API)."""
+    process that warm_heap set up (`fogcli apply` by itself, and a server that it started
+    until its first command is done; not workers or the API)."""
     fn = _state.get("mallinfo2")
     if fn is None or "thread" in _state:
         return
     m = fn()
     with _lock:
         _state["peak"] = max(_state.get("peak", 0), int(m.uordblks + m.hblkhd))
+
+
+def forget() -> None:
+    """No more counting, and nothing left to record (a server after its first command: what
+    it keeps of earlier frame sizes is not what a frame needs)."""
+    with _lock:
+        _state.pop("mallinfo2", None)
+        _state.pop("peak", None)
 
 
 def record_heap() -> None:

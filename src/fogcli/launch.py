@@ -315,8 +315,10 @@ def autostart(idle: float, env: dict) -> bool:
             # the user's folder on its path, no hold on that folder, and a caller reading this
             # command's output (a pipe) sees its end when this process exits. The child runs no
             # Python before exec (PoCL must not be forked into)
-            subprocess.Popen([sys.executable, "-c", "import sys; del sys.path[0]; from fogcli.launch import main; main()",
-                              "serve", "--idle", f"{idle:g}", "--lock-fd", str(fd)],
+            # (`-P` is Python 3.11's; the '' of -c is removed only where it is: PYTHONSAFEPATH)
+            boot = "import sys\nif sys.path and sys.path[0] == '': del sys.path[0]\nfrom fogcli.launch import main\nmain()"
+            subprocess.Popen([sys.executable, "-c", boot, "serve", "--idle", f"{idle:g}", "--lock-fd", str(fd),
+                              "--key", key],
                              env=env, cwd="/", stdin=subprocess.DEVNULL, stdout=log, stderr=log,
                              close_fds=True, pass_fds=(fd,), start_new_session=True)
         return True
@@ -342,8 +344,8 @@ def main() -> None:
                 started = autostart(idle, dict(os.environ))
             except Exception:  # noqa: BLE001  (a server that cannot start: the command runs here)
                 started = False
-            if started:
-                code = forward(argv)
+            if started or os.path.exists(lock_path()):
+                code = forward(argv)        # waits for it, or for the one another client started
     except KeyboardInterrupt:       # while waiting for a starting server
         sys.stderr.write("fogcli: interrupted\n")
         sys.exit(130)

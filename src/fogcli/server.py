@@ -158,9 +158,17 @@ class Server:
             except OSError:
                 pass
             conn.close()
-        if self.on_trial:       # started by a `fogcli apply` that failed (a typo, a bad file): no server
+        if self.on_trial:
+            # the command of the `fogcli apply` that started it: its heap is the record for the
+            # next (later ones count the buffers kept for other sizes too); if it failed (a
+            # typo, a bad file, not Ctrl-C), no server
+            from . import hostmem
+
             self.on_trial = False
-            if code != 0:
+            if code == 0:
+                hostmem.record_heap()
+            hostmem.forget()
+            if code not in (0, 130):
                 self.log(f"the command that started this server ended with exit {code}: stopping")
                 return False
         return True
@@ -225,7 +233,7 @@ def _warm_up(device: str | None) -> None:
     apply(np.ones((48, 64, 3), np.float32), np.full((48, 64), 10.0, np.float32), make_config("fog"), device=device)
 
 
-def stop_running(limit: float = 60.0) -> int | None:
+def stop_running(limit: float = 600.0) -> int | None:
     """`fogcli serve --stop`: SIGTERM to this installation's server, back once it has gone
     (its lock is free). Its pid, or None if none was running."""
     import fcntl
@@ -278,7 +286,11 @@ def _take_lock(key: str, lock_fd: int | None) -> int:
     return fd
 
 
-def serve(idle: float, device: str | None = None, lock_fd: int | None = None) -> None:
+def serve(idle: float, device: str | None = None, lock_fd: int | None = None, key: str | None = None) -> None:
+    if key is not None and key != launch.install_key():
+        # started for another copy of fogcli than this interpreter imports (a source folder
+        # on the client's path): it would listen where that client does not look
+        raise UserError(f"started for the installation {key}, but this is {launch.install_key()}: not serving")
     key = launch.install_key()
     path = launch.socket_path(key)
     d = os.path.dirname(path)
@@ -312,7 +324,10 @@ def serve(idle: float, device: str | None = None, lock_fd: int | None = None) ->
 
     def stop(signum, frame):
         srv.stopping = True
-        raise KeyboardInterrupt
+        # SIGTERM (`fogcli serve --stop`) lets a run that is going on finish: its client asked
+        # for nothing to stop; Ctrl-C of the server itself stops at once
+        if signum == signal.SIGINT or srv.running is None:
+            raise KeyboardInterrupt
 
     def client_gone(signum, frame):
         raise KeyboardInterrupt
