@@ -203,3 +203,25 @@ def test_a_server_for_another_copy_of_fogcli_stops_at_once(tmp_path):
     assert time.monotonic() - t < 60
     assert not (tmp_path / "run").exists() or not list((tmp_path / "run").glob("*.sock"))
 
+
+
+def test_a_batch_on_one_process_starts_a_server_and_one_of_workers_does_not(tmp_path):
+    src = tmp_path / "frames"
+    src.mkdir()
+    for i in range(2):
+        _write(src / f"f{i}.exr", 32, 24, seed=i)
+    env = _auto_env(tmp_path / "run2")
+    r = _fogcli(["batch", "frames", "out2", "--jobs", "2", "-q"], tmp_path, env)
+    assert r.returncode == 0, r.stderr
+    assert not (tmp_path / "run2").exists() or not list((tmp_path / "run2").iterdir())
+    run_dir = tmp_path / "run"
+    env = _auto_env(run_dir)
+    try:
+        r = _fogcli(["batch", "frames", "out", "-q"], tmp_path, env)
+        assert r.returncode == 0, r.stderr
+        log = next(run_dir.glob("serve-*.log")).read_text()
+        assert "batch frames out -q: exit 0" in log, log
+        for i in range(2):
+            assert np.array_equal(_pixels(tmp_path / "out" / f"f{i}.exr"), _pixels(tmp_path / "out2" / f"f{i}.exr"))
+    finally:
+        _stop(run_dir, env)

@@ -3,7 +3,8 @@
 what it sends back: the server has numpy, OpenCL, the built programs and the device
 buffers of the last frame sizes ready, so a frame costs its I/O and kernels, not a new
 process's start-up (docs/distributed.md, One command per frame).
-With no server running, `fogcli apply` starts one (autostart) and hands it its own command.
+With no server running, `fogcli apply` (and `batch --jobs 1`) starts one (autostart) and hands
+it its own command.
 Anything else, or where no server can run, runs here as usual. This module imports only the
 standard library's light parts: it is on every command's path."""
 from __future__ import annotations
@@ -332,7 +333,8 @@ def main() -> None:
     argv = sys.argv[1:]
     is_apply = bool(argv) and argv[0] == "apply" and not ({"-h", "--help"} & set(argv))
     try:
-        idle = autoserve_idle() if is_apply else 0.0
+        # apply, and batch on this process, start a server when none runs (forwardable)
+        idle = autoserve_idle() if bool(argv) and argv[0] in FORWARDED else 0.0
     except ValueError as exc:
         sys.stderr.write(f"fogcli: {exc}\n")
         sys.exit(2)
