@@ -133,7 +133,7 @@ def stop_server(run_dir: Path) -> None:
 
 def server_rss_mb(run_dir: Path) -> float:
     """Resident memory of the server whose pid its lock holds, MB."""
-    pid = int(next(run_dir.glob("serve-*.lock")).read_text())
+    pid = int(next(run_dir.glob("serve-*.lock")).read_text().split()[0])
     for ln in Path(f"/proc/{pid}/status").read_text().splitlines():
         if ln.startswith("VmRSS:"):
             return int(ln.split()[1]) / 1024

@@ -73,7 +73,7 @@ def test_apply_starts_a_server_that_serves_the_next_commands(tmp_path):
         assert np.array_equal(_pixels(d / "a.exr"), _pixels(d / "z.exr"))
         assert np.array_equal(_pixels(d / "a.exr"), _pixels(d / "b.exr"))
         assert not np.array_equal(_pixels(d / "a.exr"), _pixels(d / "c.exr"))
-        pid = int(next(run_dir.glob("serve-*.lock")).read_text())
+        pid = int(next(run_dir.glob("serve-*.lock")).read_text().split()[0])
         assert os.readlink(f"/proc/{pid}/cwd") == "/", "the server keeps its first client's folder"
         log = next(run_dir.glob("serve-*.log")).read_text()
         assert "apply in.exr -o b.exr --timings: exit 0" in log, log
@@ -127,7 +127,7 @@ def test_a_killed_server_is_replaced_and_a_relative_run_folder_works(tmp_path):
     run_dir = tmp_path / "run"
     assert _fogcli(["apply", "in.exr", "-o", "a.exr"], tmp_path, env).returncode == 0
     _ready(run_dir)
-    pid = int(next(run_dir.glob("serve-*.lock")).read_text())
+    pid = int(next(run_dir.glob("serve-*.lock")).read_text().split()[0])
     os.kill(pid, signal.SIGKILL)
     while Path(f"/proc/{pid}").exists() and "zombie" not in Path(f"/proc/{pid}/status").read_text():
         time.sleep(0.02)
@@ -136,7 +136,7 @@ def test_a_killed_server_is_replaced_and_a_relative_run_folder_works(tmp_path):
         # a new server, in spite of the old socket, runs it
         r = _fogcli(["apply", "in.exr", "-o", "b.exr", "--timings"], tmp_path, env)
         assert r.returncode == 0 and _timings(r.stderr)["served"] is True, r.stderr
-        assert int(next(run_dir.glob("serve-*.lock")).read_text()) != pid
+        assert int(next(run_dir.glob("serve-*.lock")).read_text().split()[0]) != pid
     finally:
         _stop(run_dir, env)
 
@@ -182,7 +182,9 @@ def test_no_second_server_while_one_holds_the_lock(tmp_path, monkeypatch):
         assert 0.25 < time.monotonic() - t < 5
     finally:
         os.close(fd)
-    assert list(run_dir.iterdir()) == [Path(launch.lock_path())]
+    # ... and marks that start as failed (the lock said nothing: the server never wrote its state)
+    assert sorted(p.name for p in run_dir.iterdir()) == sorted([Path(launch.lock_path()).name,
+                                                                Path(launch.failed_path()).name])
     # where there is no fcntl (Windows), nothing is started and nothing fails
     monkeypatch.setitem(sys.modules, "fcntl", None)
     assert launch.autostart(30, dict(os.environ)) is False
@@ -225,3 +227,38 @@ def test_a_batch_on_one_process_starts_a_server_and_one_of_workers_does_not(tmp_
             assert np.array_equal(_pixels(tmp_path / "out" / f"f{i}.exr"), _pixels(tmp_path / "out2" / f"f{i}.exr"))
     finally:
         _stop(run_dir, env)
+
+
+def test_a_start_that_failed_pauses_the_next_starts(tmp_path, monkeypatch):
+    run_dir = tmp_path / "run"
+    run_dir.mkdir(mode=0o700)
+    monkeypatch.setenv("FOGCLI_RUN_DIR", str(run_dir))
+    monkeypatch.delenv("FOGCLI_SERVER", raising=False)
+    key = launch.install_key()
+    # a server that took the lock (`starting`) and died before it listened
+    fd = os.open(launch.lock_path(key), os.O_RDWR | os.O_CREAT, 0o600)
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX)
+        os.pwrite(fd, b"12345 starting\n", 0)
+        threading.Timer(0.2, lambda: fcntl.flock(fd, fcntl.LOCK_UN)).start()
+        assert launch._starting(key, launch.socket_path(key)) is False
+    finally:
+        os.close(fd)
+    assert Path(launch.failed_path(key)).exists()
+    assert launch.autostart(30, dict(os.environ)) is False        # paused: nothing spawned
+    assert sorted(p.suffix for p in run_dir.iterdir()) == [".failed", ".lock"]
+    # ... for FAILED_PAUSE; then a server starts again, and removes the mark once it is ready
+    old = time.time() - launch.FAILED_PAUSE - 1
+    os.utime(launch.failed_path(key), (old, old))
+    env = _auto_env(run_dir)
+    _write(tmp_path / "in.exr", 16, 12)
+    try:
+        r = _fogcli(["apply", "in.exr", "-o", "o.exr", "--timings"], tmp_path, env)
+        assert r.returncode == 0 and _timings(r.stderr)["served"] is True, r.stderr
+        assert not Path(launch.failed_path(key)).exists()
+    finally:
+        _stop(run_dir, env)
+    # a server that stopped as it should leaves no mark
+    assert next(run_dir.glob("*.lock")).read_text() == "stopped\n"
+    assert launch._starting(key, launch.socket_path(key)) is False
+    assert not Path(launch.failed_path(key)).exists()

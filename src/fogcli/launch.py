@@ -24,6 +24,7 @@ FORWARDED = ("apply", "batch")
 SERVING = False          # set by the server while it runs a client's command
 AUTOSERVE_IDLE = 300     # s: how long a server started by `fogcli apply` waits for the next one
 START_LIMIT = 15.0       # s: a server that is not ready this long after its start is not waited for
+FAILED_PAUSE = 600.0     # s: after a server's start failed, none is started for this long (failed_path)
 COLUMNS = 0              # ... and the width of the client's terminal (0: none)
 
 
@@ -78,6 +79,13 @@ def lock_path(key: str | None = None) -> str:
     """Held (flock) by a server from before its start to its exit: one server per
     installation, and clients know one is starting."""
     return os.path.join(run_dir(), f"serve-{key or install_key()}.lock")
+
+
+def failed_path(key: str | None = None) -> str:
+    """Left when a server that `fogcli apply` started died before it was ready (a broken
+    installation, a missing library): no other is started for FAILED_PAUSE seconds, so that
+    every command does not pay for a start that fails."""
+    return os.path.join(run_dir(), f"serve-{key or install_key()}.failed")
 
 
 def autoserve_idle() -> float:
@@ -262,7 +270,13 @@ def _starting(key: str, path: str) -> bool:
         try:
             try:
                 fcntl.flock(fd, fcntl.LOCK_SH | fcntl.LOCK_NB)
-                return os.path.exists(path)       # nobody holds it: no server is starting
+                if os.path.exists(path):
+                    return True
+                # nobody holds it: no server is starting. One that was, died before it was
+                # ready if the lock says nothing (the handover) or `starting` (server._lock_state)
+                if deadline is not None and os.pread(fd, 64, 0).decode(errors="replace").split()[1:] in ([], ["starting"]):
+                    _touch(failed_path(key))
+                return False
             except OSError:
                 pass
             if deadline is None:
@@ -274,6 +288,14 @@ def _starting(key: str, path: str) -> bool:
         if time.time() > deadline:
             return False
         time.sleep(0.01)
+
+
+def _touch(path: str) -> None:
+    try:
+        with open(path, "a"):
+            os.utime(path)
+    except OSError:
+        pass
 
 
 def autostart(idle: float, env: dict) -> bool:
@@ -298,6 +320,11 @@ def autostart(idle: float, env: dict) -> bool:
     if not private_dir(d):
         return False
     try:
+        if time.time() - os.stat(failed_path(key)).st_mtime < FAILED_PAUSE:
+            return False
+    except OSError:
+        pass
+    try:
         fd = os.open(lock_path(key), os.O_RDWR | os.O_CREAT | os.O_CLOEXEC, 0o600)
     except OSError:
         return False
@@ -309,7 +336,8 @@ def autostart(idle: float, env: dict) -> bool:
             os.unlink(path)
         except FileNotFoundError:
             pass
-        os.utime(fd)        # the clients' wait for it counts from now
+        os.ftruncate(fd, 0)     # says nothing until the server writes its state
+        os.utime(fd)            # the clients' wait for it counts from now
         env = dict(env, FOGCLI_RUN_DIR=d)      # absolute: the server runs in /
         with open(os.path.join(d, f"serve-{key}.log"), "wb") as log:     # its start-up errors too
             # in /, and with nothing of this process but the lock and its log: no module of

@@ -252,9 +252,9 @@ def stop_running(limit: float = 600.0) -> int | None:
             except OSError:
                 pass
             if not pid:     # a server being handed its lock writes its pid as it starts
-                text = os.pread(fd, 32, 0).decode(errors="replace").strip()
-                if text.isdigit():
-                    pid = int(text)
+                text = os.pread(fd, 64, 0).decode(errors="replace").split()
+                if text and text[0].isdigit():
+                    pid = int(text[0])
                     try:
                         os.kill(pid, signal.SIGTERM)
                     except ProcessLookupError:
@@ -281,9 +281,16 @@ def _take_lock(key: str, lock_fd: int | None) -> int:
         except OSError:
             os.close(fd)
             raise UserError(f"a server for this installation is running already ({launch.socket_path(key)})") from None
-    os.ftruncate(fd, 0)
-    os.pwrite(fd, f"{os.getpid()}\n".encode(), 0)      # also dates the start: clients wait from here
+    _lock_state(fd, "starting")      # also dates the start: clients wait from here
     return fd
+
+
+def _lock_state(fd: int, state: str, pid: bool = True) -> None:
+    """The lock file's text: this server's pid and where it is (starting, ready; stopped
+    without a pid). A lock let go while it says starting (or nothing: the handover) is a
+    start that failed (launch._starting)."""
+    os.ftruncate(fd, 0)
+    os.pwrite(fd, (f"{os.getpid()} {state}\n" if pid else f"{state}\n").encode(), 0)
 
 
 def serve(idle: float, device: str | None = None, lock_fd: int | None = None, key: str | None = None) -> None:
@@ -345,6 +352,11 @@ def serve(idle: float, device: str | None = None, lock_fd: int | None = None, ke
         sock.listen(16)
         os.replace(tmp, path)        # a stale socket of a killed server is replaced
         ino = os.stat(path).st_ino
+        _lock_state(lock, "ready")
+        try:
+            os.unlink(launch.failed_path(key))      # starts work here again
+        except OSError:
+            pass
         threading.Thread(target=srv.accept_loop, args=(sock,), daemon=True).start()
         # started by `fogcli apply`, whose command is waiting: its own run is the warm-up
         if not srv.waiting(0.05 if lock_fd is None else 1.0):
@@ -359,7 +371,7 @@ def serve(idle: float, device: str | None = None, lock_fd: int | None = None, ke
     finally:
         sock.close()
         try:
-            os.ftruncate(lock, 0)       # no pid of a gone server left for `fogcli serve --stop`
+            _lock_state(lock, "stopped", pid=False)     # no pid of a gone server left for `fogcli serve --stop`
         except OSError:
             pass
         try:
