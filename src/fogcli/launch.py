@@ -345,7 +345,8 @@ def autostart(idle: float, env: dict) -> bool:
             # command's output (a pipe) sees its end when this process exits. The child runs no
             # Python before exec (PoCL must not be forked into)
             # (`-P` is Python 3.11's; the '' of -c is removed only where it is: PYTHONSAFEPATH)
-            boot = "import sys\nif sys.path and sys.path[0] == '': del sys.path[0]\nfrom fogcli.launch import main\nmain()"
+            boot = ("import sys\nif sys.path and sys.path[0] == '': del sys.path[0]\nsys.argv[0] = 'fogcli'\n"
+                    "from fogcli.launch import main\nmain()")
             subprocess.Popen([sys.executable, "-c", boot, "serve", "--idle", f"{idle:g}", "--lock-fd", str(fd),
                               "--key", key],
                              env=env, cwd="/", stdin=subprocess.DEVNULL, stdout=log, stderr=log,
