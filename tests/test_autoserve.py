@@ -262,3 +262,26 @@ def test_a_start_that_failed_pauses_the_next_starts(tmp_path, monkeypatch):
     assert next(run_dir.glob("*.lock")).read_text() == "stopped\n"
     assert launch._starting(key, launch.socket_path(key)) is False
     assert not Path(launch.failed_path(key)).exists()
+
+
+def test_the_heap_record_is_the_first_commands(tmp_path):
+    """The started server records what its first command needed; later frames of other sizes
+    (whose buffers it keeps) do not inflate the record."""
+    run_dir, cache = tmp_path / "run", tmp_path / "cache"
+    env = _auto_env(run_dir, XDG_CACHE_HOME=str(cache))
+    _write(tmp_path / "small.exr", 64, 48)
+    _write(tmp_path / "big.exr", 512, 384)
+    record = cache / "fogcli" / "heap"
+    try:
+        r = _fogcli(["apply", "small.exr", "-o", "a.exr", "--timings"], tmp_path, env)
+        assert r.returncode == 0 and _timings(r.stderr)["served"] is True, r.stderr
+        first = int(record.read_text())
+        r = _fogcli(["apply", "big.exr", "-o", "b.exr"], tmp_path, env)
+        assert r.returncode == 0, r.stderr
+    finally:
+        _stop(run_dir, env)
+    assert int(record.read_text()) == first
+    # a run by itself rewrites it: the record is live, not left over
+    r = _fogcli(["apply", "big.exr", "-o", "c.exr"], tmp_path, dict(env, FOGCLI_SERVER="0"))
+    assert r.returncode == 0, r.stderr
+    assert int(record.read_text()) != first, (first, record.read_text())
