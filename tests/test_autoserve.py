@@ -258,9 +258,17 @@ def test_a_start_that_failed_pauses_the_next_starts(tmp_path, monkeypatch):
         assert not Path(launch.failed_path(key)).exists()
     finally:
         _stop(run_dir, env)
-    # a server that stopped as it should leaves no mark
+    # a server that stopped as it should leaves no mark, also when a client waited on it as it went
     assert next(run_dir.glob("*.lock")).read_text() == "stopped\n"
     assert launch._starting(key, launch.socket_path(key)) is False
+    fd = os.open(launch.lock_path(key), os.O_RDWR)
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX)
+        os.utime(fd)
+        threading.Timer(0.2, lambda: fcntl.flock(fd, fcntl.LOCK_UN)).start()
+        assert launch._starting(key, launch.socket_path(key)) is False
+    finally:
+        os.close(fd)
     assert not Path(launch.failed_path(key)).exists()
 
 

@@ -273,8 +273,10 @@ def _starting(key: str, path: str) -> bool:
                 if os.path.exists(path):
                     return True
                 # nobody holds it: no server is starting. One that was, died before it was
-                # ready if the lock says nothing (the handover) or `starting` (server._lock_state)
-                if deadline is not None and os.pread(fd, 64, 0).decode(errors="replace").split()[1:] in ([], ["starting"]):
+                # ready if the lock says nothing (the handover) or `<pid> starting`
+                # (server._lock_state); `stopped` is a server that ended as it should
+                state = os.pread(fd, 64, 0).decode(errors="replace").split()
+                if deadline is not None and (not state or state[-1] == "starting"):
                     _touch(failed_path(key))
                 return False
             except OSError:
