@@ -3,10 +3,6 @@ import os
 import numpy as np
 import pytest
 
-# no test starts a server by itself in the user's run folder (a `fogcli apply` would: launch.autostart);
-# tests/test_serve.py starts its own where it wants one
-os.environ["FOGCLI_AUTOSERVE"] = "0"
-
 from fogcli.api import make_config  # noqa: E402
 from fogcli.pipeline import get_plan  # noqa: E402
 from fogcli.runtime import get_runtime  # noqa: E402

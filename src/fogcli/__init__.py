@@ -13,7 +13,7 @@ __all__ = ["apply", "make_config", "read_camera", "read_depth", "read_image", "w
 
 
 def __getattr__(name):
-    # lazy: the command's entry point (launch.py) imports this package and must stay light
+    # lazy: every command imports this package, and `fogcli --help` must stay light
     if name in __all__:
         from . import api, errors
 

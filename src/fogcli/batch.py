@@ -4,18 +4,24 @@ so a killed run leaves only whole outputs (and stale temporary files, removed by
 run), and --skip-existing resumes it."""
 from __future__ import annotations
 
+import contextlib
+import glob
 import json
 import os
+import queue
 import re
+import signal
 import sys
 import tempfile
+import threading
 import time
+from collections import deque
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
 from .errors import UserError
 from .job import Job
-from .outputs import DISPLAY_EXT, LINEAR_EXT, default_ext, is_partial
+from .outputs import DISPLAY_EXT, LINEAR_EXT, default_ext, is_partial, output_is_whole
 
 
 def _image_ext() -> set[str]:
@@ -58,26 +64,6 @@ class Plan:
     jobs: list = field(default_factory=list)          # Job
     skipped: list = field(default_factory=list)       # (input, output)
     failed: list = field(default_factory=list)        # (input, reason)
-
-
-def output_is_whole(path: Path) -> bool:
-    """An output of a previous run that can be read back entirely."""
-    import OpenImageIO as oiio
-
-    if not path.is_file() or path.stat().st_size == 0:
-        return False
-    inp = oiio.ImageInput.open(str(path))
-    if inp is None:
-        oiio.geterror()
-        return False
-    try:
-        spec = inp.spec()
-        px = inp.read_image(0, 0, 0, spec.nchannels, "float")
-        ok = px is not None and not (hasattr(inp, "has_error") and inp.has_error)
-    except Exception:
-        ok = False
-    inp.close()
-    return ok
 
 
 def _is_file(p: Path) -> bool:
@@ -146,14 +132,78 @@ def discover(input_dir: Path, output_dir: Path, depth_pattern: str | None, recur
     return plan
 
 
-def remove_stale_temporaries(output_dir: Path) -> int:
+def remove_stale_temporaries(output_dir: Path, only: Path | None = None) -> int:
+    """The temporary files a killed run left in output_dir (and its sub-folders), or only
+    those of the output `only` (in its own folder: a jobs file's outputs are anywhere)."""
     n = 0
     if output_dir.is_dir():
-        for p in output_dir.rglob(".*"):
+        if only is None:
+            found = output_dir.rglob(".*")
+        else:     # atomic_write's names: .<stem[:60]>.<random>.tmp<suffix>
+            found = output_dir.glob(f".{glob.escape(only.stem[:60])}.*.tmp{glob.escape(only.suffix[:16])}")
+        for p in found:
             if p.is_file() and is_partial(p.name):
                 p.unlink(missing_ok=True)
                 n += 1
     return n
+
+
+
+END = object()
+
+
+class Source:
+    """Jobs one at a time for the batch's runners: from a list, or from a stream whose lines
+    are read on a thread of their own (so that a frame runs while the next line is awaited).
+    get(block=False) says None when no job is ready yet; END at the end. Items that are not
+    jobs (a bad line, a skipped output) go to `report`, on the caller's thread."""
+
+    def __init__(self, items, report=None, stream: bool = False):
+        self._front: deque = deque()
+        self._report = report
+        self._it = iter(items)
+        self._q: queue.Queue | None = None
+        if stream:
+            self._q = queue.Queue()
+            threading.Thread(target=self._pump, name="fogcli-jobs", daemon=True).start()
+
+    def _pump(self):
+        try:
+            for item in self._it:
+                self._q.put(item)
+        except BaseException as exc:      # handed to the reader, raised there
+            self._q.put(_Raised(exc))
+        self._q.put(END)
+
+    def _next(self, block: bool):
+        if self._q is None:
+            return next(self._it, END)
+        try:
+            item = self._q.get(block)
+        except queue.Empty:
+            return None
+        if isinstance(item, _Raised):
+            raise item.exc
+        if item is END:
+            self._q.put(END)      # stays at the end
+        return item
+
+    def get(self, block: bool = True):
+        while True:
+            if self._front:
+                return self._front.popleft()
+            item = self._next(block)
+            if item is None or item is END or isinstance(item, Job):
+                return item
+            self._report(item)
+
+    def pushback(self, jobs) -> None:
+        self._front.extendleft(reversed(list(jobs)))
+
+
+class _Raised:
+    def __init__(self, exc):
+        self.exc = exc
 
 
 # -- workers ---------------------------------------------------------------------------
@@ -192,7 +242,7 @@ def process(job: Job, cfg=None, aovs=None, device=None) -> dict:
     """One job; never raises for a bad input: returns {'ok', 'input', 'output', 'reason'}."""
     from .job import run_job
 
-    cfg = cfg if cfg is not None else _WORKER["cfg"]
+    cfg = job.cfg if job.cfg is not None else cfg if cfg is not None else _WORKER["cfg"]
     aovs = aovs if aovs is not None else _WORKER.get("aovs", ())
     device = device if device is not None else _WORKER.get("device")
     if _WORKER.get("started") is not None:
@@ -206,15 +256,21 @@ def process(job: Job, cfg=None, aovs=None, device=None) -> dict:
 
 
 def _make_folders(job: Job) -> Job:
-    Path(job.output).parent.mkdir(parents=True, exist_ok=True)
-    if job.save_depth:
-        Path(job.save_depth).parent.mkdir(parents=True, exist_ok=True)
+    for p in (job.output, job.save_depth):
+        if p:
+            parent = Path(p).parent
+            try:
+                parent.mkdir(parents=True, exist_ok=True)
+            except OSError as exc:
+                raise UserError(f"{p}: cannot create folder {parent} ({exc.strerror})") from None
+    if job.label:           # a jobs file's output: what a killed run left of it goes first
+        remove_stale_temporaries(Path(job.output).parent, Path(job.output))
     return job
 
 
 def _done(job: Job, res, t0: float) -> dict:
     return {"ok": True, "input": job.input, "output": job.output, "warnings": res.warnings,
-            "seconds": round(time.perf_counter() - t0, 3)}
+            "seconds": round(time.perf_counter() - t0, 3), "line": job.label}
 
 
 def _attempt(job: Job, fn):
@@ -224,10 +280,10 @@ def _attempt(job: Job, fn):
     try:
         return fn(), None
     except (UserError, ProcessingError) as exc:
-        return None, {"ok": False, "input": job.input, "output": job.output, "reason": str(exc)}
+        reason = str(exc)
     except Exception as exc:  # a worker reports, it does not die
-        return None, {"ok": False, "input": job.input, "output": job.output,
-                      "reason": f"processing failed: {exc.__class__.__name__}: {exc}"}
+        reason = f"processing failed: {exc.__class__.__name__}: {exc}"
+    return None, {"ok": False, "input": job.input, "output": job.output, "reason": reason, "line": job.label}
 
 
 # --jobs 1: frames being written at once. The EXR write is most of a frame's core time (zip
@@ -237,32 +293,42 @@ def _attempt(job: Job, fn):
 WRITES_IN_FLIGHT, WRITE_BUDGET_PIXELS = 2, 8_000_000
 
 
-def _overlapped(jobs, cfg, aovs, device, progress, collect) -> None:
+def _overlapped(source, cfg, aovs, device, progress, collect) -> None:
     """--jobs 1: while frame n runs on the device (this thread), frame n + 1 is read and its
     depth cleaned and frames n - 1 and n - 2 written (WRITES_IN_FLIGHT), on threads
     (OpenImageIO and numpy release the GIL; OpenCL stays on this thread). Results are
-    reported in input order."""
+    reported in input order. From a stream, the next frame is read ahead only once its line
+    has come; while none has, the writes in flight are finished and reported."""
     from concurrent.futures import ThreadPoolExecutor
 
     from .job import compute, load, store
 
     def read(job):
         t0 = time.perf_counter()
-        st, failed = _attempt(job, lambda: load(_make_folders(job), cfg, aovs))
+        st, failed = _attempt(job, lambda: load(_make_folders(job), job.cfg or cfg, aovs))
         return job, t0, st, failed
 
     def write(job, t0, st):
-        res, failed = _attempt(job, lambda: store(st, cfg))
+        res, failed = _attempt(job, lambda: store(st, job.cfg or cfg))
         return failed or _done(job, res, t0)
 
     with ThreadPoolExecutor(max_workers=1 + WRITES_IN_FLIGHT, thread_name_prefix="fogcli-io") as io:
-        ahead = io.submit(read, jobs[0]) if jobs else None
         writing: list = []         # (future, pixels), oldest first
-        for i in range(len(jobs)):
+
+        def next_read(block: bool):
+            job = source.get(block=False)
+            if job is None and block:
+                while writing:              # nothing to do but wait for the next line
+                    collect(writing.pop(0)[0].result(), progress)
+                job = source.get(block=True)
+            return None if job is None or not isinstance(job, Job) else io.submit(read, job)
+
+        ahead = next_read(True)
+        while ahead is not None:
             job, t0, st, failed = ahead.result()
-            ahead = io.submit(read, jobs[i + 1]) if i + 1 < len(jobs) else None
+            ahead = next_read(False)
             if failed is None:
-                st, failed = _attempt(job, lambda: compute(st, cfg, aovs, device))
+                st, failed = _attempt(job, lambda: compute(st, job.cfg or cfg, aovs, device))
             px = st.rgb.shape[0] * st.rgb.shape[1] if failed is None else 0
             while writing and (len(writing) >= WRITES_IN_FLIGHT or failed is not None
                                or px + sum(n for _, n in writing) > WRITE_BUDGET_PIXELS):
@@ -271,6 +337,8 @@ def _overlapped(jobs, cfg, aovs, device, progress, collect) -> None:
                 collect(failed, progress)
             else:
                 writing.append((io.submit(write, job, t0, st), px))
+            if ahead is None:
+                ahead = next_read(True)
         for w, _ in writing:
             collect(w.result(), progress)
 
@@ -289,21 +357,22 @@ class Summary:
         return d
 
 
-class Progress:
-    """tqdm on a terminal; plain lines otherwise; nothing when quiet."""
+def describe_failure(f: dict) -> str:
+    """`file:line: input: reason` (a jobs file's line) or `input: reason`."""
+    why = f["reason"] if not f.get("input") or f["reason"].startswith(f["input"]) else f"{f['input']}: {f['reason']}"
+    return f"{f['line']}: {why}" if f.get("line") else why
 
-    def __init__(self, total: int, quiet: bool):
+
+class Progress:
+    """tqdm on a terminal; plain lines otherwise; nothing when quiet. total None: a stream."""
+
+    def __init__(self, total: int | None, quiet: bool):
         self.quiet, self.total, self.n, self.t0 = quiet, total, 0, time.perf_counter()
         self.bar = None
         if not quiet and sys.stderr.isatty():
             from tqdm import tqdm
 
-            from . import launch
-
-            # the width of the terminal the bar is drawn on (the client's when served), 100
-            # columns where it reports none
-            cols = (launch.COLUMNS if launch.SERVING else launch.terminal()[2]) or 100
-            self.bar = tqdm(total=total, unit="img", file=sys.stderr, ncols=cols, desc="fogcli")
+            self.bar = tqdm(total=total, unit="img", file=sys.stderr, desc="fogcli")
 
     def update(self, r: dict) -> None:
         self.n += 1
@@ -311,13 +380,19 @@ class Progress:
             return
         if self.bar is not None:
             self.bar.update(1)
-            if not r["ok"]:
-                self.bar.write(f"fogcli: failed: {r['reason']}", file=sys.stderr)
+            if not r.get("ok", True):
+                self.bar.write(f"fogcli: failed: {describe_failure(r)}", file=sys.stderr)
             return
         dt = time.perf_counter() - self.t0
         rate = self.n / dt if dt > 0 else 0.0
+        if r.get("skipped"):
+            what = f"skipped {r['output']} (exists)"
+        else:
+            what = f"done {r['output']}" if r["ok"] else f"failed: {describe_failure(r)}"
+        if self.total is None:
+            print(f"[{self.n}] {what} ({rate:.2f} img/s)", file=sys.stderr, flush=True)
+            return
         eta = (self.total - self.n) / rate if rate > 0 else 0.0
-        what = f"done {r['output']}" if r["ok"] else f"failed: {r['reason']}"
         print(f"[{self.n}/{self.total}] {what} ({rate:.2f} img/s, ETA {eta:.0f} s)", file=sys.stderr, flush=True)
 
     def close(self) -> None:
@@ -325,11 +400,29 @@ class Progress:
             self.bar.close()
 
 
-def _pool(jobs, workers, cfg, aovs, device, threads, progress, collect):
-    """Run `jobs` on `workers` spawned processes. Returns (crashed, started but unfinished,
-    never started) when a worker died, else (False, [], [])."""
+@contextlib.contextmanager
+def _children_ignore_ctrl_c():
+    """Worker processes started in here ignore SIGINT (a disposition that a spawned Python
+    keeps): Ctrl-C at a terminal reaches the whole process group, and is this process's to
+    take: it stops the workers and the command. Workers taking it too printed tracebacks
+    from wherever they were (an import, Dask's event loop). A Ctrl-C in here is lost (the
+    start of a process: milliseconds; of a Dask LocalCluster: a second or two)."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    old = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, old)
+
+
+def _pool(source, workers, cfg, aovs, device, threads, progress, collect):
+    """Run the source's jobs on `workers` spawned processes, at most two a worker in
+    flight (a stream's lines are taken as they come). Returns (crashed, the jobs that had
+    started but not finished) and puts the ones never started back into the source."""
     import multiprocessing as mp
-    from concurrent.futures import ProcessPoolExecutor, wait
+    from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
     from concurrent.futures.process import BrokenProcessPool
 
     ctx = mp.get_context("spawn")
@@ -341,56 +434,70 @@ def _pool(jobs, workers, cfg, aovs, device, threads, progress, collect):
     if quiet not in sys.warnoptions:
         sys.warnoptions.append(quiet)
     started = ctx.SimpleQueue()
-    done: set = set()
     with ProcessPoolExecutor(max_workers=workers, mp_context=ctx, initializer=init_worker,
                              initargs=(cfg, aovs, device, threads, started)) as ex:
-        futs = {ex.submit(process, job): job for job in jobs}
-        pending = set(futs)
-        crashed = False
-        while pending and not crashed:
-            finished, pending = wait(pending, return_when="FIRST_COMPLETED")
+        futs: dict = {}
+        crashed, ended = False, False
+        while not crashed and (futs or not ended):
+            while not ended and len(futs) < 2 * workers:
+                job = source.get(block=not futs)
+                if job is None:
+                    break
+                if not isinstance(job, Job):
+                    ended = True
+                    break
+                with _children_ignore_ctrl_c():        # a submit may spawn a worker
+                    futs[ex.submit(process, job)] = job
+            if not futs:
+                continue
+            try:
+                finished, _ = wait(futs, timeout=None if ended else 0.2, return_when=FIRST_COMPLETED)
+            except KeyboardInterrupt:     # the frames in flight are dropped (outputs are atomic)
+                for child in mp.active_children():
+                    child.terminate()
+                raise
             for f in finished:
+                job = futs.pop(f)
                 try:
                     r = f.result()
                 except BrokenProcessPool:
                     crashed = True
+                    futs[f] = job
                     continue
-                done.add(futs[f].input)
                 collect(r, progress)
     if not crashed:
-        return False, [], []
+        return False, []
     began = set()
     while not started.empty():
         began.add(started.get())
-    rest = [j for j in jobs if j.input not in done]
-    return True, [j for j in rest if j.input in began], [j for j in rest if j.input not in began]
+    rest = list(futs.values())
+    source.pushback([j for j in rest if j.input not in began])
+    return True, [j for j in rest if j.input in began]
 
 
-def _local(jobs, cfg, aovs, device, n_jobs, progress, collect):
+def _local(source, cfg, aovs, device, n_jobs, progress, collect):
     """In this process (--jobs 1), or on spawned workers. A worker that dies takes its
     frame with it, and the pool breaks: the frames it had not started are rerun on a new
     pool; the ones in flight are rerun one at a time, so the frame that kills a worker
     again is known, and reported as failed."""
     if n_jobs <= 1:
-        _overlapped(list(jobs), cfg, aovs, device, progress, collect)
+        _overlapped(source, cfg, aovs, device, progress, collect)
         return
     threads = max(1, (os.cpu_count() or 1) // n_jobs)
-    todo, suspects = list(jobs), []
-    while todo or suspects:
-        if suspects:
-            job = suspects.pop(0)
-            crashed, _, _ = _pool([job], 1, cfg, aovs, device, os.cpu_count() or 1, progress, collect)
-            if crashed:
-                collect({"ok": False, "input": job.input, "output": job.output,
+    while True:
+        crashed, suspects = _pool(source, n_jobs, cfg, aovs, device, threads, progress, collect)
+        if not crashed:
+            return
+        for job in suspects:
+            again, _ = _pool(Source([job]), 1, cfg, aovs, device, os.cpu_count() or 1, progress, collect)
+            if again:
+                collect({"ok": False, "input": job.input, "output": job.output, "line": job.label,
                          "reason": "the worker process died on this frame (killed or crashed)"}, progress)
-            continue
-        crashed, inflight, unstarted = _pool(todo, n_jobs, cfg, aovs, device, threads, progress, collect)
-        todo, suspects = unstarted, inflight
 
 
-def _dask(jobs, cfg, aovs, device, scheduler, progress, collect):
+def _dask(source, cfg, aovs, device, scheduler, progress, collect):
     try:
-        from dask.distributed import Client, LocalCluster, as_completed
+        from dask.distributed import Client, LocalCluster, wait
     except ImportError:
         raise UserError("--scheduler needs Dask: pip install 'dask[distributed]'") from None
     cluster = None
@@ -404,10 +511,11 @@ def _dask(jobs, cfg, aovs, device, scheduler, progress, collect):
         # cores: each gets cores / N PoCL and OpenImageIO threads, like --jobs N
         threads = str(max(1, (os.cpu_count() or 1) // int(n)))
         dask.config.set({"distributed.worker.multiprocessing-method": "spawn"})
-        cluster = LocalCluster(n_workers=int(n), threads_per_worker=1, processes=True,
-                               dashboard_address=None, silence_logs=40,
-                               env={"POCL_MAX_PTHREAD_COUNT": threads, "POCL_CPU_MAX_CU_NUM": threads,
-                                    "OPENIMAGEIO_THREADS": threads})
+        with _children_ignore_ctrl_c():
+            cluster = LocalCluster(n_workers=int(n), threads_per_worker=1, processes=True,
+                                   dashboard_address=None, silence_logs=40,
+                                   env={"POCL_MAX_PTHREAD_COUNT": threads, "POCL_CPU_MAX_CU_NUM": threads,
+                                        "OPENIMAGEIO_THREADS": threads})
         client = Client(cluster)
     else:
         try:
@@ -416,15 +524,35 @@ def _dask(jobs, cfg, aovs, device, scheduler, progress, collect):
             raise UserError(f"--scheduler {scheduler}: cannot connect ({exc})") from None
     try:
         # process() with the config as arguments: a Dask worker has no init_worker; its
-        # kernels are built once per worker process by the runtime cache
-        futs = [client.submit(process, job, cfg, aovs, device, pure=False, key=f"fogcli-{i}-{job.input}")
-                for i, job in enumerate(jobs)]
-        for f in as_completed(futs):
+        # kernels are built once per worker process by the runtime cache. Lines of a stream
+        # are submitted as they come, a bounded number in flight.
+        limit = max(64, 4 * len(client.scheduler_info().get("workers", {})))
+        futs: dict = {}
+        ended, i = False, 0
+        while futs or not ended:
+            while not ended and len(futs) < limit:
+                job = source.get(block=not futs)
+                if job is None:
+                    break
+                if not isinstance(job, Job):
+                    ended = True
+                    break
+                futs[client.submit(process, job, cfg, aovs, device, pure=False, key=f"fogcli-{i}-{job.input}")] = job
+                i += 1
+            if not futs:
+                continue
             try:
-                r = f.result()
-            except Exception as exc:   # a worker lost mid-task
-                r = {"ok": False, "input": "?", "output": "?", "reason": f"worker failed: {exc}"}
-            collect(r, progress)
+                done, _ = wait(list(futs), timeout=None if ended else 0.2, return_when="FIRST_COMPLETED")
+            except TimeoutError:        # none finished yet: look for more lines
+                continue
+            for f in done:
+                job = futs.pop(f)
+                try:
+                    r = f.result()
+                except Exception as exc:   # a worker lost mid-task
+                    r = {"ok": False, "input": job.input, "output": job.output, "line": job.label,
+                         "reason": f"worker failed: {exc}"}
+                collect(r, progress)
     finally:
         client.close()
         if cluster is not None:
@@ -440,20 +568,58 @@ def _check_side_outputs(plan, report: Path | None, input_dir: Path, recursive: b
     if report is not None:
         if os.path.realpath(report) == os.path.realpath(output_dir):
             raise UserError(f"--report {report}: is OUTPUT_DIR; expected a JSON file name")
-        if report.resolve() in inputs:
-            raise UserError(f"--report {report}: refusing to overwrite an input file")
-        if report.is_dir():
-            raise UserError(f"--report {report}: is a folder, expected a JSON file name")
-        if not report.parent.is_dir():
-            raise UserError(f"--report {report}: folder {report.parent} does not exist")
-        try:                # writable? (asked before any frame is done, not after)
-            tempfile.TemporaryFile(dir=report.parent).close()
-        except OSError as exc:
-            raise UserError(f"--report {report}: cannot write into {report.parent} ({exc.strerror})") from None
+        _check_report(report, inputs)
     for j in plan.jobs:
         if j.save_depth and Path(j.save_depth).resolve() in inputs:
             raise UserError(f"--save-depth {Path(j.save_depth).parent}: {Path(j.save_depth).name} would overwrite "
                             "an input; use another folder")
+
+
+def _check_report(report: Path, inputs: set) -> None:
+    """--report is a new or replaceable JSON file in a writable folder, checked before any
+    frame is done."""
+    if report.resolve() in inputs:
+        raise UserError(f"--report {report}: refusing to overwrite an input file")
+    if report.is_dir():
+        raise UserError(f"--report {report}: is a folder, expected a JSON file name")
+    if not report.parent.is_dir():
+        raise UserError(f"--report {report}: folder {report.parent} does not exist")
+    try:                # writable? (asked before any frame is done, not after)
+        tempfile.TemporaryFile(dir=report.parent).close()
+    except OSError as exc:
+        raise UserError(f"--report {report}: cannot write into {report.parent} ({exc.strerror})") from None
+
+
+def _run(source, total, cfg, aovs, device, jobs, scheduler, quiet, summary: "Summary") -> None:
+    """Every job of the source through the chosen runner, results into the summary."""
+
+    def collect(r, progress):
+        if r.get("skipped"):
+            summary.skipped.append({k: r[k] for k in ("input", "output", "line") if r.get(k)})
+        elif r["ok"]:
+            summary.done.append({k: r[k] for k in ("input", "output", "seconds", "warnings", "line") if k in r
+                                 and (k != "line" or r[k])})
+        else:
+            summary.failed.append({k: r[k] for k in ("input", "reason", "line") if k != "line" or r.get(k)})
+        progress.update(r)
+
+    progress = Progress(total, quiet)
+    source._report = lambda r: collect(r, progress)
+    try:
+        if scheduler:
+            _dask(source, cfg, tuple(aovs), device, scheduler, progress, collect)
+        else:
+            _local(source, cfg, tuple(aovs), device, jobs, progress, collect)
+    finally:
+        progress.close()
+
+
+def _write_report(report: Path | None, summary: "Summary") -> None:
+    if report:
+        from .outputs import atomic_write
+
+        text = json.dumps(summary.as_json(), indent=2)
+        atomic_write(report, lambda tmp: Path(tmp).write_text(text))
 
 
 def run_batch(input_dir: Path, output_dir: Path, cfg, *, depth_pattern=None, recursive=False, fmt=None,
@@ -476,29 +642,31 @@ def run_batch(input_dir: Path, output_dir: Path, cfg, *, depth_pattern=None, rec
     remove_stale_temporaries(output_dir)
     summary = Summary(skipped=[{"input": i, "output": o} for i, o in plan.skipped],
                       failed=[{"input": i, "reason": r} for i, r in plan.failed])
-
-    def collect(r, progress):
-        if r["ok"]:
-            summary.done.append({k: r[k] for k in ("input", "output", "seconds", "warnings")})
-        else:
-            summary.failed.append({"input": r["input"], "reason": r["reason"]})
-        progress.update(r)
-
-    progress = Progress(len(plan.jobs), quiet)
-    try:
-        if scheduler:
-            _dask(plan.jobs, cfg, tuple(aovs), device, scheduler, progress, collect)
-        else:
-            _local(plan.jobs, cfg, tuple(aovs), device, jobs, progress, collect)
-    finally:
-        progress.close()
+    _run(Source(plan.jobs), len(plan.jobs), cfg, aovs, device, jobs, scheduler, quiet, summary)
     # a worker killed mid-write (a crash of another frame breaks the whole pool) leaves its
     # temporary file; every worker has stopped now
     remove_stale_temporaries(output_dir)
     summary.seconds = round(time.perf_counter() - t0, 3)
-    if report:
-        from .outputs import atomic_write
+    _write_report(report, summary)
+    return summary
 
-        text = json.dumps(summary.as_json(), indent=2)
-        atomic_write(report, lambda tmp: Path(tmp).write_text(text))
+
+def run_jobs_file(path: str, *, medium=None, configs=(), sets=(), camera=None, jobs=1, skip_existing=False,
+                  scheduler=None, aovs=(), device=None, quiet=False, report: Path | None = None, layer=None,
+                  view=None, drop_channels: bool = False, protected=()) -> Summary:
+    """`fogcli batch --jobs-file PATH` (`-`: standard input, taken line by line as it comes)."""
+    from .jobs_file import Parser, count_lines
+
+    t0 = time.perf_counter()
+    if report is not None:
+        _check_report(report, {Path(p).resolve() for p in (*protected, path) if p != "-"})
+    parser = Parser(path, medium, configs, sets, camera, aovs=aovs, layer=layer, view=view,
+                    drop_channels=drop_channels, protected=protected)
+    summary = Summary()
+    source = Source(parser.results(skip_existing), stream=path == "-")
+    _run(source, count_lines(path), None, aovs, device, jobs, scheduler, quiet, summary)
+    for part in (summary.done, summary.skipped, summary.failed):     # in the file's order
+        part.sort(key=lambda r: int(r["line"].rpartition(":")[2]) if r.get("line") else 0)
+    summary.seconds = round(time.perf_counter() - t0, 3)
+    _write_report(report, summary)
     return summary

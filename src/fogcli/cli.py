@@ -12,9 +12,9 @@ from pathlib import Path
 
 import click
 
-from . import __version__, launch
+from . import __version__
 from .errors import ProcessingError, UserError
-from .pipeline import AOV_NAMES
+from .aovs import AOV_NAMES
 
 
 def _fail(msg: str, code: int):
@@ -51,7 +51,8 @@ def guarded(fn):
 
 _PATH_OPTIONS = {"input": "INPUT", "depth_path": "--depth", "medium": "--medium", "config_file": "--config",
                  "camera_file": "--camera", "output": "-o", "save_depth": "--save-depth", "report": "--report", "lamps": "--lamps",
-                 "input_dir": "INPUT_DIR", "output_dir": "OUTPUT_DIR", "depth_pattern": "--depth-pattern"}
+                 "input_dir": "INPUT_DIR", "output_dir": "OUTPUT_DIR", "depth_pattern": "--depth-pattern",
+                 "jobs_file": "--jobs-file"}
 
 
 def _no_empty_paths(kw: dict) -> None:
@@ -145,13 +146,16 @@ def apply(input, depth_path, medium, config_file, camera_file, sets, layer, view
         stages, kms = kernel_ms(t)
         report = {"stages": {k: round(v, 3) for k, v in stages.items()}, "kernel_ms": round(kms, 3),
                   "io_ms": round(res.io_ms, 3), "total_ms": round((time.perf_counter() - start) * 1e3, 3),
-                  "device": get_runtime(device).info.label(), "pixels": res.pixels, "served": launch.SERVING}
+                  "device": get_runtime(device).info.label(), "pixels": res.pixels}
         click.echo(json.dumps(report), err=True)
 
 
 @main.command()
-@click.argument("input_dir", metavar="INPUT_DIR")
-@click.argument("output_dir", metavar="OUTPUT_DIR")
+@click.argument("input_dir", metavar="[INPUT_DIR", required=False)
+@click.argument("output_dir", metavar="OUTPUT_DIR]", required=False)
+@click.option("--jobs-file", metavar="FILE", help="One frame a line instead of folders: JSON lines (or CSV with a "
+              "header) of input, output and optionally depth, camera, medium, config, set, layer, view, save_depth; "
+              "- reads them from standard input as they come.")
 @click.option("--depth-pattern", metavar="PATTERN",
               help="Depth file per input, relative to the input's folder: {stem} and #### (frame number), "
                    "e.g. depth/{stem}.png, {stem}_depth.exr, depth.####.exr. Default: the embedded Z.")
@@ -167,56 +171,63 @@ def apply(input, depth_path, medium, config_file, camera_file, sets, layer, view
               help="Also write each frame's cleaned metric depth as DIR/<stem>.exr (channel Z).")
 @click.option("-q", "--quiet", is_flag=True, help="No progress output.")
 @guarded
-def batch(input_dir, output_dir, depth_pattern, medium, config_file, camera_file, sets, layer, view, aovs,
+def batch(input_dir, output_dir, jobs_file, depth_pattern, medium, config_file, camera_file, sets, layer, view, aovs,
           drop_channels, device, fmt, recursive, jobs, skip_existing, scheduler, report, save_depth, quiet):
-    """Apply a medium to every image of INPUT_DIR, writing OUTPUT_DIR/<stem>.<format>.
-    Exit 0 when all were written (or skipped), 3 when some failed."""
-    from .batch import run_batch
-    from .media import assemble
-
-    cfg = assemble(medium, config_file, sets, camera_file)
-    from .outputs import refuse_overwrite
+    """Apply a medium to every image of INPUT_DIR, writing OUTPUT_DIR/<stem>.<format>; or to
+    every line of --jobs-file. Exit 0 when all were written (or skipped), 3 when some failed."""
+    from .batch import describe_failure
 
     given = [Path(p) for p in (config_file, camera_file, medium) if p and Path(p).is_file()]
-    if report:
-        refuse_overwrite(Path(report), "--report", *given, what="an input file")
-    if save_depth and Path(save_depth).exists() and not Path(save_depth).is_dir():
-        raise UserError(f"--save-depth {save_depth}: is a file; expected a folder")
-    s = run_batch(Path(input_dir), Path(output_dir), cfg, depth_pattern=depth_pattern, recursive=recursive,
-                  fmt=fmt, jobs=jobs, skip_existing=skip_existing, layer=layer, view=view, scheduler=scheduler, aovs=aovs,
-                  device=device, quiet=quiet, report=Path(report) if report else None,
-                  save_depth=Path(save_depth) if save_depth else None, drop_channels=drop_channels)
+    if jobs_file is not None:
+        s = _batch_jobs_file(jobs_file, input_dir, depth_pattern, fmt, recursive, save_depth, given, medium,
+                             config_file, camera_file, sets, layer, view, aovs, drop_channels, device, jobs,
+                             skip_existing, scheduler, report, quiet)
+    else:
+        if input_dir is None or output_dir is None:
+            raise UserError("expected INPUT_DIR and OUTPUT_DIR, or --jobs-file FILE")
+        from .batch import run_batch
+        from .media import assemble
+        from .outputs import refuse_overwrite
+
+        cfg = assemble(medium, config_file, sets, camera_file)
+        if report:
+            refuse_overwrite(Path(report), "--report", *given, what="an input file")
+        if save_depth and Path(save_depth).exists() and not Path(save_depth).is_dir():
+            raise UserError(f"--save-depth {save_depth}: is a file; expected a folder")
+        s = run_batch(Path(input_dir), Path(output_dir), cfg, depth_pattern=depth_pattern, recursive=recursive,
+                      fmt=fmt, jobs=jobs, skip_existing=skip_existing, layer=layer, view=view, scheduler=scheduler,
+                      aovs=aovs, device=device, quiet=quiet, report=Path(report) if report else None,
+                      save_depth=Path(save_depth) if save_depth else None, drop_channels=drop_channels)
     for f in s.failed:
-        why = f["reason"] if f["reason"].startswith(f["input"]) else f"{f['input']}: {f['reason']}"
-        click.echo(f"fogcli: failed: {why}", err=True)
+        click.echo(f"fogcli: failed: {describe_failure(f)}", err=True)
     if not quiet:
         click.echo(f"fogcli: {len(s.done)} done, {len(s.skipped)} skipped, {len(s.failed)} failed "
                    f"in {s.seconds:.1f} s", err=True)
     sys.exit(3 if s.failed else 0)
 
 
-@main.command()
-@click.option("--idle", type=click.FloatRange(1, 86400), default=900, show_default=True,
-              help="Stop after this many seconds without a command.")
-@click.option("--device", metavar="SPEC", help="OpenCL device for the warm-up (P:D, cpu, gpu or a name).")
-@click.option("--stop", is_flag=True, help="Stop this installation's running server (started by hand or by "
-              "`fogcli apply`) and return once it has gone.")
-@click.option("--lock-fd", type=int, hidden=True)     # a server started by `fogcli apply` (launch.autostart) ...
-@click.option("--key", hidden=True)                   # ... for this installation
-@guarded
-def serve(idle, device, stop, lock_fd, key):
-    """Keep fogcli loaded: while this runs, `fogcli apply` in this user's other shells hands
-    its command to it and skips a new process's start-up (FOGCLI_SERVER=0: it does not).
-    `fogcli apply` starts one by itself after a run (FOGCLI_AUTOSERVE)."""
-    if stop:
-        from .server import stop_running
+def _batch_jobs_file(jobs_file, input_dir, depth_pattern, fmt, recursive, save_depth, given, medium, config_file,
+                     camera_file, sets, layer, view, aovs, drop_channels, device, jobs, skip_existing, scheduler,
+                     report, quiet):
+    """fogcli batch --jobs-file: the folder options have no meaning here; the config
+    options are every line's base (media.assemble checks them once, before any line)."""
+    from .batch import run_jobs_file
+    from .media import assemble
 
-        pid = stop_running()
-        click.echo(f"fogcli: stopped the server (pid {pid})" if pid else "fogcli: no server was running", err=True)
-        return
-    from .server import serve as run_server
-
-    run_server(idle, device, lock_fd, key)
+    if input_dir is not None:
+        raise UserError("--jobs-file takes no INPUT_DIR or OUTPUT_DIR (each line names its files)")
+    for name, v in (("--depth-pattern", depth_pattern), ("--format", fmt), ("--save-depth", save_depth),
+                    ("--recursive", recursive)):
+        if v:
+            raise UserError(f"{name} is for folders; with --jobs-file each line says it "
+                                   "(depth, output's extension, save_depth)")
+    if not jobs_file.strip():
+        raise UserError("--jobs-file: empty; expected a file name or -")
+    assemble(medium, config_file, sets, camera_file)       # a bad --set fails the command, not every line
+    return run_jobs_file(jobs_file, medium=medium, configs=(config_file,) if config_file else (), sets=sets,
+                         camera=camera_file, jobs=jobs, skip_existing=skip_existing, scheduler=scheduler,
+                         aovs=aovs, device=device, quiet=quiet, report=Path(report) if report else None,
+                         layer=layer, view=view, drop_channels=drop_channels, protected=tuple(given))
 
 
 @main.command()

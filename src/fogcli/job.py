@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 
 from . import depth as depth_mod
-from . import hostmem, inputs, outputs
+from . import inputs, outputs
 from .config import Config
 from .errors import UserError
 from .media import hidden_warning
@@ -27,6 +27,8 @@ class Job:
     drop_channels: bool = False       # EXR: write only what fogcli produces
     protected: tuple = ()             # other files given as input (config, camera): never written
     lamps: str | None = None          # write the lamps {type: auto} found, as a `lights:` config
+    cfg: Config | None = None         # this frame's own config (a jobs file's line); None: the batch's
+    label: str | None = None          # where the job came from (a jobs file's `file:line`), for messages
 
 
 @dataclass
@@ -127,7 +129,6 @@ def compute(st: Staged, cfg: Config, aovs=(), device=None, timings: Timings | No
 def store(st: Staged, cfg: Config) -> Result:
     """The atomic write (and the lamps found). No OpenCL: a batch writes on a thread."""
     t0 = time.perf_counter()
-    hostmem.note_in_use()
     job = st.job
     outputs.write(Path(job.output), st.rgb, st.alpha, st.planes, st.frame, cfg.output.type, cfg.output.exposure,
                   cfg.output.compression, job.drop_channels)

@@ -119,6 +119,26 @@ def is_partial(name: str) -> bool:
     return name.startswith(".") and ".tmp" in name
 
 
+def output_is_whole(path: Path) -> bool:
+    """An output of a previous run that can be read back entirely (--skip-existing)."""
+    import OpenImageIO as oiio
+
+    if not path.is_file() or path.stat().st_size == 0:
+        return False
+    inp = oiio.ImageInput.open(str(path))
+    if inp is None:
+        oiio.geterror()
+        return False
+    try:
+        spec = inp.spec()
+        px = inp.read_image(0, 0, 0, spec.nchannels, "float")
+        ok = px is not None and not (hasattr(inp, "has_error") and inp.has_error)
+    except Exception:
+        ok = False
+    inp.close()
+    return ok
+
+
 def write_plane(path: Path, plane: np.ndarray, channel: str) -> None:
     """One float channel (EXR / TIFF), e.g. the cleaned depth."""
     import OpenImageIO as oiio

@@ -10,6 +10,7 @@ import math
 import numpy as np
 
 from . import pixels
+from .aovs import AOV_NAMES  # noqa: F401  (the pipeline's outputs, by name)
 from .config import FILTERS, Config
 from .errors import ProcessingError
 from .runtime import Runtime, get_runtime
@@ -26,8 +27,6 @@ MEDIUM_T = np.dtype([
     ("homogeneous", np.float32), ("has_medium_light", np.int32), ("has_p", np.int32),
     ("_pad", np.int32, 3),   # OpenCL rounds the struct up to its float4 alignment
 ], align=True)
-AOV_NAMES = ("optical_depth", "transmittance", "spread", "level", "direct", "scattered", "emission",
-             "airlight", "airlight_scattered")
 
 
 def level_sizes(width: int, height: int, levels: int | str) -> list[tuple[int, int]]:
@@ -923,7 +922,10 @@ def get_plan(rt: Runtime, width: int, height: int, cfg: Config, aovs=()) -> Plan
            cfg.render.border, cfg.render.border_margin)   # its edge tables and extension plan
     plan = _PLANS.get(key)
     if plan is None:
-        if len(_PLANS) > 4:
+        # what a process holds stays what one frame needs: the plans of another size go (a
+        # batch of mixed sizes would keep a frame's buffers of each), and of one size at most
+        # two (a medium per frame that changes the build, e.g. fog and sea, alternating)
+        if len(_PLANS) >= 2 or any(k[1:3] != (width, height) for k in _PLANS):
             _PLANS.clear()
         plan = _PLANS[key] = Plan(rt, width, height, cfg, aovs)
     plan.cfg = cfg

@@ -9,11 +9,11 @@ case-insensitive substring of the platform or device name.
 from __future__ import annotations
 
 import os
+import sys
 from dataclasses import dataclass
 from pathlib import Path
 
 from .errors import ProcessingError, UserError
-from .launch import cache_dir
 
 KERNEL_DIR = Path(__file__).resolve().parent / "kernels"
 # Work-group size on a CPU: 64 x 4, against the 32 x 4 before it on an AMD EPYC (Zen 3, AVX2),
@@ -26,6 +26,12 @@ KERNEL_DIR = Path(__file__).resolve().parent / "kernels"
 # the kernels before this choice (ab_kernels.py fd3efff, 8 rounds, twice): best kernel_ms 0.83x
 # and 0.89x, paired 1.02x and 1.01x; 32 x 4, 128 x 4 and 64 x 8 alone there: within the noise.
 LOCAL_CPU = tuple(int(v) for v in os.environ.get("FOGCLI_LOCAL", "64,4").split(","))
+
+
+def cache_dir() -> str:
+    """fogcli's folder of the user's cache: PoCL's cache and the device binaries."""
+    base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
+    return os.path.join(base, "fogcli")
 
 
 def _user_cache_dir() -> Path:
@@ -46,9 +52,29 @@ def _prepare_environment() -> None:
 
 def _cl():
     _prepare_environment()
-    import pyopencl as cl  # imported lazily: `fogcli check` and `media` never touch OpenCL
+    return _import_pyopencl()
 
-    return cl
+
+def _import_pyopencl():
+    """pyopencl, imported lazily (`fogcli check` and `media` never touch OpenCL). A Ctrl-C
+    that lands while its extension creates its enums aborts the process (nanobind: a
+    'Critical nanobind error' and SIGABRT): the interrupt is held until the import is done."""
+    import signal
+    import threading
+
+    if "pyopencl" in sys.modules or threading.current_thread() is not threading.main_thread():
+        import pyopencl
+
+        return pyopencl
+    held: list = []
+    old = signal.signal(signal.SIGINT, lambda *a: held.append(a))
+    try:
+        import pyopencl
+    finally:
+        signal.signal(signal.SIGINT, old)
+    if held:
+        raise KeyboardInterrupt
+    return pyopencl
 
 
 @dataclass(frozen=True)
