@@ -206,7 +206,9 @@ BUFFERS = {
     "prep2": lambda n, t, f: 16 * t * f.sep,
     "half2": lambda n, t, f: 16 * n * f.sep,
     "spread2": lambda n, t, f: 4 * t * f.sep,             # unused output of reduce_level
-    "out": lambda n, t, f: 16 * n,
+    # the result, written over `direct` (every stage that writes it reads direct at its own
+    # pixel only, first) unless the direct AOV must keep it
+    "out": lambda n, t, f: 16 * n * ("direct" in f.aovs),
     "a_dir": lambda n, t, f: 16 * n * f.lights,            # airlight reaching the camera directly
     "a_sc": lambda n, t, f: 16 * n * f.lights,             # ... and scattered again on the way
     "trans": lambda n, t, f: 16 * n * ("transmittance" in f.aovs),
@@ -313,6 +315,8 @@ class Plan:
         try:
             for name, nbytes in sizes.items():      # a feature that is off keeps a 16-byte placeholder
                 setattr(self, name, cl.Buffer(rt.ctx, mf.READ_WRITE, max(int(nbytes), 16)))
+            if not sizes["out"]:
+                self.out = self.direct
             self.lv_buf = cl.Buffer(rt.ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=self.lv)
             B = lambda nbytes: cl.Buffer(rt.ctx, mf.READ_WRITE, max(int(nbytes), 16))  # noqa: E731
             self.lut = B(4 * self.lut_floats()) if self.apsf else B(16)
@@ -846,11 +850,11 @@ class Plan:
                                                             update=dict(enabled=False))))
         cfg = self.cfg.model_copy(update=dict(camera=cam, render=render, lights=[]))
         if self._ext is None:
-            ext = Plan(self.rt, pw, ph, cfg)
-            for buf in (ext.direct, ext.medium):
-                t.add("composite", self.rt.cl.enqueue_fill_buffer(self.rt.queue, buf, np.float32(0), 0, buf.size))
-            self._ext = ext
+            self._ext = Plan(self.rt, pw, ph, cfg)
         ext = self._ext
+        # no direct light of its own: zeros, every frame (its result is written over them)
+        for buf in (ext.direct, ext.medium):
+            t.add("composite", self.rt.cl.enqueue_fill_buffer(self.rt.queue, buf, np.float32(0), 0, buf.size))
         ext.cfg = cfg
         ext.upload_lut(t)
         q, i32 = self.rt.queue, np.int32
