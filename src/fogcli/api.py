@@ -156,9 +156,9 @@ def apply(image: np.ndarray, depth: np.ndarray, config: Config | str | None = No
 
         for n in notes:
             warnings.warn(n, UserWarning, stacklevel=2)
-    from .media import hidden_warning
+    from .media import hidden_warning, mean_luminance
 
-    hidden = hidden_warning(img, out, cfg, dm)
+    hidden = hidden_warning(mean_luminance(img), out, cfg, dm)
     if hidden:
         import warnings
 

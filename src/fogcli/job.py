@@ -12,8 +12,8 @@ from . import depth as depth_mod
 from . import inputs, outputs
 from .config import Config
 from .errors import UserError
-from .media import hidden_warning
-from .pipeline import Timings, run
+from .media import hidden_warning, mean_luminance
+from .pipeline import Timings, finish, start, unmap
 
 
 @dataclass
@@ -62,7 +62,9 @@ class Staged:
 
 
 def run_job(job: Job, cfg: Config, aovs=(), device=None, timings: Timings | None = None) -> Result:
-    return store(compute(load(job, cfg, aovs), cfg, aovs, device, timings), cfg)
+    # one frame after the other on this thread: the result is written from the device's own
+    # buffer (mapped), which the next frame may then reuse
+    return store(compute(load(job, cfg, aovs), cfg, aovs, device, timings, mapped=True), cfg)
 
 
 def load(job: Job, cfg: Config, aovs=()) -> Staged:
@@ -108,19 +110,25 @@ def load(job: Job, cfg: Config, aovs=()) -> Staged:
                             "or negative) filled edge-aware from neighbours")
     if job.save_depth:
         save_depth(Path(job.save_depth), clean)
+    frame.depth = None           # the raw values are not read again (an EXR output copies Z from the file)
     st.frame, st.depth = frame, clean
     return st
 
 
-def compute(st: Staged, cfg: Config, aovs=(), device=None, timings: Timings | None = None) -> Staged:
-    """The device run (the only stage that touches OpenCL)."""
+def compute(st: Staged, cfg: Config, aovs=(), device=None, timings: Timings | None = None,
+            mapped: bool = False) -> Staged:
+    """The device run (the only stage that touches OpenCL). The frame's colour is handed to
+    the device and dropped here (its memory goes to the device's buffers); mapped: the
+    result is the device's buffer until store() has written it (pipeline.run)."""
     notes: list = []
     frame, src = st.frame, st.job.input
-    st.rgb, st.alpha, st.planes = run(frame.rgb, st.depth, cfg, alpha=frame.alpha, aovs=aovs, device=device,
-                                      timings=timings if timings is not None else Timings(), report=notes,
-                                      lamps=st.lamps)
+    l_in = mean_luminance(frame.rgb)
+    started = start(frame.rgb, st.depth, cfg, alpha=frame.alpha, aovs=aovs, device=device,
+                    timings=timings if timings is not None else Timings(), report=notes, lamps=st.lamps)
+    frame.rgb = None        # uploaded: not read again
+    st.rgb, st.alpha, st.planes = finish(started, mapped)
     st.res.warnings += [f"{src}: {n}" for n in notes]
-    hidden = hidden_warning(frame.rgb, st.rgb, cfg, st.depth)
+    hidden = hidden_warning(l_in, st.rgb, cfg, st.depth)
     if hidden:
         st.res.warnings.append(f"{src}: {hidden}")
     return st
@@ -130,8 +138,11 @@ def store(st: Staged, cfg: Config) -> Result:
     """The atomic write (and the lamps found). No OpenCL: a batch writes on a thread."""
     t0 = time.perf_counter()
     job = st.job
-    outputs.write(Path(job.output), st.rgb, st.alpha, st.planes, st.frame, cfg.output.type, cfg.output.exposure,
-                  cfg.output.compression, job.drop_channels)
+    try:
+        outputs.write(Path(job.output), st.rgb, st.alpha, st.planes, st.frame, cfg.output.type,
+                      cfg.output.exposure, cfg.output.compression, job.drop_channels)
+    finally:
+        unmap(st.rgb)
     if job.lamps:
         write_lamps(Path(job.lamps), st.lamps)
     st.res.io_ms += (time.perf_counter() - t0) * 1e3

@@ -74,17 +74,22 @@ def visibility_m(m: C.Medium) -> float:
     return C.VISIBILITY_CONTRAST / st if st > 0 else float("inf")
 
 
-def hidden_warning(rgb_in, rgb_out, cfg: C.Config, depth) -> str | None:
-    """One line when the medium all but hides the frame (output mean luminance below 5 % of
-    the input's), with the numbers that say why and the relative strength that would not."""
+def mean_luminance(rgb) -> float:
+    """Mean luminance of a frame, from a grid of about 256 rows of it."""
     import numpy as np
 
+    lum = np.array([0.2126, 0.7152, 0.0722], np.float32)
+    step = max(1, rgb.shape[0] // 256)
+    return float((rgb[::step, ::step, :3] @ lum).mean())
+
+
+def hidden_warning(l_in: float, rgb_out, cfg: C.Config, depth) -> str | None:
+    """One line when the medium all but hides the frame (output mean luminance below 5 % of
+    the input's, l_in: mean_luminance of the input), with the numbers that say why and the
+    relative strength that would not."""
     from .pipeline import median_depth
 
-    lum = np.array([0.2126, 0.7152, 0.0722], np.float32)
-    step = max(1, rgb_in.shape[0] // 256)
-    l_in = float((rgb_in[::step, ::step, :3] @ lum).mean())
-    l_out = float((rgb_out[::step, ::step, :3] @ lum).mean())
+    l_out = mean_luminance(rgb_out)
     if not l_in > 0 or l_out >= 0.05 * l_in:
         return None
     try:

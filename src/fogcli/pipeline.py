@@ -186,6 +186,8 @@ class Features:
     aovs: tuple
     reference: bool       # method reference: three more full-size planes
     epipolar: bool        # lights with screen shadows, method epipolar: a flag per pixel
+    spread0: bool         # the source collapse reads level 0 of the spread chain (a Gaussian
+                          # spread, the AOVs, or the P of a heterogeneous medium); no level above
 
 
 # The per-frame device buffers, declared once: name -> bytes for n pixels, a pyramid of t
@@ -197,7 +199,7 @@ BUFFERS = {
     "direct": lambda n, t, f: 16 * n,                      # L exp(-st P) (+ L_em + L_amb)
     "medium": lambda n, t, f: 16 * n * f.split_medium,
     "chain": lambda n, t, f: 16 * t,                       # colour chain, every level
-    "spread": lambda n, t, f: 4 * t,
+    "spread": lambda n, t, f: 4 * (n * f.spread0 if f.source else t),
     "prep": lambda n, t, f: 16 * t * f.source,
     # level k+1 up-sampled along y to level k's rows, as colour planes (the pair kernels, up_rows):
     # 12 h ceil(w / 2) <= 6 n + 6 h bytes at level 0, within 6 t wherever pair kernels run (w >= 4)
@@ -260,7 +262,8 @@ def plan_features(cfg: Config, aovs=()) -> Features:
     return Features(source, r.method == "pyramid" and r.separation.enabled,
                     bool({"optical_depth", "emission", "direct"} & set(aovs)), bool(cfg.lights),
                     uses_apsf(cfg) and r.emission_profile == "lambertian", tuple(aovs), r.method == "reference",
-                    bool(cfg.lights) and r.lights.shadows == "screen" and r.lights.method == "epipolar")
+                    bool(cfg.lights) and r.lights.shadows == "screen" and r.lights.method == "epipolar",
+                    not uses_apsf(cfg) or bool(aovs) or any(d.type != "homogeneous" for d in cfg.medium.density))
 
 
 def buffer_bytes(n: int, t: int, f: Features) -> dict:
@@ -883,6 +886,15 @@ class Plan:
             np.int32(depth_blur), np.int32(self.split_medium), self.out, np.int32(bool(self.aovs)),
             self.level_aov, self.scat_aov))
 
+    def map_out(self, t: Timings) -> np.ndarray:
+        """The result buffer mapped for reading (run(mapped=True); unmap releases it)."""
+        cl, q = self.rt.cl, self.rt.queue
+        arr, ev = cl.enqueue_map_buffer(q, self.out, cl.map_flags.READ, 0, (self.h, self.w, 4), np.float32)
+        t.add("download", ev)
+        ev.wait()
+        arr.base._fogcli_queue = q
+        return arr
+
     def download(self, buf, channels: int, t: Timings) -> np.ndarray:
         arr = np.empty((self.h, self.w, channels) if channels > 1 else (self.h, self.w), np.float32)
         t.add("download", self.rt.cl.enqueue_copy(self.rt.queue, arr, buf))
@@ -949,11 +961,31 @@ def median_depth(depth: np.ndarray, max_depth: float) -> float:
 
 def run(rgb: np.ndarray, depth: np.ndarray, cfg: Config, alpha=None, aovs=(), device=None,
         timings: Timings | None = None, report: list | None = None,
-        lamps: list | None = None) -> tuple[np.ndarray, np.ndarray | None, dict]:
+        lamps: list | None = None, mapped: bool = False) -> tuple[np.ndarray, np.ndarray | None, dict]:
     """Process one frame on the device. depth: metric (depth.decode / depth.prepare), at the
     image's size, holes filled; alpha: premultiplied coverage or None. Returns (rgb out
     (h, w, 3), alpha out (h, w) or None, aov planes); `report` collects notes (lamps found),
-    `lamps` the point lights that `{type: auto}` made of them."""
+    `lamps` the point lights that `{type: auto}` made of them. mapped: the rgb out is the
+    device's result buffer mapped (a CPU device's own memory: no copy), to be released with
+    unmap() before the next frame; otherwise a copy. The same as finish(start(...)), between
+    which a caller may drop its rgb: it is not read after the upload."""
+    return finish(start(rgb, depth, cfg, alpha, aovs, device, timings, report, lamps), mapped)
+
+
+@dataclass
+class Started:
+    """A frame uploaded to its plan (start), to be run and read back (finish)."""
+    plan: Plan
+    cfg: Config
+    t: Timings
+    has_alpha: bool
+    lamp_mask: np.ndarray | None
+
+
+def start(rgb: np.ndarray, depth: np.ndarray, cfg: Config, alpha=None, aovs=(), device=None,
+          timings: Timings | None = None, report: list | None = None, lamps: list | None = None) -> Started:
+    """What run() does up to the frame's upload: the values that depend on the image (lamps
+    found, a visibility relative to the scene, the ambient light), the plan, the upload."""
 
     h, w = depth.shape
     if rgb.shape[:2] != (h, w):
@@ -989,8 +1021,15 @@ def run(rgb: np.ndarray, depth: np.ndarray, cfg: Config, alpha=None, aovs=(), de
     rt = get_runtime(device)
     plan = get_plan(rt, w, h, cfg, aovs)
     plan.upload_rgb(rgb, alpha, depth, t)
+    return Started(plan, cfg, t, alpha is not None, lamp_mask)
+
+
+def finish(st: Started, mapped: bool = False) -> tuple[np.ndarray, np.ndarray | None, dict]:
+    """The device stages of a started frame, and its result (run)."""
+    plan, cfg, t, lamp_mask, rt = st.plan, st.cfg, st.t, st.lamp_mask, st.plan.rt
+    h = plan.h
     plan.preprocess(t)
-    if alpha is not None and cfg.camera.empty_depth > 0:   # at 0 the alpha is the input's
+    if st.has_alpha and cfg.camera.empty_depth > 0:   # at 0 the alpha is the input's
         plan.coverage(t, cfg.camera.empty_depth)
     if cfg.lights:
         if lamp_mask is not None:       # the lamps' scattered light is now the light model's
@@ -1017,15 +1056,27 @@ def run(rgb: np.ndarray, depth: np.ndarray, cfg: Config, alpha=None, aovs=(), de
                 plan.composite_separated(t)
     if cfg.lights:
         plan.add_airlight(t)
-    out = plan.download(plan.out, 4, t)
-    if not np.isfinite(out).all():
+    out = plan.map_out(t) if mapped and rt.info.kind == "cpu" else plan.download(plan.out, 4, t)
+    if not all(np.isfinite(out[y:y + 256]).all() for y in range(0, h, 256)):     # in strips: no frame-sized mask
+        unmap(out)
         from .errors import UserError
 
         raise UserError("the result holds non-finite values: a medium, light or camera value is too large for "
                         "32-bit floats (fogcli config --show lists them)")
     planes = plan.aov_planes(t)
     rt.queue.finish()
-    return out[:, :, :3], (np.ascontiguousarray(out[:, :, 3]) if alpha is not None else None), planes
+    return out[:, :, :3], (np.ascontiguousarray(out[:, :, 3]) if st.has_alpha else None), planes
+
+
+def unmap(arr: np.ndarray | None) -> None:
+    """Release a result that run(mapped=True) handed out (anything else: nothing to do)."""
+    base = arr
+    while isinstance(base, np.ndarray):
+        base = base.base
+    release = getattr(base, "release", None)
+    if release is not None and getattr(base, "_fogcli_queue", None) is not None:
+        release(base._fogcli_queue).wait()
+        base._fogcli_queue = None
 
 
 def kernel_ms(t: Timings) -> tuple[dict, float]:
