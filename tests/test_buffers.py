@@ -6,7 +6,7 @@ import pytest
 
 from conftest import plan_for
 from fogcli.errors import ProcessingError
-from fogcli.pipeline import BUFFERS, buffer_bytes, check_memory, planned_bytes, plan_features
+from fogcli.pipeline import ALIASES, BUFFERS, buffer_bytes, check_memory, planned_bytes, plan_features
 
 
 @pytest.mark.parametrize("sets,aovs", [((), ()), (("render.psf=apsf", "render.border=extend"), ("scattered", "transmittance")),
@@ -15,9 +15,11 @@ def test_plan_allocates_what_is_declared(rt, sets, aovs):
     w, h = 37, 23
     plan, cfg = plan_for(rt, w, h, *sets, aovs=aovs)
     total = sum(a * b for a, b in plan.sizes)
-    want = buffer_bytes(w * h, total, plan_features(cfg, aovs))
+    want = buffer_bytes(w * h, total, plan_features(cfg, aovs), h)
     got = {name: getattr(plan, name).size for name in BUFFERS}
-    assert got == {k: max(v, 16) for k, v in want.items()}
+    assert got == {k: want[ALIASES[k]] if k in ALIASES and not v else max(v, 16) for k, v in want.items()}
+    for k, other in ALIASES.items():        # one buffer, not a copy
+        assert (getattr(plan, k) is getattr(plan, other)) == (not want[k])
     assert want["chain"] == 16 * total and (want["scat_aov"] > 0) == bool(aovs)
 
 
@@ -31,7 +33,7 @@ def test_memory_check_names_the_limit():
 
     f = plan_features(make_config("fog"))
     n = 16000 * 12000
-    sizes = buffer_bytes(n, n * 4 // 3, f)
+    sizes = buffer_bytes(n, n * 4 // 3, f, 12000)
     with pytest.raises(ProcessingError, match=r"16000x12000: its chain buffer needs 3906 MiB in one piece, device "
                                               r"test device allocates at most 2048 MiB"):
         check_memory(_rt(2**40, 2**31), 16000, 12000, sizes, sum(sizes.values()))
@@ -47,9 +49,9 @@ def test_planned_bytes_counts_what_a_frame_may_add():
     base = make_config("fog", sets=["render.border=open"])
     ref = make_config("fog", sets=["render.border=open", "render.method=reference"])
     ext = make_config("fog")
-    declared = sum(buffer_bytes(n, t, plan_features(base)).values())
-    assert planned_bytes(n, t, plan_features(base), base) == declared
-    assert planned_bytes(n, t, plan_features(ref), ref) == sum(buffer_bytes(n, t, plan_features(ref)).values()) + 48 * n
-    d_ext = sum(buffer_bytes(n, t, plan_features(ext)).values())
+    declared = sum(buffer_bytes(n, t, plan_features(base), 25).values())
+    assert planned_bytes(n, t, plan_features(base), base, 25) == declared
+    assert planned_bytes(n, t, plan_features(ref), ref, 25) == sum(buffer_bytes(n, t, plan_features(ref), 25).values()) + 48 * n
+    d_ext = sum(buffer_bytes(n, t, plan_features(ext), 25).values())
     f = ext.render.border_margin
-    assert f > 0 and planned_bytes(n, t, plan_features(ext), ext) == d_ext + int(d_ext * (1 + 2 * f) ** 2 / 64)   # level 3
+    assert f > 0 and planned_bytes(n, t, plan_features(ext), ext, 25) == d_ext + int(d_ext * (1 + 2 * f) ** 2 / 64)   # level 3

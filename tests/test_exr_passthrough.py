@@ -180,8 +180,8 @@ def test_exr_without_colour_is_refused(tmp_path, names):
 
 @pytest.mark.parametrize("zfmt", ["half", "float"])
 def test_kept_pixels_write_what_a_second_decode_writes(tmp_path, zfmt):
-    """A small EXR's channels are kept from the read (Frame.pixels) instead of decoded again
-    for the output, and an all-half part is handed to the writer as half: the file is the
+    """A small EXR's channels that fogcli does not replace are kept from the read
+    (Frame.pixels) instead of decoded again for the output, and an all-half part is handed to the writer as half: the file is the
     one the strip reader and the writer's own conversion make, beyond-half values included."""
     import dataclasses
     import warnings
@@ -196,7 +196,8 @@ def test_kept_pixels_write_what_a_second_decode_writes(tmp_path, zfmt):
     assert out.open(str(src), _spec(names, lambda n: zfmt if n == "Z" else "half")) and out.write_image(d)
     out.close()
     frame = read_image(src)
-    assert frame.pixels is not None and frame.pixels.shape == (H, W, 5)
+    # R, G, B and A are replaced by fogcli's: only Z is kept
+    assert frame.pixels is not None and frame.pixels.shape == (H, W, 1) and frame.kept_channels == (4,)
     rgb = frame.rgb * 1.5
     rgb[0, :3] = [1e5, -1e6, 65519.0]          # beyond half: inf, -inf; the last rounds to the largest half
     files = []

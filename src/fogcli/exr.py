@@ -111,8 +111,12 @@ def write_passthrough(path: Path, tmp: str, frame, rgb: np.ndarray, alpha: np.nd
             if not ok:
                 break
             kept = frame.pixels if i == frame.part and read_fmt == "float" else None
-            if kept is not None and kept.shape != (spec.height, spec.width, nch):
+            if kept is not None and kept.shape != (spec.height, spec.width, len(frame.kept_channels)):
                 kept = None
+            # the column of the strips each channel of the part is in (kept: only those not replaced)
+            col = {c: k for k, c in enumerate(frame.kept_channels)} if kept is not None else dict(enumerate(range(nch)))
+            if kept is not None and any(c not in replace and c not in col for c in range(nch)):
+                kept, col = None, dict(enumerate(range(nch)))
             # all half: handed over as half (converted faster here than by the writer)
             as_half = all(str(f) == "half" for f in o.channelformats)
             for y0, y1, px in _strip_reader(inp, i, spec, nch, read_fmt, kept):
@@ -125,7 +129,7 @@ def write_passthrough(path: Path, tmp: str, frame, rgb: np.ndarray, alpha: np.nd
                     rows: dict = {}
                     strip = lambda a: rows.setdefault(id(a), a[r0:r1])  # noqa: E731
                     picks = [(strip(replace[c][0]), replace[c][1] if replace[c][0].ndim == 3 else 0)
-                             if c in replace else (px, c) for c in range(nch)]
+                             if c in replace else (px, col[c]) for c in range(nch)]
                     px = pixels.gather(picks + [(strip(plane), 0) for plane in extra], want)
                 else:
                     with np.errstate(over="ignore"):      # beyond 65504: inf, as the writer's own conversion

@@ -49,10 +49,11 @@ class Frame:
     alpha_name: str | None = None
     view_prefix: str = ""           # "right." when a non-default view of a single-part file
     pixel_type: str = "float"       # the colour channels' type in the file (half, float, uint8...)
-    # every channel of the part as read (float16 where all are half, else float32; exact for
-    # half and float files of up to KEEP_CHANNELS channels): the EXR output copies the others
-    # from here, not from a second decode
+    # the part's channels that fogcli does not replace (kept_channels, in the part's order) as
+    # read (float16 where all are half, else float32; exact for half and float files of up to
+    # KEEP_CHANNELS channels): the EXR output copies them from here, not from a second decode
     pixels: np.ndarray | None = None
+    kept_channels: tuple = ()
 
 
 KEEP_CHANNELS = 8
@@ -359,12 +360,15 @@ def read_image(path: str | Path, layer: str | None = None, view: str | None = No
         alpha = pixels.plane(px, a_idx)
         alpha = np.clip(np.nan_to_num(alpha, nan=1.0, posinf=1.0, neginf=0.0, copy=False), 0.0, 1.0, out=alpha)
     keep_all = is_exr and len(names) <= KEEP_CHANNELS and all(f in ("half", "float") for f in formats)
+    replaced = {names.index(orig[i]) for i in rgb_idx} | ({names.index(orig[a_idx])} if a_idx is not None else set())
+    kept = tuple(c for c in range(len(names)) if c not in replaced)
     prefix = view + "." if (len(parts) == 1 and view and any(n.startswith(view + ".") for n in names)) else ""
     return Frame(path, rgb, alpha, depth, (spec.x, spec.y),
                  (spec.full_x, spec.full_y, spec.full_width, spec.full_height), attributes, is_exr,
                  part=sub, rgb_names=tuple(orig[i] for i in rgb_idx),
                  alpha_name=orig[a_idx] if a_idx is not None else None, view_prefix=prefix,
-                 pixel_type=formats[names.index(orig[rgb_idx[0]])], pixels=whole if keep_all else None)
+                 pixel_type=formats[names.index(orig[rgb_idx[0]])],
+                 pixels=np.ascontiguousarray(whole[:, :, list(kept)]) if keep_all else None, kept_channels=kept)
 
 
 @_decoding

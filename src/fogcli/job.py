@@ -13,7 +13,7 @@ from . import inputs, outputs
 from .config import Config
 from .errors import UserError
 from .media import hidden_warning, mean_luminance
-from .pipeline import Timings, finish, start, unmap
+from .pipeline import Timings, depth_grid, finish, start, unmap
 
 
 @dataclass
@@ -125,10 +125,11 @@ def compute(st: Staged, cfg: Config, aovs=(), device=None, timings: Timings | No
     l_in = mean_luminance(frame.rgb)
     started = start(frame.rgb, st.depth, cfg, alpha=frame.alpha, aovs=aovs, device=device,
                     timings=timings if timings is not None else Timings(), report=notes, lamps=st.lamps)
-    frame.rgb = None        # uploaded: not read again
+    # uploaded: not read again but for the median depth of a warning (of a grid, the same)
+    frame.rgb, grid, st.depth = None, np.array(depth_grid(st.depth)), None
     st.rgb, st.alpha, st.planes = finish(started, mapped)
     st.res.warnings += [f"{src}: {n}" for n in notes]
-    hidden = hidden_warning(l_in, st.rgb, cfg, st.depth)
+    hidden = hidden_warning(l_in, st.rgb, cfg, grid)
     if hidden:
         st.res.warnings.append(f"{src}: {hidden}")
     return st

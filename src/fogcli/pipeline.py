@@ -190,35 +190,42 @@ class Features:
                           # spread, the AOVs, or the P of a heterogeneous medium); no level above
 
 
-# The per-frame device buffers, declared once: name -> bytes for n pixels, a pyramid of t
-# pixels in all (every level) and the plan's features. Plan allocates them (0: a 16-byte
-# placeholder), check_memory sums them, and the reference's planes are declared the same way.
+# The per-frame device buffers, declared once: name -> bytes for n pixels in r rows, a pyramid
+# of t pixels in all (every level) and the plan's features. Plan allocates them (0: a 16-byte
+# placeholder, or the buffer ALIASES names), check_memory sums them, and the reference's
+# planes are declared the same way.
 BUFFERS = {
-    "image": lambda n, t, f: 16 * n,                       # RGBA in; scratch after preprocess
-    "depth": lambda n, t, f: 4 * n,
-    "direct": lambda n, t, f: 16 * n,                      # L exp(-st P) (+ L_em + L_amb)
-    "medium": lambda n, t, f: 16 * n * f.split_medium,
-    "chain": lambda n, t, f: 16 * t,                       # colour chain, every level
-    "spread": lambda n, t, f: 4 * (n * f.spread0 if f.source else t),
-    "prep": lambda n, t, f: 16 * t * f.source,
-    # level k+1 up-sampled along y to level k's rows, as colour planes (the pair kernels, up_rows):
-    # 12 h ceil(w / 2) <= 6 n + 6 h bytes at level 0, within 6 t wherever pair kernels run (w >= 4)
-    "up_planes": lambda n, t, f: 6 * t * f.source,
-    "chain2": lambda n, t, f: 16 * t * f.sep,
-    "prep2": lambda n, t, f: 16 * t * f.sep,
-    "half2": lambda n, t, f: 16 * n * f.sep,
-    "spread2": lambda n, t, f: 4 * t * f.sep,             # unused output of reduce_level
+    "image": lambda n, t, f, r: 16 * n,                       # RGBA in; scratch after preprocess
+    # metric depth, read up to the lights; then (the source collapse) level k+1 up-sampled
+    # along y to level k's rows, as colour planes (up_planes: the pair kernels, up_rows):
+    # 12 h ceil(w / 2) <= 6 n + 6 h bytes at level 0, the largest
+    "depth": lambda n, t, f, r: max(4 * n, (6 * n + 6 * r) * f.source),
+    "direct": lambda n, t, f, r: 16 * n,                      # L exp(-st P) (+ L_em + L_amb)
+    "medium": lambda n, t, f, r: 16 * n * f.split_medium,
+    "chain": lambda n, t, f, r: 16 * t,                       # colour chain, every level
+    "spread": lambda n, t, f, r: 4 * (n * f.spread0 if f.source else t),
+    "prep": lambda n, t, f, r: 16 * t * f.source,
+    "up_planes": lambda n, t, f, r: 0,                     # in `depth`, free by then
+    "chain2": lambda n, t, f, r: 16 * t * f.sep,
+    "prep2": lambda n, t, f, r: 16 * t * f.sep,
+    "half2": lambda n, t, f, r: 16 * n * f.sep,
+    "spread2": lambda n, t, f, r: 4 * t * f.sep,             # unused output of reduce_level
     # the result, written over `direct` (every stage that writes it reads direct at its own
     # pixel only, first) unless the direct AOV must keep it
-    "out": lambda n, t, f: 16 * n * ("direct" in f.aovs),
-    "a_dir": lambda n, t, f: 16 * n * f.lights,            # airlight reaching the camera directly
-    "a_sc": lambda n, t, f: 16 * n * f.lights,             # ... and scattered again on the way
-    "trans": lambda n, t, f: 16 * n * ("transmittance" in f.aovs),
-    "level_aov": lambda n, t, f: 4 * n * bool(f.aovs),
-    "scat_aov": lambda n, t, f: 16 * n * bool(f.aovs),
-    "cosines": lambda n, t, f: 4 * n * f.lambert,
-    "epi_flags": lambda n, t, f: n * f.epipolar,           # pixels the epipolar unwarp leaves to the march
+    "out": lambda n, t, f, r: 16 * n * ("direct" in f.aovs),
+    "a_dir": lambda n, t, f, r: 16 * n * f.lights,            # airlight reaching the camera directly
+    "a_sc": lambda n, t, f, r: 16 * n * f.lights,             # ... and scattered again on the way
+    "trans": lambda n, t, f, r: 16 * n * ("transmittance" in f.aovs),
+    "level_aov": lambda n, t, f, r: 4 * n * bool(f.aovs),
+    "scat_aov": lambda n, t, f, r: 16 * n * bool(f.aovs),
+    "cosines": lambda n, t, f, r: 4 * n * f.lambert,
+    "epi_flags": lambda n, t, f, r: n * f.epipolar,           # pixels the epipolar unwarp leaves to the march
 }
+# Buffers declared with 0 bytes that are another one: up_planes is made after the last read
+# of the depth; out is written over direct (see above)
+ALIASES = {"up_planes": "depth", "out": "direct"}
+
+
 REFERENCE_BUFFERS = {"src": lambda n: 16 * n, "tmp": lambda n: 16 * n, "acc": lambda n: 16 * n}
 
 
@@ -266,15 +273,15 @@ def plan_features(cfg: Config, aovs=()) -> Features:
                     not uses_apsf(cfg) or bool(aovs) or any(d.type != "homogeneous" for d in cfg.medium.density))
 
 
-def buffer_bytes(n: int, t: int, f: Features) -> dict:
-    return {name: int(size(n, t, f)) for name, size in BUFFERS.items()}
+def buffer_bytes(n: int, t: int, f: Features, rows: int) -> dict:
+    return {name: int(size(n, t, f, rows)) for name, size in BUFFERS.items()}
 
 
-def planned_bytes(n: int, t: int, f: Features, cfg: Config) -> int:
+def planned_bytes(n: int, t: int, f: Features, cfg: Config, rows: int) -> int:
     """Everything one frame may allocate: the declared buffers, the reference's planes, the
     airlight of a second light (two planes), and the extension plan of `border: extend`
     (the padded frame at 1/2^EXT_LEVEL: about (1 + 2 margin)^2 / 64 of a plan)."""
-    total = sum(buffer_bytes(n, t, f).values())
+    total = sum(buffer_bytes(n, t, f, rows).values())
     if f.reference:
         total += sum(size(n) for size in REFERENCE_BUFFERS.values())
     if f.lights and len(cfg.lights) > 1:
@@ -313,13 +320,14 @@ class Plan:
         n = width * height
         mf = cl.mem_flags
         self.apsf = uses_apsf(cfg)
-        sizes = buffer_bytes(n, total, f)
-        check_memory(rt, width, height, sizes, planned_bytes(n, total, f, cfg))
+        sizes = buffer_bytes(n, total, f, height)
+        check_memory(rt, width, height, sizes, planned_bytes(n, total, f, cfg, height))
         try:
             for name, nbytes in sizes.items():      # a feature that is off keeps a 16-byte placeholder
                 setattr(self, name, cl.Buffer(rt.ctx, mf.READ_WRITE, max(int(nbytes), 16)))
-            if not sizes["out"]:
-                self.out = self.direct
+            for name, other in ALIASES.items():
+                if not sizes[name]:
+                    setattr(self, name, getattr(self, other))
             self.lv_buf = cl.Buffer(rt.ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=self.lv)
             B = lambda nbytes: cl.Buffer(rt.ctx, mf.READ_WRITE, max(int(nbytes), 16))  # noqa: E731
             self.lut = B(4 * self.lut_floats()) if self.apsf else B(16)
@@ -948,9 +956,14 @@ def get_plan(rt: Runtime, width: int, height: int, cfg: Config, aovs=()) -> Plan
     return plan
 
 
+def depth_grid(depth: np.ndarray) -> np.ndarray:
+    """The pixels median_depth looks at (about 256 x 256 of them; of a grid, all)."""
+    return depth[:: max(1, depth.shape[0] // 256), :: max(1, depth.shape[1] // 256)]
+
+
 def median_depth(depth: np.ndarray, max_depth: float) -> float:
     """The median metric depth of the surfaces (sky and beyond max_depth left out)."""
-    d = depth[:: max(1, depth.shape[0] // 256), :: max(1, depth.shape[1] // 256)]
+    d = depth_grid(depth)
     d = d[np.isfinite(d) & (d < max_depth) & (d > 0)]
     if d.size == 0:
         from .errors import UserError
