@@ -30,6 +30,9 @@ def test_border_kernels_match_oracle(rt, rng):
     level0 = read_chain(plan)[0][0].astype(np.float64)
 
     def image(ext):
+        # from the upload on: the result is written over the direct light (pipeline.ALIASES)
+        plan.upload(img, depth, t)
+        plan.preprocess(t)
         plan.pyramid(t, masked=True)
         on = plan.extend(t) if ext else False
         plan.collapse(t, ext=on)

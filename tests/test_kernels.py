@@ -245,8 +245,8 @@ def test_receiver_composite_matches_oracle(rt, rng, interp):
     write_level0(plan, src, spread)
     plan.pyramid(t, masked=True)
     chains, spreads = read_chain(plan)
+    direct = _download(plan, plan.direct, 4)      # before the result is written over it
     plan.composite(t, depth_blur=True)
-    direct = _download(plan, plan.direct, 4)
     assert not plan.split_medium      # the medium's light is inside `direct` here
     medium = np.zeros_like(direct)
     out = _download(plan, plan.out, 4)

@@ -1098,11 +1098,11 @@ def kernel_ms(t: Timings) -> tuple[dict, float]:
 
 
 def read_chain(plan: Plan) -> tuple[list, list]:
-    """Every level of the colour chain (h, w, 4) and of the spread chain (h, w): for tests
-    and inspection."""
+    """Every level of the colour chain (h, w, 4) and of the spread chain (h, w; None for the
+    levels a plan does not keep): for tests and inspection."""
     total = int(plan.lv[-1, 0] + plan.lv[-1, 1] * plan.lv[-1, 2])
     c = np.empty((total, 4), np.float32)
-    s = np.empty(total, np.float32)
+    s = np.empty(min(total, plan.spread.size // 4), np.float32)     # the source collapse: level 0 at most
     cl, q = plan.rt.cl, plan.rt.queue
     cl.enqueue_copy(q, c, plan.chain)
     cl.enqueue_copy(q, s, plan.spread)
@@ -1110,7 +1110,7 @@ def read_chain(plan: Plan) -> tuple[list, list]:
     cols, spreads = [], []
     for o, w, h, _ in plan.lv:
         cols.append(c[o:o + w * h].reshape(h, w, 4))
-        spreads.append(s[o:o + w * h].reshape(h, w))
+        spreads.append(s[o:o + w * h].reshape(h, w) if o + w * h <= s.size else None)
     return cols, spreads
 
 
