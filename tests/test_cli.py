@@ -336,13 +336,18 @@ def test_output_targets_refused_or_written_whole(rgbz, tmp_path, monkeypatch):
     assert set(tmp_path.iterdir()) == before
 
 
-def test_frame_larger_than_available_memory_is_refused_from_its_header(rgbz, tmp_path, monkeypatch):
-    import collections
-
-    import psutil
+def test_frame_larger_than_limits_memory_is_refused_from_its_header(rgbz, tmp_path, monkeypatch):
+    from fogcli import memory
 
     p, rgb, z = rgbz
-    vm = collections.namedtuple("vm", "available")
-    monkeypatch.setattr(psutil, "virtual_memory", lambda: vm(150e6))
-    assert_one_line_error(*run("apply", p, "-o", tmp_path / "o.exr")[:2], "GiB is available")
-    assert sorted(f.name for f in tmp_path.iterdir()) == ["in.exr"]
+    monkeypatch.setattr(memory, "available_bytes", lambda: 100_000)     # auto: 60 % of it
+    assert_one_line_error(*run("apply", p, "-o", tmp_path / "o.exr")[:2],
+                          "more than limits.memory allows (0.00 GiB: auto, 60% of the memory available)")
+    monkeypatch.setattr(memory, "available_bytes", lambda: 2**40)
+    big = tmp_path / "big.exr"          # 600 x 400: some 30 MB
+    write_img(big, np.ones((400, 600, 4), np.float32), ["R", "G", "B", "Z"])
+    assert_one_line_error(*run("apply", big, "-o", tmp_path / "o.exr", "--set", "limits.memory=10MB")[:2],
+                          "big.exr: 600x400 needs about 0.03 GiB of memory, more than limits.memory allows (0.01 GiB)")
+    assert sorted(f.name for f in tmp_path.iterdir()) == ["big.exr", "in.exr"]
+    code, _, _ = run("apply", p, "-o", tmp_path / "o.exr", "--set", "limits.memory=50%")
+    assert code == 0

@@ -390,11 +390,51 @@ class Output(_Model):
         "auto", description="EXR compression: auto (the input's; zip otherwise); pxr24, b44, dwaa, dwab are lossy")
 
 
+_SIZE_UNITS = {"": 1, "b": 1, "k": 1e3, "kb": 1e3, "kib": 2**10, "m": 1e6, "mb": 1e6, "mib": 2**20,
+               "g": 1e9, "gb": 1e9, "gib": 2**30, "t": 1e12, "tb": 1e12, "tib": 2**40}
+
+
+def _memory_size(v):
+    """auto, a share of the memory available (60%), or a size: bytes, 8GB, 512 MiB, 1.5G."""
+    if v == "auto" or isinstance(v, str) and v.strip().endswith("%"):
+        text = v.strip()
+        if text != "auto":
+            try:
+                share = float(text[:-1])
+            except ValueError:
+                share = -1.0
+            if not 0 < share <= 100:
+                raise ValueError(f"expected auto, a share of the available memory (1% to 100%) or a size "
+                                 f"(8GiB, 512MB, bytes), got {v!r}")
+        return text
+    if isinstance(v, (int, float)) and not isinstance(v, bool):
+        n = float(v)
+    else:
+        import re
+
+        m = re.fullmatch(r"\s*(\d+(?:\.\d*)?)\s*([a-zA-Z]*)\s*", str(v))
+        if not m or m.group(2).lower() not in _SIZE_UNITS:
+            raise ValueError(f"expected auto, a share of the available memory (60%) or a size (8GiB, 512MB, "
+                             f"bytes), got {v!r}")
+        n = float(m.group(1)) * _SIZE_UNITS[m.group(2).lower()]
+    if not 2**20 <= n <= 2**60:
+        raise ValueError(f"expected a size between 1 MiB and 1 EiB, got {v!r}")
+    return int(n)
+
+
+class Limits(_Model):
+    memory: Annotated[Union[int, str], BeforeValidator(_memory_size)] = Field(
+        "auto", description="most memory one frame may need: an image whose estimate (from its header) is larger is "
+        "refused before it is read. auto: 60% of the memory available (MemAvailable, and below a cgroup's limit); "
+        "a share of it (80%); or a size (8GiB, 512MB, bytes)")
+
+
 class Config(_Model):
     medium: Medium = Medium()
     camera: Camera = Camera()
     render: Render = Render()
     output: Output = Output()
+    limits: Limits = Limits()
     lights: list[Light] = Field([], description="lights in the medium (point, spot, directional)")
 
     @model_validator(mode="after")
@@ -484,7 +524,7 @@ def resolved_data(cfg: Config) -> dict:
 def problems_of(data: dict, locs: dict) -> tuple[Config | None, list[str]]:
     """(config, []) or (None, every problem as `file:line: key: message`, sorted by line)."""
     if not isinstance(data, dict):
-        return None, ["expected a mapping of sections (medium, camera, render, output)"]
+        return None, ["expected a mapping of sections (medium, camera, render, output, lights, limits)"]
     try:
         return Config.model_validate(_unset_nulls(data)), []
     except ValidationError as exc:

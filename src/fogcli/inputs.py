@@ -74,26 +74,11 @@ def check_regular(path: Path, what: str = "an image file") -> None:
 MAX_PIXELS = 2**31 // 16
 
 
-# Peak memory of one frame, host and (PoCL) device buffers together: 357 MB at 1 MPx, 915 MB
-# at 4.2 MPx (an RGBAZ half EXR, default config, measured with /usr/bin/time -v).
-BYTES_BASE, BYTES_PER_PIXEL = 200e6, 180.0
-
-
-def _check_memory(path: Path, pixels: int) -> None:
-    """Refuse a frame that cannot fit in the memory available now, before any work,
-    instead of being killed by the OS halfway."""
-    try:
-        import psutil
-    except ImportError:        # pragma: no cover - psutil comes with dask.distributed
-        return
-    need, have = BYTES_BASE + BYTES_PER_PIXEL * pixels, psutil.virtual_memory().available
-    if need > have:
-        raise UserError(f"{path}: {pixels / 1e6:.0f} MPx needs about {need / 2**30:.1f} GiB of memory, "
-                        f"{have / 2**30:.1f} GiB is available")
-
-
-def _check_size(path: Path, inp) -> None:
-    i = 0
+def _check_size(path: Path, inp, admit=None) -> None:
+    """Every part within fogcli's limits; admit(path, width, height, channels, bytes a
+    sample) refuses the largest part when the frame would need more memory than it may have
+    (memory.admit), all before a pixel is read."""
+    i, largest = 0, None
     while inp.seek_subimage(i, 0):
         s = inp.spec()
         if s.width <= 0 or s.height <= 0 or s.nchannels <= 0:
@@ -101,20 +86,27 @@ def _check_size(path: Path, inp) -> None:
         if s.width * s.height > MAX_PIXELS or s.width * s.height * s.nchannels > 8 * MAX_PIXELS:
             raise UserError(f"{path}: {s.width}x{s.height} with {s.nchannels} channels is beyond fogcli's limit "
                             f"of {MAX_PIXELS / 1e6:.0f} MPx (a 2 GiB float4 device buffer) and {8 * MAX_PIXELS / 1e6:.0f} M samples")
-        _check_memory(path, s.width * s.height)
+        size = (s.width * s.height * s.nchannels, s.width, s.height, s.nchannels, 2 if str(s.format) == "half" else 4)
+        largest = max(largest or size, size)
         i += 1
     inp.seek_subimage(0, 0)
     inp.geterror()
+    if admit is not None and largest is not None:
+        admit(str(path), *largest[1:])
 
 
-def _open(path: Path):
+def _open(path: Path, admit=None):
     oiio = _oiio()
     check_regular(path)
     inp = oiio.ImageInput.open(str(path))
     if inp is None:
         msg = oiio.geterror().strip().splitlines()
         raise UserError(f"{path}: cannot read image ({msg[0] if msg else 'unknown format'})")
-    _check_size(path, inp)
+    try:
+        _check_size(path, inp, admit)
+    except BaseException:
+        inp.close()
+        raise
     return inp
 
 
@@ -264,15 +256,17 @@ def _decoding(fn):
 
 
 @_decoding
-def read_image(path: str | Path, layer: str | None = None, view: str | None = None) -> Frame:
+def read_image(path: str | Path, layer: str | None = None, view: str | None = None, admit=None) -> Frame:
+    """admit: called with the path, width, height, channels and bytes a sample from the
+    header, before any pixel is read (memory.admit: refuses what would not fit)."""
     path = Path(path)
     if path.suffix.lower() in (".npy",):
         raise UserError(f"{path}: an image is expected here (EXR, TIFF, PNG, JPEG, HDR, RAW), not NPY")
     if path.suffix.lower() in RAW_EXT:
         if layer or view:
             raise UserError(f"{path}: --layer / --view apply to EXR files, not camera RAW")
-        return read_raw(path)
-    inp = _open(path)
+        return read_raw(path, admit)
+    inp = _open(path, admit)
     parts = _parts(inp)
     is_exr = inp.format_name() == "openexr"
     if (layer or view) and not is_exr:
@@ -372,7 +366,7 @@ def read_image(path: str | Path, layer: str | None = None, view: str | None = No
 
 
 @_decoding
-def read_raw(path: Path) -> Frame:
+def read_raw(path: Path, admit=None) -> Frame:
     """Camera RAW through rawpy/LibRaw, kept linear in light: LibRaw's AHD demosaic, the
     camera's white balance, no auto-brightening, gamma 1, 16 bit, sRGB primaries, scaled to
     [0, 1] of the white level (no highlight reconstruction beyond it)."""
@@ -381,8 +375,12 @@ def read_raw(path: Path) -> Frame:
     check_regular(path)
     try:
         with rawpy.imread(str(path)) as raw:
+            if admit is not None:       # 16-bit RGB, then float
+                admit(str(path), raw.sizes.width, raw.sizes.height, 3, 2)
             px = raw.postprocess(use_camera_wb=True, no_auto_bright=True, gamma=(1, 1),
                                  output_bps=16, output_color=rawpy.ColorSpace.sRGB)
+    except UserError:
+        raise
     except (rawpy.LibRawError, OSError, ValueError) as exc:
         raise UserError(f"{path}: cannot read camera RAW ({exc.__class__.__name__}: {exc})") from None
     rgb = np.ascontiguousarray(px.astype(np.float32) / 65535.0)

@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 
 from . import depth as depth_mod
-from . import inputs, outputs
+from . import inputs, memory, outputs
 from .config import Config
 from .errors import UserError
 from .media import hidden_warning, mean_luminance
@@ -91,7 +91,8 @@ def load(job: Job, cfg: Config, aovs=()) -> Staged:
         raise UserError(f"--aov needs an .exr output, got {out_path.name}")
 
     t0 = time.perf_counter()
-    frame = inputs.read_image(src, job.layer, job.view)
+    frame = inputs.read_image(src, job.layer, job.view,
+                              admit=lambda *size: memory.admit(*size, cfg=cfg, aovs=aovs))
     if job.depth:
         raw, dsrc = inputs.read_depth(job.depth), job.depth
     elif frame.depth is not None:
