@@ -71,6 +71,59 @@ def inputs():
     yield "alpha", rgb * alpha[:, :, None], z, alpha
 
 
+def files(tmp: Path):
+    """Files as users bring them, through `fogcli apply`'s own path (reading, the upload,
+    the output with what it keeps): (name, input, extra args)."""
+    import OpenImageIO as oiio
+
+    from fogcli.scenes import scene
+
+    def exr(path, data, names, fmt):
+        spec = oiio.ImageSpec(data.shape[1], data.shape[0], data.shape[2], fmt)
+        spec.channelnames = tuple(names)
+        spec.attribute("compression", "zip")
+        out = oiio.ImageOutput.create(str(path))
+        assert out.open(str(path), spec) and out.write_image(np.ascontiguousarray(data, np.float32))
+        out.close()
+
+    rgb, z, _ = scene(301, 187, seed=3)
+    exr(tmp / "rgbz_half.exr", np.dstack([rgb, z]), ["R", "G", "B", "Z"], "half")
+    yield "rgbz_half", tmp / "rgbz_half.exr", [], ".exr"
+    a = np.clip(np.linspace(-0.3, 1.3, 301, dtype=np.float32)[None, :].repeat(187, 0), 0, 1)
+    exr(tmp / "rgbaz_float.exr", np.dstack([rgb * a[:, :, None], a, z]), ["R", "G", "B", "A", "Z"], "float")
+    yield "rgbaz_float", tmp / "rgbaz_float.exr", [], ".exr"
+    exr(tmp / "bgrz.exr", np.dstack([z, rgb[:, :, 2], rgb[:, :, 1], rgb[:, :, 0]]), ["Z", "B", "G", "R"], "half")
+    yield "bgrz", tmp / "bgrz.exr", [], ".exr"
+    yield "rgbz_png", tmp / "rgbz_half.exr", [], ".png"
+    holes = z.copy()
+    holes[40:60, 100:140] = np.nan
+    exr(tmp / "holes.exr", np.dstack([rgb, holes]), ["R", "G", "B", "Z"], "half")
+    yield "holes", tmp / "holes.exr", [], ".exr"
+    yield "lamps", tmp / "rgbz_half.exr", ["lights=[{type: auto}]"], ".exr"
+
+
+def run_files() -> dict:
+    import tempfile
+
+    import OpenImageIO as oiio
+
+    from fogcli.job import Job, run_job
+    from fogcli.media import assemble
+
+    out = {}
+    with tempfile.TemporaryDirectory() as tmp:
+        tmp = Path(tmp)
+        for name, src, sets, ext in files(tmp):
+            dst = tmp / f"out_{name}{ext}"
+            run_job(Job(str(src), str(dst)), assemble("fog", None, sets))
+            inp = oiio.ImageInput.open(str(dst))
+            px = inp.read_image(0, 0, 0, inp.spec().nchannels, "float")
+            names = ",".join(inp.spec().channelnames)
+            inp.close()
+            out[f"file/{name}"] = f"{digest(px)} {names}"
+    return out
+
+
 def run() -> dict:
     from fogcli.api import apply, make_config
 
@@ -102,7 +155,7 @@ def main() -> int:
         print(f"{len(a.keys() & b.keys()) - len([k for k in bad if k in a and k in b])} of "
               f"{len(a.keys() | b.keys())} identical")
         return 1 if bad else 0
-    got = run()
+    got = {**run(), **run_files()}
     Path(args.files[0]).write_text(json.dumps(got, indent=1, sort_keys=True) + "\n")
     print(f"{len(got)} outputs hashed into {args.files[0]}")
     return 0

@@ -1,6 +1,7 @@
-"""pixels.py against numpy, bit for bit: half widening (NaN, inf, subnormals, -0), channel
-picks of every layout a frame comes in, planes, and the RGBA packing into a foreign
-buffer (the mapped device image)."""
+"""pixels.py against numpy's plain per-channel expressions, bit for bit: half widening (NaN,
+inf, subnormals, -0), channel picks of every layout a frame comes in (runs and single
+channels), planes, views, the RGBA packing into a foreign buffer (the mapped device image)
+from float32 and from half columns, and the radiance check."""
 import numpy as np
 import pytest
 
@@ -77,23 +78,42 @@ def test_gather_matches_numpy(dtype):
 
 @pytest.mark.parametrize("dtype", [np.float16, np.float32, np.float64])
 def test_gather_of_row_strips_as_exr_write_passes_them(dtype):
-    """The strips of a write: rows r0:r1 of the RGB view of an RGBA (the block it is the first
-    channels of, read in place), of a plane, of a float64 strip of the input's own channels."""
+    """The strips of a write: rows r0:r1 of the RGB view of an RGBA (the mapped result), of a
+    plane, of a float64 strip of the input's own channels; runs of channels (R, G, B of the
+    result) move together."""
     rgba = _frame(40, 33, 4, np.float32, seed=8) * 1e3
     own = _frame(40, 33, 6, np.float64, seed=9)
     alpha = _frame(40, 33, 1, np.float32, seed=10)[:, :, 0]
     rgb = rgba[:, :, :3]
     for r0, r1 in ((0, 16), (16, 32), (32, 40), (5, 6)):
-        block = pixels._whole_pixels(rgb[r0:r1])
-        assert block is not None and np.shares_memory(block, rgba)
-        _same(block, rgba[r0:r1])
-        picks = [(own[r0:r1], 0), (rgb[r0:r1], 2), (rgb[r0:r1], 0), (alpha[r0:r1], 0), (own[r0:r1], 5)]
+        picks = [(own[r0:r1], 0), (rgb[r0:r1], 2), (rgb[r0:r1], 0), (rgb[r0:r1], 1), (rgb[r0:r1], 2),
+                 (alpha[r0:r1], 0), (own[r0:r1], 4), (own[r0:r1], 5)]
         want = np.empty((r1 - r0, 33, len(picks)), dtype)
         with np.errstate(over="ignore"):
             for j, (a, c) in enumerate(picks):
                 want[:, :, j] = a[:, :, c] if a.ndim == 3 else a
         _same(pixels.gather(picks, dtype), want)
-    assert pixels._whole_pixels(rgba[:, ::2, :3]) is None          # not whole pixels: copied instead
-    assert pixels._whole_pixels(rgba[:, :, 1:]) is None
     with pytest.raises(IndexError):
         pixels.gather([(rgb, 3)], dtype)                            # the hidden alpha is not a channel of rgb
+
+
+def test_pack_rgba_from_half_columns_and_the_radiance_check():
+    from fogcli.errors import UserError
+
+    px = _frame(19, 23, 4, np.float16, seed=11)          # R, G, B, Z as a half EXR holds them
+    px[0, :2, :] = 1.0                                  # its specials in the colour columns: away
+    px.reshape(-1, 4)[:, :3] = np.nan_to_num(px.reshape(-1, 4)[:, :3], nan=0.5, posinf=2.0, neginf=-2.0)
+    view = pixels.columns(px, [0, 1, 2])
+    assert np.shares_memory(view, px)                   # a run: no copy
+    dst = np.zeros((19, 23, 4), np.float32)
+    pixels.pack_rgba(dst, view, None)
+    _same(dst, np.dstack([px[:, :, :3].astype(np.float32), np.ones((19, 23), np.float32)]))
+    pixels.check_radiance(dst, "colour")                # finite: passes
+    assert not np.shares_memory(pixels.columns(px, [2, 1, 0]), px)
+    dst[3, 4, 1] = np.inf
+    dst[5, 6, 0] = np.nan
+    with pytest.raises(UserError, match="colour: 2 pixel\\(s\\) hold NaN or infinite colour values"):
+        pixels.check_radiance(dst, "colour")
+    dst[3, 4, 1], dst[5, 6, 0] = 1e21, 0.0
+    with pytest.raises(UserError, match="colour values up to 1e\\+21"):
+        pixels.check_radiance(dst, "colour")

@@ -41,7 +41,9 @@ def read_image(path: str | Path, layer: str | None = None, view: str | None = No
     .depth (an embedded Z channel, raw) and what an EXR output keeps of it."""
     from .inputs import read_image as _read
 
-    return _read(path, layer, view)
+    frame = _read(path, layer, view)
+    frame.rgb      # made and checked now: a bad file is refused here, as documented
+    return frame
 
 
 def read_depth(path: str | Path) -> np.ndarray:
@@ -118,7 +120,7 @@ def apply(image: np.ndarray, depth: np.ndarray, config: Config | str | None = No
     Returns (h, w, 3) float32, or (h, w, 4) with the output alpha when the input had one;
     with return_aovs, (image, {aov channel: plane}).
     """
-    from .inputs import MAX_RADIANCE
+    from .pixels import MAX_RADIANCE
 
     if colour not in (None, "srgb", "linear"):
         raise UserError(f"colour: expected 'srgb', 'linear' or None, got {colour!r}")

@@ -107,7 +107,9 @@ class DepthReport:
 
 def _guide(rgb: np.ndarray) -> np.ndarray:
     """Colour in [0, 1] for the edge-aware filter: HDR scaled by its 99th percentile, then a
-    display-like curve so that dark regions keep their edges."""
+    display-like curve so that dark regions keep their edges. rgb: any float type (a half
+    EXR's columns as read), taken in float32."""
+    rgb = np.asarray(rgb, np.float32)
     scale = float(np.percentile(rgb[::4, ::4], 99)) or 1.0   # a 1/16 sample is plenty
     return np.ascontiguousarray(np.clip(rgb / scale, 0, 1) ** (1 / 2.2), dtype=np.float32)
 

@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import contextlib
 import functools
-import math
 import os
 import re
 import sys
@@ -20,9 +19,6 @@ from .colour import srgb_to_linear
 from .errors import UserError
 
 DEPTH_NAMES = ("z", "depth", "distance")
-# Brighter than any scene (the sun is about 1e9 cd/m^2): beyond it the kernels' float sums
-# over a frame could overflow.
-MAX_RADIANCE = 1e20
 
 
 def _oiio():
@@ -33,10 +29,12 @@ def _oiio():
 
 @dataclass
 class Frame:
-    """One input image as the pipeline needs it."""
+    """One input image as the pipeline needs it. A float EXR's colour stays in the pixels
+    as read (`source`, columns `rgb_cols`) until it is asked for (rgb) or uploaded
+    (colour()): the frame is not copied on the host on its way to the device."""
 
     path: Path
-    rgb: np.ndarray                 # (h, w, 3) float32, scene-linear
+    _rgb: np.ndarray | None         # (h, w, 3) float32, scene-linear (the rgb property)
     alpha: np.ndarray | None        # (h, w) float32, untouched
     depth: np.ndarray | None        # (h, w) float32 raw values, embedded channel if any
     window: tuple = (0, 0)          # data window origin (x, y)
@@ -54,6 +52,35 @@ class Frame:
     # KEEP_CHANNELS channels): the EXR output copies them from here, not from a second decode
     pixels: np.ndarray | None = None
     kept_channels: tuple = ()
+    source: np.ndarray | None = None    # the part as read, while its colour is not made
+    rgb_cols: tuple = ()                # the columns of source that are R, G, B
+
+    @property
+    def rgb(self) -> np.ndarray:
+        """(h, w, 3) float32 scene-linear colour; a float EXR's is made (and checked) when
+        first asked for."""
+        if self._rgb is None and self.source is not None:
+            rgb = pixels.take(self.source, self.rgb_cols)
+            pixels.check_radiance(rgb, str(self.path))
+            self._rgb, self.source = rgb, None
+        return self._rgb
+
+    @rgb.setter
+    def rgb(self, value) -> None:
+        self._rgb, self.source = value, None
+
+    @property
+    def shape(self) -> tuple:
+        """(height, width)."""
+        return (self._rgb if self._rgb is not None else self.source).shape[:2]
+
+    def colour(self) -> np.ndarray:
+        """The colour as held, to be read once (an upload): rgb where it is made, else the
+        columns of the pixels as read (a view where they are a run; half or float; not
+        checked: pixels.check_radiance on what it is packed into)."""
+        if self._rgb is not None or self.source is None:
+            return self._rgb
+        return pixels.columns(self.source, self.rgb_cols)
 
 
 KEEP_CHANNELS = 8
@@ -284,17 +311,15 @@ def read_image(path: str | Path, layer: str | None = None, view: str | None = No
     colour_part = (by_name or with_rgb or chosen)[0]    # a depth-only part may come first
     sub, spec = colour_part[0], colour_part[1]
     formats = [str(t) for t in spec.channelformats] if len(spec.channelformats) else [str(spec.format)] * spec.nchannels
-    # an all-half part is read as it is stored: numpy widens it faster than the decoder does
+    # an all-half part is read as it is stored (half the bytes; only what is used is widened)
     whole = _read_pixels(inp, path, "half" if set(formats) == {"half"} else "float", sub)
-    px = pixels.widen(whole)
     names = list(spec.channelnames)
     keep = _view_channels(names, spec, view, path) if len(parts) == 1 else list(range(len(names)))
     sel_names = [names[i] for i in keep]
     if len(parts) == 1 and view:
         sel_names = [n[len(view) + 1:] if n.startswith(view + ".") else n for n in sel_names]
-    if keep != list(range(len(names))):
-        px = px[:, :, keep]
-    orig = [names[i] for i in keep]       # the file's names of the columns of px
+    cols = list(keep)                     # the columns of `whole` that the selected channels are
+    orig = [names[i] for i in keep]       # the file's names of the selected channels
     if layer and not by_name:
         # a channel layer (Blender ViewLayer.Combined, Nuke diffuse): its R, G, B, A
         pre = [n for n in {n.rsplit(".", 1)[0] for n in sel_names if "." in n}
@@ -306,7 +331,7 @@ def read_image(path: str | Path, layer: str | None = None, view: str | None = No
         lay = [i for i, n in enumerate(sel_names) if n.rsplit(".", 1)[0] == pre[0]]
         depth_cols = [i for i, n in enumerate(sel_names) if _is_depth_name(n)]
         pick = lay + [i for i in depth_cols if i not in lay]
-        px = px[:, :, pick]
+        cols = [cols[i] for i in pick]
         orig = [orig[i] for i in pick]
         sel_names = [sel_names[i].rsplit(".", 1)[-1] if i in lay else sel_names[i] for i in pick]
     attributes = [(a.name, a.type, a.value) for a in spec.extra_attribs]
@@ -314,7 +339,7 @@ def read_image(path: str | Path, layer: str | None = None, view: str | None = No
 
     rgb_idx, a_idx = _colour_channels(sel_names)
     depth_idx = next((i for i, n in enumerate(sel_names) if _is_depth_name(n) and i not in rgb_idx), None)
-    depth = pixels.plane(px, depth_idx) if depth_idx is not None else None
+    depth = pixels.plane(whole, cols[depth_idx]) if depth_idx is not None else None
     if depth is None and len(parts) > 1:
         # Nuke and others write the depth layer as a part of its own
         for i, ps, _, pv in chosen:
@@ -338,20 +363,16 @@ def read_image(path: str | Path, layer: str | None = None, view: str | None = No
         if a_idx is None and len(sel_names) in (2, 4) and depth_idx is None and len(colour) == len(sel_names):
             a_idx = len(sel_names) - 1      # grey + alpha, RGBA, by position when unnamed
             rgb_idx = [i if i != a_idx else rgb_idx[0] for i in rgb_idx]
-    rgb = _to_linear(pixels.take(px, rgb_idx), spec, fmt_name)
-    # max and min propagate NaN and keep inf: two passes without temporaries tell both
-    hi, lo = float(rgb.max(initial=0.0)), float(rgb.min(initial=0.0))
-    big = max(hi, -lo)
-    if not (math.isfinite(hi) and math.isfinite(lo)):
-        bad = int((~np.isfinite(rgb)).any(axis=2).sum())
-        raise UserError(f"{path}: {bad} pixel(s) hold NaN or infinite colour values")
-    if big > MAX_RADIANCE:
-        raise UserError(f"{path}: colour values up to {big:.3g}; scene-linear radiance above "
-                        f"{MAX_RADIANCE:.0e} is not supported (would overflow the float sums)")
+    rgb_cols = tuple(cols[i] for i in rgb_idx)
+    if _is_linear(spec, fmt_name):
+        rgb = None          # made when asked for (Frame.rgb), or read once by the upload
+    else:
+        rgb = _to_linear(pixels.take(whole, rgb_cols), spec, fmt_name)
+        pixels.check_radiance(rgb, str(path))
     alpha = None
     if a_idx is not None:
         # premultiplied coverage in [0, 1]; NaN (no coverage information) counts as opaque
-        alpha = pixels.plane(px, a_idx)
+        alpha = pixels.plane(whole, cols[a_idx])
         alpha = np.clip(np.nan_to_num(alpha, nan=1.0, posinf=1.0, neginf=0.0, copy=False), 0.0, 1.0, out=alpha)
     keep_all = is_exr and len(names) <= KEEP_CHANNELS and all(f in ("half", "float") for f in formats)
     replaced = {names.index(orig[i]) for i in rgb_idx} | ({names.index(orig[a_idx])} if a_idx is not None else set())
@@ -362,7 +383,8 @@ def read_image(path: str | Path, layer: str | None = None, view: str | None = No
                  part=sub, rgb_names=tuple(orig[i] for i in rgb_idx),
                  alpha_name=orig[a_idx] if a_idx is not None else None, view_prefix=prefix,
                  pixel_type=formats[names.index(orig[rgb_idx[0]])],
-                 pixels=np.ascontiguousarray(whole[:, :, list(kept)]) if keep_all else None, kept_channels=kept)
+                 pixels=np.ascontiguousarray(whole[:, :, list(kept)]) if keep_all else None, kept_channels=kept,
+                 source=whole if rgb is None else None, rgb_cols=rgb_cols)
 
 
 @_decoding

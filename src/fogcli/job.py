@@ -100,8 +100,8 @@ def load(job: Job, cfg: Config, aovs=()) -> Staged:
     else:
         raise UserError(f"{src}: no depth channel (Z, *.Z or *depth); pass --depth FILE")
     res.io_ms += (time.perf_counter() - t0) * 1e3
-    h, w = frame.rgb.shape[:2]
-    clean, rep = depth_mod.metric_depth(raw, frame.rgb, cfg.camera, str(dsrc), frame.alpha)
+    h, w = frame.shape
+    clean, rep = depth_mod.metric_depth(raw, frame.colour(), cfg.camera, str(dsrc), frame.alpha)
     res.warnings += rep.notes or []
     if rep.resampled_from:
         res.warnings.append(f"{dsrc}: depth {rep.resampled_from[0]}x{rep.resampled_from[1]} upsampled "
@@ -123,9 +123,12 @@ def compute(st: Staged, cfg: Config, aovs=(), device=None, timings: Timings | No
     result is the device's buffer until store() has written it (pipeline.run)."""
     notes: list = []
     frame, src = st.frame, st.job.input
-    l_in = mean_luminance(frame.rgb)
-    started = start(frame.rgb, st.depth, cfg, alpha=frame.alpha, aovs=aovs, device=device,
-                    timings=timings if timings is not None else Timings(), report=notes, lamps=st.lamps)
+    l_in = mean_luminance(frame.colour())
+    try:
+        started = start(frame.colour(), st.depth, cfg, alpha=frame.alpha, aovs=aovs, device=device,
+                        timings=timings if timings is not None else Timings(), report=notes, lamps=st.lamps)
+    except UserError as exc:        # the colour is checked as it is uploaded: name the file
+        raise UserError(str(exc).replace("colour: ", f"{src}: ", 1)) from None
     # uploaded: not read again but for the median depth of a warning (of a grid, the same)
     frame.rgb, grid, st.depth = None, np.array(depth_grid(st.depth)), None
     st.rgb, st.alpha, st.planes = finish(started, mapped)

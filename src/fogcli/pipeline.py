@@ -417,7 +417,10 @@ class Plan:
         t.add("upload", ev)
         ev.wait()
         pixels.pack_rgba(rgba, rgb, alpha)
-        t.add("upload", rgba.base.release(q))
+        try:       # here, where the colour is float32 and in one block (a half EXR's is not before)
+            pixels.check_radiance(rgba, "colour")
+        finally:
+            t.add("upload", rgba.base.release(q))
         del rgba
         t.add("upload", cl.enqueue_copy(q, self.depth, np.ascontiguousarray(depth, np.float32)))
 
@@ -1010,7 +1013,7 @@ def start(rgb: np.ndarray, depth: np.ndarray, cfg: Config, alpha=None, aovs=(), 
 
         found, lamp_mask, notes = [], None, []
         for spec in [x for x in cfg.lights if x.type == "auto"]:
-            got, mask, more = detect_lamps(rgb, depth, cfg, spec)
+            got, mask, more = detect_lamps(np.asarray(rgb, np.float32), depth, cfg, spec)
             found += got
             notes += more
             lamp_mask = mask if lamp_mask is None else (lamp_mask | mask)
@@ -1028,7 +1031,7 @@ def start(rgb: np.ndarray, depth: np.ndarray, cfg: Config, alpha=None, aovs=(), 
     if cfg.medium.ambient == "auto":
         from .ambient import estimate
 
-        la = estimate(rgb, depth, cfg.camera.max_depth)
+        la = estimate(np.asarray(rgb, np.float32), depth, cfg.camera.max_depth)
         cfg = cfg.model_copy(update={"medium": cfg.medium.model_copy(update={"ambient": la})})
     t = timings if timings is not None else Timings()
     rt = get_runtime(device)
