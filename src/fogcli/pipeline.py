@@ -46,10 +46,16 @@ class Timings:
         """One event, or the list of a split launch (Runtime.launch2d / launch1d)."""
         self.stages.setdefault(stage, []).extend(event if isinstance(event, list) else [event])
 
+    def add_copy(self, stage: str, event) -> None:
+        """A copy from host memory: waited for and kept as its time. The event itself would
+        keep the host array alive until the end of the frame (pyopencl's NannyEvent)."""
+        event.wait()
+        self.stages.setdefault(stage, []).append((event.profile.end - event.profile.start) * 1e-6)
+
     def resolve(self) -> dict[str, float]:
         out = {}
         for stage, events in self.stages.items():
-            out[stage] = sum((e.profile.end - e.profile.start) for e in events) * 1e-6
+            out[stage] = sum(e if isinstance(e, float) else (e.profile.end - e.profile.start) * 1e-6 for e in events)
         return out
 
 
@@ -404,8 +410,8 @@ class Plan:
     # -- stages --------------------------------------------------------------------
     def upload(self, rgba: np.ndarray, depth: np.ndarray, t: Timings) -> None:
         cl = self.rt.cl
-        t.add("upload", cl.enqueue_copy(self.rt.queue, self.image, np.ascontiguousarray(rgba, np.float32)))
-        t.add("upload", cl.enqueue_copy(self.rt.queue, self.depth, np.ascontiguousarray(depth, np.float32)))
+        t.add_copy("upload", cl.enqueue_copy(self.rt.queue, self.image, np.ascontiguousarray(rgba, np.float32)))
+        t.add_copy("upload", cl.enqueue_copy(self.rt.queue, self.depth, np.ascontiguousarray(depth, np.float32)))
 
     def upload_rgb(self, rgb: np.ndarray, alpha, depth: np.ndarray, t: Timings) -> None:
         """The frame's RGBA assembled straight in the image buffer, mapped (on a CPU device
@@ -422,7 +428,7 @@ class Plan:
         finally:
             t.add("upload", rgba.base.release(q))
         del rgba
-        t.add("upload", cl.enqueue_copy(q, self.depth, np.ascontiguousarray(depth, np.float32)))
+        t.add_copy("upload", cl.enqueue_copy(q, self.depth, np.ascontiguousarray(depth, np.float32)))
 
     def optical_depth(self, t: Timings, depth=None, out=None) -> None:
         """P of the non-homogeneous primitives, summed into the spread buffer (level 0),
