@@ -1,17 +1,23 @@
-"""End to end (issue 12): `fogcli apply` of a 2 MPx EXR with an embedded Z, as a user runs
-it (a new process by itself; and the first, second and later runs with the server that
-the first one starts; kernel caches warm), against
-OpenImageIO's own write + read of the same file in the same run. Per EXR compression (the
-output follows the input's), with the stage times fogcli reports (`--timings`). Writes its
-block of docs/performance.md.
+"""Start-up and memory (issue 37): each command a process of its own, as a user runs it.
 
-    python benchmarks/end_to_end.py [--rounds 3]        # about 4 minutes
+- `fogcli --help`, `check`, `media`, `config --show`: wall time of a new process, and what
+  Python imports for `check` and `apply` (`python -X importtime`, the largest);
+- `fogcli apply` of a 2 MPx RGB + Z EXR (zip) in a new process against OpenImageIO's own
+  write + read of that EXR (`oiiotool in.exr -o out.exr`, a new process too), alternated in
+  one run, and against OpenImageIO writing and reading it inside one Python process;
+- the apply's peak resident memory, and beyond the interpreter's baseline (the same command
+  on a 64 x 40 frame) in bytes a pixel at 2 and 32 MPx.
+
+Kernel caches warm (a first run fills them). Writes its block of docs/performance.md.
+
+    python benchmarks/end_to_end.py [--rounds 7] [--no-32]     # about 2 minutes
 """
 from __future__ import annotations
 
 import argparse
-import json
 import os
+import re
+import shutil
 import subprocess
 import sys
 import tempfile
@@ -21,218 +27,184 @@ from pathlib import Path
 import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
-sys.path[:0] = [str(ROOT / "src"), str(ROOT / "benchmarks"), str(ROOT / "tests")]
+sys.path[:0] = [str(ROOT / "src"), str(ROOT / "benchmarks")]
 
 from docblock import cpu_kind, cpu_name, markers, publish_performance  # noqa: E402
+from process_peak import run_measured  # noqa: E402
 
 BEGIN, END = markers(f"end-to-end-{cpu_kind()}")
-W, H = 1888, 1062     # 2.0 MPx
+W, H = 1888, 1062          # 2.0 MPx
+W32, H32 = 6928, 4618      # 32.0 MPx
+TARGETS = {"--help": 0.15, "check": 0.25, "ratio": 3.0, "rss": 350, "bpp": 100}
 
 
-def write_exr(path: Path, data: np.ndarray, names, compression: str, fmt: str = "half") -> None:
-    import OpenImageIO as oiio
-
-    spec = oiio.ImageSpec(data.shape[1], data.shape[0], data.shape[2], fmt)
-    spec.channelnames = tuple(names)
-    spec.attribute("compression", compression)
-    out = oiio.ImageOutput.create(str(path))
-    assert out.open(str(path), spec) and out.write_image(data), oiio.geterror()
-    out.close()
-
-
-def read_exr(path: Path) -> np.ndarray:
-    import OpenImageIO as oiio
-
-    inp = oiio.ImageInput.open(str(path))
-    px = inp.read_image("float")
-    inp.close()
-    return px
-
-
-def oiio_ms(src: Path, tmp: Path, compression: str, rounds: int) -> float:
-    """OpenImageIO writing the input's pixels to a new EXR and reading them back (best of)."""
-    px = read_exr(src)
-    best = 1e9
-    for _ in range(rounds):
-        t = time.perf_counter()
-        write_exr(tmp, px, ["R", "G", "B", "Z"], compression)
-        read_exr(tmp)
-        best = min(best, time.perf_counter() - t)
-    return best * 1e3
-
-
-def user_env(**extra) -> dict:
+def user_env() -> dict:
     """fogcli's source on the path, with Python's bytecode cache on as an installed fogcli
     has it (pip compiles it): with PYTHONDONTWRITEBYTECODE set, as some sandboxes and CI
-    images do, every process would compile fogcli's modules anew (~80 ms here)."""
-    env = dict(os.environ, PYTHONPATH=str(ROOT / "src"), **extra)
+    images do, every process would compile fogcli's modules anew."""
+    env = dict(os.environ, PYTHONPATH=str(ROOT / "src"))
     env.pop("PYTHONDONTWRITEBYTECODE", None)
     return env
 
 
-def fogcli_once(src: Path, out: Path, **env_extra) -> tuple[float, dict]:
-    """Wall ms of one `fogcli apply src -o out --timings` as a user runs it, and its timings."""
-    cmd = [sys.executable, "-m", "fogcli", "apply", str(src), "-o", str(out), "--timings"]
+FOGCLI = [sys.executable, "-m", "fogcli"]
+
+
+def write_exr(path: Path, w: int, h: int, compression: str = "zip") -> None:
+    """The harbour sample at w x h with 2 % grain (renders and photographs have it; without it
+    the synthetic frame compresses 50x and every file operation is unrealistically cheap),
+    half float R, G, B, Z, written in strips (a 32 MPx frame at once would double the memory)."""
+    import OpenImageIO as oiio
+
+    from fogcli.scenes import harbour_sample
+
+    spec = oiio.ImageSpec(w, h, 4, "half")
+    spec.channelnames = ("R", "G", "B", "Z")
+    spec.attribute("compression", compression)
+    out = oiio.ImageOutput.create(str(path))
+    assert out.open(str(path), spec), oiio.geterror()
+    rgb, z, _ = harbour_sample(w, h)
+    rng = np.random.default_rng(0)
+    for y0 in range(0, h, 512):
+        y1 = min(h, y0 + 512)
+        strip = rgb[y0:y1] * (1.0 + 0.02 * rng.standard_normal(rgb[y0:y1].shape, dtype=np.float32))
+        assert out.write_scanlines(y0, y1, 0, np.ascontiguousarray(np.dstack([strip, z[y0:y1]]), np.float32))
+    out.close()
+
+
+def wall(cmd: list) -> float:
     t = time.perf_counter()
-    r = subprocess.run(cmd, check=True, capture_output=True, text=True, env=user_env(**env_extra))
-    wall = time.perf_counter() - t
-    line = [x for x in r.stderr.splitlines() if x.startswith("{")]
-    return wall * 1e3, json.loads(line[-1]) if line else {}
+    subprocess.run(cmd, check=True, capture_output=True, env=user_env())
+    return time.perf_counter() - t
 
 
-def start_server(run_dir: Path, log: Path) -> subprocess.Popen:
-    """`fogcli serve` as a user starts it, in the benchmark's environment (tests/test_serve.py's)."""
-    from test_serve import start_server as start
-
-    return start(run_dir, log, idle=600, env=user_env(FOGCLI_RUN_DIR=str(run_dir)))
-
-
-STARTUP = """
-import time
-t0 = time.perf_counter()
-import numpy as np
-import fogcli.runtime as R
-from fogcli import apply
-from fogcli.api import make_config
-t1 = time.perf_counter()
-spent = [0.0]
-real = R.Runtime._build
-def timed(self, *a):
+OIIO_INPROCESS = """
+import sys, time, OpenImageIO as oiio
+src, dst = sys.argv[1:3]
+inp = oiio.ImageInput.open(src); spec = oiio.ImageSpec(inp.spec()); px = inp.read_image("float"); inp.close()
+best = 1e9
+for _ in range(int(sys.argv[3])):
     t = time.perf_counter()
-    try:
-        return real(self, *a)
-    finally:
-        spent[0] += time.perf_counter() - t
-R.Runtime._build = timed
-rgb = np.ones((48, 64, 3), np.float32)
-t2 = time.perf_counter()
-apply(rgb, np.full((48, 64), 10.0, np.float32), make_config("fog"))
-print((t1 - t0) * 1e3, spent[0] * 1e3, (time.perf_counter() - t2) * 1e3)
+    out = oiio.ImageOutput.create(dst); out.open(dst, spec); out.write_image(px); out.close()
+    i = oiio.ImageInput.open(dst); i.read_image("float"); i.close()
+    best = min(best, time.perf_counter() - t)
+print(best)
 """
 
 
-def startup_ms(cache: bool, rounds: int) -> tuple[float, float, float]:
-    """A new process: importing fogcli, building the default pipeline's programs, and the whole
-    first apply of a tiny frame (best of), with fogcli's binary cache on or off (PoCL's own
-    cache warm either way)."""
-    env = user_env(FOGCLI_KERNEL_CACHE="1" if cache else "0")
-    best = None
-    for _ in range(rounds + 1):     # the first run fills the caches
-        r = subprocess.run([sys.executable, "-c", STARTUP], check=True, capture_output=True, text=True, env=env)
-        v = tuple(float(x) for x in r.stdout.split())
-        best = v if best is None else tuple(min(a, b) for a, b in zip(best, v))
-    return best
+# what a command may import, and the heavy libraries it should import only when it needs them
+WATCHED = ("click", "yaml", "numpy", "pydantic", "fogcli.config", "fogcli.pipeline", "OpenImageIO", "pyopencl",
+           "cv2", "dask", "distributed", "rawpy", "tqdm")
 
 
-def stop_server(run_dir: Path) -> None:
-    """`fogcli serve --stop` for the server that a `fogcli apply` started in run_dir: back
-    once it has gone."""
-    subprocess.run([sys.executable, "-m", "fogcli", "serve", "--stop"], check=True, capture_output=True,
-                   env=user_env(FOGCLI_RUN_DIR=str(run_dir)))
-
-
-def server_rss_mb(run_dir: Path) -> float:
-    """Resident memory of the server whose pid its lock holds, MB."""
-    pid = int(next(run_dir.glob("serve-*.lock")).read_text().split()[0])
-    for ln in Path(f"/proc/{pid}/status").read_text().splitlines():
-        if ln.startswith("VmRSS:"):
-            return int(ln.split()[1]) / 1024
-    return float("nan")
-
-
-def auto_round(src: Path, out: Path, run_dir: Path) -> dict:
-    """As a user meets it with no server running: the first `fogcli apply` starts a server and
-    hands its own command to it; the second comes the moment the first ended, then a third.
-    Wall ms of each, and the server's resident MB at the end."""
-    env = dict(FOGCLI_RUN_DIR=str(run_dir), FOGCLI_AUTOSERVE="600")
-    got, served = {}, []
-    try:
-        for name in ("first", "second", "third"):
-            got[name], st = fogcli_once(src, out, **env)
-            served.append(bool(st.get("served")))
-        got["rss"] = server_rss_mb(run_dir)
-    finally:
-        stop_server(run_dir)
-    if not all(served):
-        logs = "".join(p.read_text() for p in run_dir.glob("serve-*.log"))
-        raise SystemExit(f"the started server did not take the commands: {logs}")
+def importtime(args: list) -> dict[str, float]:
+    """Cumulative ms of each WATCHED module a command imports (-X importtime; absent: not
+    imported), and the whole (`all`: the sum of the top-level imports)."""
+    r = subprocess.run([sys.executable, "-X", "importtime", "-m", "fogcli", *args], capture_output=True, text=True,
+                       env=user_env())
+    got: dict[str, float] = {"all": 0.0}
+    for ln in r.stderr.splitlines():
+        m = re.match(r"import time:\s+\d+ \|\s+(\d+) \|( *)(\S+)", ln)
+        if not m:
+            continue
+        ms, depth, name = int(m.group(1)) / 1e3, len(m.group(2)), m.group(3)
+        if depth <= 1:
+            got["all"] += ms
+        if name in WATCHED:
+            got[name] = max(got.get(name, 0.0), ms)
     return got
 
 
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--rounds", type=int, default=3)
+    ap.add_argument("--rounds", type=int, default=7)
+    ap.add_argument("--no-32", action="store_true", help="leave out the 32 MPx frame (a minute and 3 GB)")
     ap.add_argument("--out", default=str(ROOT / "docs" / "performance.md"))
     args = ap.parse_args()
-    from fogcli.scenes import harbour_sample
     from fogcli.runtime import get_runtime
 
     cpu = get_runtime(None).info.label()
-    rgb, z, _ = harbour_sample(W, H)
-    # grain of 2 % as renders and photographs have it: without it the synthetic sample
-    # compresses 50x and every file operation is unrealistically cheap
-    rng = np.random.default_rng(0)
-    rgb = rgb * (1.0 + 0.02 * rng.standard_normal(rgb.shape, dtype=np.float32))
-    rows = []
+    oiiotool = shutil.which("oiiotool", path=os.path.dirname(sys.executable)) or shutil.which("oiiotool")
+    if oiiotool is None:
+        raise SystemExit("oiiotool (OpenImageIO's command line tool, installed with its wheel) not found")
+    cfg_file = ROOT / "configs" / "fog.yaml"
+    small = {"--help": ["--help"], "check": ["check", str(cfg_file)], "media": ["media"],
+             "config --show": ["config", "--show", "--medium", "sea"]}
     with tempfile.TemporaryDirectory() as tmp:
-        for comp in ("zip", "zips", "piz", "none"):
-            src = Path(tmp) / f"in_{comp}.exr"
-            write_exr(src, np.dstack([rgb, z]).astype(np.float32), ["R", "G", "B", "Z"], comp)
-            out = Path(tmp) / f"out_{comp}.exr"
-            alone = dict(FOGCLI_SERVER="0")
-            fogcli_once(src, out, **alone)          # the first run: caches
-            o, f, st, fp = 1e9, 1e9, {}, 1e9
-            auto = []
-            for i in range(args.rounds):             # interleaved: the machine's speed drifts
-                o = min(o, oiio_ms(src, Path(tmp) / "oiio.exr", comp, 1))
-                fi, sti = fogcli_once(src, out, **alone)
-                f, st = (fi, sti) if fi < f else (f, st)
-                fp = min(fp, fogcli_once(src, out, FOGCLI_PREFAULT="0", **alone)[0])
-                auto.append(auto_round(src, out, Path(tmp) / f"run_{comp}_{i}"))
+        tmp = Path(tmp)
+        src, tiny = tmp / "in.exr", tmp / "tiny.exr"
+        write_exr(src, W, H)
+        write_exr(tiny, 64, 40)
+        apply = [*FOGCLI, "apply", str(src), "-o", str(tmp / "out.exr")]
+        oiio_cmd = [oiiotool, str(src), "-o", str(tmp / "oiio.exr")]
+        wall(apply)                   # caches (PoCL's, fogcli's binaries, Python's bytecode)
+        starts: dict = {k: [] for k in small}
+        fog, tool = [], []
+        for _ in range(args.rounds):  # alternated: the machine's speed drifts
+            for name, a in small.items():
+                starts[name].append(wall([*FOGCLI, *a]))
+            tool.append(wall(oiio_cmd))
+            fog.append(wall(apply))
+        r = subprocess.run([sys.executable, "-c", OIIO_INPROCESS, str(src), str(tmp / "oiio2.exr"), str(args.rounds)],
+                           capture_output=True, text=True, check=True)
+        inproc = float(r.stdout.strip())
+        imports = {name: importtime(a) for name, a in (("check", small["check"]),
+                                                        ("apply", ["apply", str(src), "-o", str(tmp / "o2.exr")]))}
+        peaks = {}
+        for name, path in (("baseline", tiny), ("2 MPx", src)):
+            peaks[name] = min(run_measured([*FOGCLI, "apply", str(path), "-o", str(tmp / f"m_{name[:4]}.exr")],
+                                           user_env())["maxrss"] for _ in range(3))
+        if not args.no_32:
+            big = tmp / "big.exr"
+            write_exr(big, W32, H32)
+            peaks["32 MPx"] = run_measured([*FOGCLI, "apply", str(big), "-o", str(tmp / "big_out.exr")],
+                                           user_env())["maxrss"]
+        mb = src.stat().st_size / 1e6
 
-            def best(k):
-                return min(r[k] for r in auto)
+    def best(v):
+        return min(v) * 1e3
 
-            row = dict(comp=comp, mb=src.stat().st_size / 1e6, oiio=o, alone=f, stages=st, noprefault=fp,
-                       first=best("first"), second=best("second"),
-                       second_median=float(np.median([r["second"] for r in auto])), served=best("third"),
-                       rss=max(r["rss"] for r in auto))
-            rows.append(row)
-            print(comp, f"{o:.0f} ms oiio, by itself {f:.0f} ms = {f / o:.2f}x (FOGCLI_PREFAULT=0: {fp:.0f}); "
-                  f"first {row['first']:.0f} = {row['first'] / o:.2f}x, second {row['second']:.0f} = "
-                  f"{row['second'] / o:.2f}x (median {row['second_median']:.0f}), third {row['served']:.0f} = "
-                  f"{row['served'] / o:.2f}x, server {row['rss']:.0f} MB", st, flush=True)
-    keys = [k for k in ("kernel_ms", "io_ms", "total_ms") if k in rows[0]["stages"]]
-    start = {c: startup_ms(c, args.rounds) for c in (False, True)}
-    lines = [BEGIN, f"## End to end on {cpu_name()}", "",
-             f"`python benchmarks/end_to_end.py` on {cpu}, {os.cpu_count()} cores: `fogcli apply in.exr -o out.exr` "
-             f"of a {W}x{H} half-float EXR with R, G, B, Z (the harbour sample with 2 % grain, default fog), best of "
-             f"{args.rounds} rounds, kernel caches warm; against OpenImageIO writing the same pixels to an EXR of the "
-             "same compression and reading them back, in the same run (ratios are to that).", "",
-             "- `by itself`: a new process with FOGCLI_SERVER=0 (no server used or started); `without prefault`: "
-             "the same with FOGCLI_PREFAULT=0 (the heap the previous run needed is not touched ahead while Python "
-             "imports). The stage times are this run's.",
-             "- As a user meets it with no server running (docs/distributed.md): the `first` `fogcli apply` "
-             "starts a server and hands its own command to it; the `second` comes the moment the first ended "
-             "(median of the rounds in brackets), the `third` as every later one. `server MB`: the server's "
-             "resident memory at the end (largest of the rounds), which it holds until it stops.", "",
-             "| compression | file MB | OpenImageIO write + read ms | by itself ms | ratio | without prefault ms | "
-             "first ms | ratio | second ms | ratio | third ms | ratio | server MB | "
-             + " | ".join(f"{k} ms" for k in keys) + " |",
-             "|---|---|---|---|---|---|---|---|---|---|---|---|---|" + "---|" * len(keys)]
-    for r in rows:
-        o = r["oiio"]
-        lines.append(f"| {r['comp']} | {r['mb']:.1f} | {o:.0f} | {r['alone']:.0f} | {r['alone'] / o:.2f}x | "
-                     f"{r['noprefault']:.0f} | {r['first']:.0f} | {r['first'] / o:.2f}x | "
-                     f"{r['second']:.0f} ({r['second_median']:.0f}) | {r['second'] / o:.2f}x | "
-                     f"{r['served']:.0f} | {r['served'] / o:.2f}x | {r['rss']:.0f} | "
-                     + " | ".join(f"{r['stages'].get(k, 0):.0f}" for k in keys) + " |")
-    lines += ["", "Start-up of a new process (ms, best of the rounds): importing fogcli, then the first `apply` of a "
-              "64 x 48 frame, of which building the default pipeline's programs; PoCL's own cache warm.", "",
-              "| fogcli's binary cache | import | build programs | first apply (all) |", "|---|---|---|---|"]
-    for c in (False, True):
-        imp, build, first = start[c]
-        lines.append(f"| {'on (default)' if c else 'off (FOGCLI_KERNEL_CACHE=0)'} | {imp:.0f} | {build:.0f} | {first:.0f} |")
+    def med(v):
+        return float(np.median(v)) * 1e3
+
+    ratio, ratio_med = best(fog) / best(tool), float(np.median(np.array(fog) / np.array(tool)))
+    px = {"2 MPx": W * H, "32 MPx": W32 * H32}
+    lines = [BEGIN, f"## Start-up and memory on {cpu_name()}", "",
+             f"`python benchmarks/end_to_end.py --rounds {args.rounds}` on {cpu}, {os.cpu_count()} cores. Every command "
+             "is a new process, as a user runs it, with the kernel caches warm; best and median of the rounds, "
+             "the commands alternated in each round. Targets (issue 37) in brackets.", "",
+             "| command | best s | median s |", "|---|---|---|"]
+    for name, v in starts.items():
+        tgt = f" (<= {TARGETS[name]})" if name in TARGETS else ""
+        lines.append(f"| `fogcli {' '.join(small[name]).replace(str(cfg_file), 'configs/fog.yaml')}`{tgt} | "
+                     f"{best(v) / 1e3:.3f} | {med(v) / 1e3:.3f} |")
+    lines += ["", f"`fogcli apply in.exr -o out.exr` of a {W}x{H} half-float EXR with R, G, B, Z (zip, {mb:.1f} MB; the "
+              "harbour sample with 2 % grain, default fog) against OpenImageIO's own write + read of it "
+              "(`oiiotool in.exr -o out.exr`, a new process as well), alternated:", "",
+              "| | best ms | median ms |", "|---|---|---|",
+              f"| `fogcli apply` | {best(fog):.0f} | {med(fog):.0f} |",
+              f"| `oiiotool in.exr -o out.exr` | {best(tool):.0f} | {med(tool):.0f} |",
+              f"| ratio (<= {TARGETS['ratio']}x) | {ratio:.2f}x | {ratio_med:.2f}x (of the rounds' ratios) |",
+              f"| OpenImageIO's write + read inside one Python process | {inproc * 1e3:.0f} | |",
+              "", "Peak resident memory (`ru_maxrss` of the command's own process; bytes a pixel beyond the "
+              "interpreter's baseline, which is the same command on a 64 x 40 frame):", "",
+              "| frame | peak MB | beyond the baseline, bytes a pixel |", "|---|---|---|",
+              f"| 64 x 40 (the baseline) | {peaks['baseline'] / 2**20:.0f} | |"]
+    for name in ("2 MPx", "32 MPx"):
+        if name in peaks:
+            tgt = f" (<= {TARGETS['rss']} MB)" if name == "2 MPx" else ""
+            lines.append(f"| {name}{tgt} | {peaks[name] / 2**20:.0f} | "
+                         f"{(peaks[name] - peaks['baseline']) / px[name]:.1f} (<= {TARGETS['bpp']}) |")
+    lines += ["", "What Python imports (`python -X importtime -m fogcli ...`, one run): cumulative ms of each "
+              "library where a command imports it (nested imports inside it included; `-`: not imported), and "
+              "of all its imports:", "",
+              "| module | `fogcli check` ms | `fogcli apply` ms |", "|---|---|---|"]
+    for name in ("all", *WATCHED):
+        a, b = imports["check"].get(name), imports["apply"].get(name)
+        if a is None and b is None and name not in ("cv2", "dask"):
+            continue
+        lines.append(f"| {name if name != 'all' else 'all imports'} | {'-' if a is None else f'{a:.0f}'} | "
+                     f"{'-' if b is None else f'{b:.0f}'} |")
     lines.append(END)
     return publish_performance(lines, Path(args.out))
 

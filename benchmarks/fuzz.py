@@ -1775,7 +1775,6 @@ def run_case(case: Case, work: Path, timeout: float = TIMEOUT, keep: bool = Fals
     io = work / "_io"
     io.mkdir(exist_ok=True)
     env = {k: v for k, v in os.environ.items() if k not in ("FOGCLI_DEBUG", "FOGCLI_DEVICE", "PYTHONWARNINGS")}
-    env["FOGCLI_SERVER"] = "0"      # each case a process of its own: no server used or started
     env.update(case.env)
     err_path, out_path = io / f"{case.id}.err", io / f"{case.id}.out"
     t0 = time.perf_counter()

@@ -110,10 +110,10 @@ def stage_table(mpxs, reps):
 
 LAMP = "lights=[{type: point, position: [2, 3, -15], intensity: 400}]"    # also benchmarks/lights.py's
 
-# The scripts that write the other blocks of docs/performance.md, run by --all (host_copies.py
+# The scripts that write the other blocks of docs/performance.md, run by --all (enqueue_cost.py
 # and huge_image.py write docs/performance.md itself, whatever --out says)
 OTHERS = [("end_to_end.py", "--rounds", "7", "--out", "{out}"), ("throughput.py", "--rounds", "3", "--out", "{out}"),
-          ("pocl_vectorisation.py", "--doc", "{out}"), ("host_copies.py",), ("enqueue_cost.py",), ("huge_image.py",)]
+          ("pocl_vectorisation.py", "--doc", "{out}"), ("enqueue_cost.py",), ("huge_image.py",)]
 
 
 def light_stage(reps):

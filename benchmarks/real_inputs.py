@@ -22,7 +22,7 @@ sys.path[:0] = [str(ROOT / "src"), str(ROOT / "tests")]
 from fogcli.scenes import scene  # noqa: E402
 from test_cli import read, write_img  # noqa: E402
 
-ENV = dict(os.environ, PYTHONPATH=str(ROOT / "src"), FOGCLI_SERVER="0")     # each run a process of its own
+ENV = dict(os.environ, PYTHONPATH=str(ROOT / "src"))
 ROWS = []
 
 

@@ -1,8 +1,8 @@
 """Batch throughput (images/s) of `fogcli batch` on 1 MPx EXR frames with an embedded Z:
---jobs 1, --jobs 2, a 2-worker Dask LocalCluster, and --jobs 1 handed to a running
-`fogcli serve`, all in one run (the machine is noisy), against the ceiling that a frame's
-core time allows, measured in every round. Prints a table and writes its section of
-docs/performance.md.
+a folder with --jobs 1, the same frames as a jobs file (--jobs-file, one process), --jobs 2
+and a 2-worker Dask LocalCluster, all in one run (the machine is noisy), against the
+ceiling that a frame's core time allows, measured in every round. Prints a table and writes
+its section of docs/performance.md.
 
     python benchmarks/throughput.py [--frames 24] [--rounds 2]
 
@@ -41,26 +41,28 @@ def make_frames(folder: Path, n: int, w: int, h: int) -> None:
         write_img(folder / f"frame.{i:04d}.exr", np.dstack([rgb, z]), ["R", "G", "B", "Z"])
 
 
-def run_mode(src: Path, out: Path, extra: list[str], run_dir: Path | None = None, server_pid: int | None = None) -> dict:
-    env = dict(os.environ, PYTHONPATH=str(ROOT / "src"), FOGCLI_SERVER="0")
+def run_mode(src: Path, out: Path, extra: list[str]) -> dict:
+    env = dict(os.environ, PYTHONPATH=str(ROOT / "src"))
     env.pop("PYTHONDONTWRITEBYTECODE", None)    # as installed: fogcli's bytecode compiled once, not per worker
     if extra and extra[0] == "one-thread":         # PoCL and OpenImageIO on one thread per process
         extra = extra[1:]
         env.update(POCL_MAX_PTHREAD_COUNT="1", OPENIMAGEIO_THREADS="1")
-    served = bool(extra) and extra[0] == "served"
-    if served:
-        extra = extra[1:]
-        env.pop("FOGCLI_SERVER")
-        env["FOGCLI_RUN_DIR"] = str(run_dir)
     report = out.with_suffix(".json")
-    ru0, srv0 = resource.getrusage(resource.RUSAGE_CHILDREN), _cpu_of(server_pid)
+    if extra and extra[0] == "jobs-file":          # the same frames, a line each
+        jobs = out.with_suffix(".jsonl")
+        out.mkdir(parents=True, exist_ok=True)
+        jobs.write_text("".join(json.dumps({"input": str(f), "output": str(out / f.name)}) + "\n"
+                                for f in sorted(src.glob("frame.*.exr"))))
+        args = ["--jobs-file", str(jobs), *extra[1:]]
+    else:
+        args = [str(src), str(out), *extra]
+    ru0 = resource.getrusage(resource.RUSAGE_CHILDREN)
     t0 = time.perf_counter()
-    r = subprocess.run([sys.executable, "-m", "fogcli", "batch", str(src), str(out), "-q", "--report", str(report),
-                        *extra], capture_output=True, text=True, env=env)
+    r = subprocess.run([sys.executable, "-m", "fogcli", "batch", *args, "-q", "--report", str(report)],
+                       capture_output=True, text=True, env=env)
     wall = time.perf_counter() - t0
-    ru1, srv1 = resource.getrusage(resource.RUSAGE_CHILDREN), _cpu_of(server_pid)
-    # core seconds of the command: its process and workers (reaped children), and the server's if served
-    cpu = (ru1.ru_utime + ru1.ru_stime - ru0.ru_utime - ru0.ru_stime) + (srv1 - srv0 if served else 0.0)
+    ru1 = resource.getrusage(resource.RUSAGE_CHILDREN)
+    cpu = ru1.ru_utime + ru1.ru_stime - ru0.ru_utime - ru0.ru_stime     # the command and its workers
     if r.returncode != 0:
         raise SystemExit(f"batch {extra} failed: {r.stderr}")
     rep = json.loads(report.read_text())
@@ -71,30 +73,21 @@ def run_mode(src: Path, out: Path, extra: list[str], run_dir: Path | None = None
             "cpu_ms": cpu / done * 1e3, "busy": cpu / wall / (os.cpu_count() or 1)}
 
 
-def _cpu_of(pid: int | None) -> float:
-    """User + system seconds of a running process (/proc), 0 without one."""
-    if pid is None:
-        return 0.0
-    fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
-    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
-
-
 PROFILE_FRAMES = 6
 
 
 def profile(src: Path, single: bool) -> dict:
-    """Per-stage wall times (ms) of a frame in this process: the median over PROFILE_FRAMES
-    of the batch's frames, after one to warm up; with single=True PoCL and OpenImageIO run one
-    thread each, which makes the sum the core time. Medians over several frames, like the
-    batch's rates (an average over its frames): the best of each stage, as this took before,
-    summed stages that no one frame had together, and at a moment when the VM ran fast (363 ms
-    against a 535 ms median, same frame, same minute, on an AMD EPYC)."""
+    """Per-stage wall times (ms) of a frame in this process, through the stages a batch runs
+    (fogcli.job: load = read and depth, compute = upload, kernels, download; store = the EXR
+    write): the median over PROFILE_FRAMES of the batch's frames, after one to warm up; with
+    single=True PoCL and OpenImageIO run one thread each, which makes the sum the core time.
+    Medians over several frames, like the batch's rates (an average over its frames): the
+    best of each stage summed stages that no one frame had together, and at a moment when
+    the VM ran fast (363 ms against a 535 ms median, same frame, same minute, on an AMD EPYC)."""
     import OpenImageIO as oiio
 
-    from fogcli import depth as D
-    from fogcli import inputs, outputs
+    from fogcli.job import Job, compute, load, store
     from fogcli.media import assemble
-    from fogcli.pipeline import run
 
     if single:
         oiio.attribute("threads", 1)
@@ -105,15 +98,13 @@ def profile(src: Path, single: bool) -> dict:
     with tempfile.TemporaryDirectory() as tmp:
         for k, frame in enumerate(frames):
             t = [time.perf_counter()]
-            fr = inputs.read_image(frame)
+            st = load(Job(str(frame), str(Path(tmp) / "out.exr")), cfg)
             t.append(time.perf_counter())
-            d, _ = D.prepare(D.decode(fr.depth, cfg.camera, "z", fr.rgb.shape[1]), fr.rgb, "z")
+            st = compute(st, cfg)
             t.append(time.perf_counter())
-            out, alpha, planes = run(fr.rgb, d, cfg, alpha=fr.alpha)
+            store(st, cfg)
             t.append(time.perf_counter())
-            outputs.write(Path(tmp) / "out.exr", out, alpha, planes, fr)
-            t.append(time.perf_counter())
-            for name, a, b in zip(("read", "depth", "device", "write"), t, t[1:]):
+            for name, a, b in zip(("read and depth", "device", "write"), t, t[1:]):
                 if k:
                     times.setdefault(name, []).append((b - a) * 1e3)
     return {name: float(np.median(v)) for name, v in times.items()}
@@ -141,10 +132,10 @@ def main():
         print(json.dumps(profile(Path(args.profile), args.single)))
         return
     w, h = 1336, 748          # 1.0 MPx
-    modes = {"--jobs 1": ["--jobs", "1"], "--jobs 2": ["--jobs", "2"], "Dask LocalCluster, 2 workers": ["--scheduler", "local:2"],
+    modes = {"--jobs 1": ["--jobs", "1"], "--jobs-file (one process)": ["jobs-file"], "--jobs 2": ["--jobs", "2"],
+             "Dask LocalCluster, 2 workers": ["--scheduler", "local:2"],
              "--jobs 1, one thread per process": ["one-thread", "--jobs", "1"],
-             "--jobs 2, one thread per process": ["one-thread", "--jobs", "2"],
-             "--jobs 1, served (`fogcli serve`)": ["served"]}
+             "--jobs 2, one thread per process": ["one-thread", "--jobs", "2"]}
     best: dict[str, dict] = {}
     prof: dict[str, dict] = {}
     of: dict[str, list] = {}        # (whole, steady, cores busy) / the ceiling measured before it, per round
@@ -152,11 +143,7 @@ def main():
         src = Path(tmp) / "in"
         src.mkdir()
         make_frames(src, args.frames, w, h)
-        from end_to_end import start_server
-
-        run_dir, log = Path(tmp) / "run", Path(tmp) / "serve.log"
-        server = start_server(run_dir, log)
-        try:
+        if True:
             ncpu = os.cpu_count() or 1
             for k in range(args.rounds):               # modes interleaved, best of the rounds
                 this = {"all threads": profile_in_subprocess(src, False)}
@@ -166,20 +153,13 @@ def main():
                     one = profile_in_subprocess(src, True)
                     if "one thread" not in this or sum(one.values()) < sum(this["one thread"].values()):
                         this["one thread"] = one
-                    res = run_mode(src, Path(tmp) / f"out{k}_{i}", extra, run_dir, server.pid)
+                    res = run_mode(src, Path(tmp) / f"out{k}_{i}", extra)
                     ceil = ncpu / sum(one.values()) * 1e3
                     if name not in best or res["rate"] > best[name]["rate"]:
                         best[name] = res
                     of.setdefault(name, []).append((res["rate"] / ceil, res["steady"] / ceil, res["busy"]))
                 if not prof or sum(this["one thread"].values()) < sum(prof["one thread"].values()):
                     prof = this
-            served = best["--jobs 1, served (`fogcli serve`)"]["out"]
-            # the server logs at most 200 characters of a command line, then its exit code
-            if not [ln for ln in log.read_text().splitlines() if f"/{served} " in ln and ": exit 0" in ln]:
-                raise SystemExit(f"the served batch was not served: {log.read_text()}")
-        finally:
-            server.terminate()
-            server.wait(timeout=60)
     base = best["--jobs 1"]
     core, wall1 = sum(prof["one thread"].values()), sum(prof["all threads"].values())
     ceiling = ncpu / core * 1e3
@@ -208,19 +188,20 @@ def main():
               "OPENIMAGEIO_THREADS=1): they show how the worker processes themselves scale, "
               f"{best['--jobs 2, one thread per process']['rate'] / best['--jobs 1, one thread per process']['rate']:.2f}x "
               "for two, where the default `--jobs 1` already uses both cores."]
-    lines += ["", "`served`: the same command handed to a running `fogcli serve` (docs/distributed.md), which "
-              "saves the batch's start-up (imports, PoCL, programs, first buffers).",
-              "", "`core ms a frame`: the command's user + system time (its workers and, served, the server's) "
+    lines += ["", "`--jobs-file`: the same frames listed in a jobs file (docs/distributed.md), one process as "
+              "`--jobs 1`.",
+              "", "`core ms a frame`: the command's user + system time (its workers') "
               "over the frames; `cores busy`: that time over wall time x cores. Of the ceiling = cores busy x "
               "(the one-thread core time below / core ms a frame): what keeps a mode below the ceiling is idle "
               "cores, or frames that cost more core time in a batch (start-up, frames competing for caches and "
               "memory bandwidth) than alone."]
-    lines += ["", f"Where the time of a frame goes (ms, one process, median of {PROFILE_FRAMES} of the batch's frames, the fastest of the run's profiles): "
+    lines += ["", f"Where the time of a frame goes (ms, one process, the stages of fogcli.job as a batch runs them, median of {PROFILE_FRAMES} of the batch's frames, the fastest of the run's profiles): "
               "with PoCL and OpenImageIO on "
               "all cores, as `--jobs 1` runs, and on one thread each, whose sum is the core time a frame costs.",
-              "", "| threads | read | depth | device (upload, kernels, download) | write EXR (zip) | sum |", "|---|---|---|---|---|---|"]
+              "", "| threads | read and depth | device (upload, kernels, download) | write EXR (zip) | sum |",
+              "|---|---|---|---|---|"]
     for name, p in prof.items():
-        lines.append(f"| {name} | {p['read']:.0f} | {p['depth']:.0f} | {p['device']:.0f} | {p['write']:.0f} | "
+        lines.append(f"| {name} | {p['read and depth']:.0f} | {p['device']:.0f} | {p['write']:.0f} | "
                      f"{sum(p.values()):.0f} |")
     lines += ["", f"With {ncpu} cores, any number of workers can at best finish a frame every {core:.0f} / {ncpu} = "
               f"{core / ncpu:.0f} ms of core time, {wall1 / (core / ncpu):.2f}x the {wall1:.0f} ms that one process "

@@ -5,7 +5,6 @@ run), and --skip-existing resumes it."""
 from __future__ import annotations
 
 import contextlib
-import glob
 import json
 import os
 import queue
@@ -132,20 +131,48 @@ def discover(input_dir: Path, output_dir: Path, depth_pattern: str | None, recur
     return plan
 
 
-def remove_stale_temporaries(output_dir: Path, only: Path | None = None) -> int:
-    """The temporary files a killed run left in output_dir (and its sub-folders), or only
-    those of the output `only` (in its own folder: a jobs file's outputs are anywhere)."""
+def remove_stale_temporaries(output_dir: Path) -> int:
+    """The temporary files a killed run left in output_dir and its sub-folders."""
     n = 0
     if output_dir.is_dir():
-        if only is None:
-            found = output_dir.rglob(".*")
-        else:     # atomic_write's names: .<stem[:60]>.<random>.tmp<suffix>
-            found = output_dir.glob(f".{glob.escape(only.stem[:60])}.*.tmp{glob.escape(only.suffix[:16])}")
-        for p in found:
+        for p in output_dir.rglob(".*"):
             if p.is_file() and is_partial(p.name):
                 p.unlink(missing_ok=True)
                 n += 1
     return n
+
+
+class _StaleByFolder:
+    """A jobs file's outputs are anywhere: the temporary files a killed run left beside an
+    output are removed before it is written. Each folder is listed once, when this process
+    first writes into it (so the listing holds none of this run's own temporaries, and a
+    folder of thousands of outputs is not read again for each of them)."""
+
+    def __init__(self):
+        self._folders: dict = {}
+
+    def remove_for(self, output: Path) -> None:
+        folder = os.path.abspath(output.parent)
+        found = self._folders.get(folder)
+        if found is None:
+            found = self._folders[folder] = {}
+            try:
+                with os.scandir(folder) as it:
+                    for e in it:
+                        if is_partial(e.name):       # atomic_write's: .<stem[:60]>.<random>.tmp<suffix>
+                            found.setdefault(e.name.rsplit(".tmp", 1)[0].rsplit(".", 1)[0], []).append(e.path)
+            except OSError:
+                return
+        paths = found.get(f".{output.stem[:60]}", [])
+        for p in [p for p in paths if p.endswith(f".tmp{output.suffix[:16]}")]:
+            paths.remove(p)
+            try:
+                os.unlink(p)
+            except OSError:
+                pass
+
+
+_STALE = _StaleByFolder()
 
 
 
@@ -264,7 +291,7 @@ def _make_folders(job: Job) -> Job:
             except OSError as exc:
                 raise UserError(f"{p}: cannot create folder {parent} ({exc.strerror})") from None
     if job.label:           # a jobs file's output: what a killed run left of it goes first
-        remove_stale_temporaries(Path(job.output).parent, Path(job.output))
+        _STALE.remove_for(Path(job.output))
     return job
 
 
@@ -324,6 +351,10 @@ def _overlapped(source, cfg, aovs, device, progress, collect) -> None:
             return None if job is None or not isinstance(job, Job) else io.submit(read, job)
 
         ahead = next_read(True)
+        if ahead is not None:       # OpenCL's start-up while the first frame is read and decoded
+            from .runtime import get_runtime
+
+            get_runtime(device)
         while ahead is not None:
             job, t0, st, failed = ahead.result()
             ahead = next_read(False)
