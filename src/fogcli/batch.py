@@ -186,6 +186,7 @@ class Source:
     jobs (a bad line, a skipped output) go to `report`, on the caller's thread."""
 
     def __init__(self, items, report=None, stream: bool = False):
+        """report: called with every item that is not a Job (None: there are none)."""
         self._front: deque = deque()
         self._report = report
         self._it = iter(items)
@@ -241,7 +242,6 @@ def _die_with_parent() -> None:
     """A worker must not outlive a killed batch (it would keep writing into OUTPUT_DIR)."""
     if sys.platform.startswith("linux"):
         import ctypes
-        import signal
 
         try:
             ctypes.CDLL("libc.so.6", use_errno=True).prctl(1, signal.SIGKILL)   # PR_SET_PDEATHSIG
@@ -621,8 +621,9 @@ def _check_report(report: Path, inputs: set) -> None:
         raise UserError(f"--report {report}: cannot write into {report.parent} ({exc.strerror})") from None
 
 
-def _run(source, total, cfg, aovs, device, jobs, scheduler, quiet, summary: "Summary") -> None:
-    """Every job of the source through the chosen runner, results into the summary."""
+def _run(items, stream: bool, total, cfg, aovs, device, jobs, scheduler, quiet, summary: "Summary") -> None:
+    """Every job of `items` (Jobs, and results of lines that are not: jobs_file.Parser)
+    through the chosen runner, results into the summary."""
 
     def collect(r, progress):
         if r.get("skipped"):
@@ -635,7 +636,7 @@ def _run(source, total, cfg, aovs, device, jobs, scheduler, quiet, summary: "Sum
         progress.update(r)
 
     progress = Progress(total, quiet)
-    source._report = lambda r: collect(r, progress)
+    source = Source(items, lambda r: collect(r, progress), stream)
     try:
         if scheduler:
             _dask(source, cfg, tuple(aovs), device, scheduler, progress, collect)
@@ -673,7 +674,7 @@ def run_batch(input_dir: Path, output_dir: Path, cfg, *, depth_pattern=None, rec
     remove_stale_temporaries(output_dir)
     summary = Summary(skipped=[{"input": i, "output": o} for i, o in plan.skipped],
                       failed=[{"input": i, "reason": r} for i, r in plan.failed])
-    _run(Source(plan.jobs), len(plan.jobs), cfg, aovs, device, jobs, scheduler, quiet, summary)
+    _run(plan.jobs, False, len(plan.jobs), cfg, aovs, device, jobs, scheduler, quiet, summary)
     # a worker killed mid-write (a crash of another frame breaks the whole pool) leaves its
     # temporary file; every worker has stopped now
     remove_stale_temporaries(output_dir)
@@ -694,8 +695,8 @@ def run_jobs_file(path: str, *, medium=None, configs=(), sets=(), camera=None, j
     parser = Parser(path, medium, configs, sets, camera, aovs=aovs, layer=layer, view=view,
                     drop_channels=drop_channels, protected=protected)
     summary = Summary()
-    source = Source(parser.results(skip_existing), stream=path == "-")
-    _run(source, count_lines(path), None, aovs, device, jobs, scheduler, quiet, summary)
+    _run(parser.results(skip_existing), path == "-", count_lines(path), None, aovs, device, jobs, scheduler, quiet,
+         summary)
     for part in (summary.done, summary.skipped, summary.failed):     # in the file's order
         part.sort(key=lambda r: int(r["line"].rpartition(":")[2]) if r.get("line") else 0)
     summary.seconds = round(time.perf_counter() - t0, 3)

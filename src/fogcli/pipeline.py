@@ -1079,14 +1079,17 @@ def finish(st: Started, mapped: bool = False) -> tuple[np.ndarray, np.ndarray | 
     if cfg.lights:
         plan.add_airlight(t)
     out = plan.map_out(t) if mapped and rt.info.kind == "cpu" else plan.download(plan.out, 4, t)
-    if not all(np.isfinite(out[y:y + 256]).all() for y in range(0, h, 256)):     # in strips: no frame-sized mask
-        unmap(out)
-        from .errors import UserError
+    try:
+        if not all(np.isfinite(out[y:y + 256]).all() for y in range(0, h, 256)):     # in strips: no frame-sized mask
+            from .errors import UserError
 
-        raise UserError("the result holds non-finite values: a medium, light or camera value is too large for "
-                        "32-bit floats (fogcli config --show lists them)")
-    planes = plan.aov_planes(t)
-    rt.queue.finish()
+            raise UserError("the result holds non-finite values: a medium, light or camera value is too large for "
+                            "32-bit floats (fogcli config --show lists them)")
+        planes = plan.aov_planes(t)
+        rt.queue.finish()
+    except BaseException:           # a mapped result is the plan's: handed back before the next frame
+        unmap(out)
+        raise
     return out[:, :, :3], (np.ascontiguousarray(out[:, :, 3]) if st.has_alpha else None), planes
 
 
