@@ -9,10 +9,8 @@ reads that process's peak RSS. Writes its block of docs/performance.md.
 from __future__ import annotations
 
 import os
-import subprocess
 import sys
 import tempfile
-import time
 from pathlib import Path
 
 import numpy as np

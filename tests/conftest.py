@@ -1,11 +1,9 @@
-import os
-
 import numpy as np
 import pytest
 
-from fogcli.api import make_config  # noqa: E402
-from fogcli.pipeline import get_plan  # noqa: E402
-from fogcli.runtime import get_runtime  # noqa: E402
+from fogcli.api import make_config
+from fogcli.pipeline import get_plan
+from fogcli.runtime import get_runtime
 
 
 @pytest.fixture(scope="session")

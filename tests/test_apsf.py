@@ -300,7 +300,7 @@ def test_apsf_with_heterogeneous_media_separation_emission_and_every_aov():
     image adds to the direct and medium light, and separation keeps the scattered energy."""
     from fogcli import apply
     from fogcli.api import make_config
-    from fogcli.pipeline import AOV_NAMES
+    from fogcli.aovs import AOV_NAMES
     from fogcli.scenes import scene
 
     rgb, z, fov = scene(96, 64, seed=21, night=True)

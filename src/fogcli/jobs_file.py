@@ -32,7 +32,7 @@ def _text_lines(source: str):
         f = sys.stdin
     else:
         try:
-            f = open(source, encoding="utf-8", newline="")
+            f = open(source, encoding="utf-8-sig", newline="")     # a BOM (Windows editors) is not a line's
         except FileNotFoundError:
             raise UserError(f"--jobs-file {source}: file not found") from None
         except IsADirectoryError:

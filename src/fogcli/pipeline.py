@@ -10,7 +10,6 @@ import math
 import numpy as np
 
 from . import pixels
-from .aovs import AOV_NAMES  # noqa: F401  (the pipeline's outputs, by name)
 from .config import FILTERS, Config
 from .errors import ProcessingError
 from .runtime import Runtime, get_runtime
