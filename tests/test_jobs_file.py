@@ -191,3 +191,30 @@ def test_jobs_file_usage_errors_exit_2(tmp_path):
         r = fogcli(*args, cwd=tmp_path)
         assert r.returncode == 2, (args, r.stderr)
         assert r.stderr.count("\n") == 1 and needle in r.stderr and "Traceback" not in r.stderr, (args, r.stderr)
+
+
+def test_workers_and_a_local_cluster_take_each_lines_medium(tmp_path):
+    """--jobs 2 and --scheduler local:2 run the lines with their own configs: the same
+    pixels as one process; stdin lines reach the workers as they come."""
+    for i in range(3):
+        write_frame(tmp_path / f"f{i}.exr", 20 + i)
+    rows = [{"input": f"f{i % 3}.exr", "output": f"{{d}}/o{i}.exr", "medium": ["fog", "sea", "haze"][i % 3],
+             "set": {"medium.visibility": 30 + 10 * i}} for i in range(6)]
+
+    def jobs(d):
+        return lines([{**r, "output": r["output"].format(d=d)} for r in rows])
+
+    (tmp_path / "one.jsonl").write_text(jobs("one"))
+    (tmp_path / "pool.jsonl").write_text(jobs("pool"))
+    (tmp_path / "dask.jsonl").write_text(jobs("dask"))
+    for args in (["--jobs-file", "one.jsonl"], ["--jobs-file", "pool.jsonl", "--jobs", "2"],
+                 ["--jobs-file", "dask.jsonl", "--scheduler", "local:2"]):
+        r = fogcli("batch", *args, "-q", cwd=tmp_path)
+        assert r.returncode == 0, r.stderr
+    r = fogcli("batch", "--jobs-file", "-", "--jobs", "2", "-q", stdin=jobs("stdin"), cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
+    for i in range(6):
+        want = pixels(tmp_path / "one" / f"o{i}.exr")
+        for d in ("pool", "dask", "stdin"):
+            np.testing.assert_array_equal(pixels(tmp_path / d / f"o{i}.exr"), want)
+    assert not np.array_equal(pixels(tmp_path / "one" / "o0.exr"), pixels(tmp_path / "one" / "o3.exr"))
