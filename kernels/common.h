@@ -52,7 +52,7 @@ inline float exp_poly(float y)
 }
 
 /* exp_poly and SQRT_ lane by lane on float8 (explicit SIMD where work-items stay scalar, and
- * lights.cl's AL_LANES 8): the library's exp and sqrt on vectors are calls in PoCL */
+ * lanes.h's LANES 8): the library's exp and sqrt on vectors are calls in PoCL */
 ALWAYS_INLINE float8 exp_poly8(float8 y)
 {
     float8 z = y * 1.44269504f;
@@ -139,6 +139,14 @@ inline float smoothstep_(float e0, float e1, float x)
     t = clampf_(t, 0.0f, 1.0f);
     float s = t * t * (3.0f - 2.0f * t);
     return e1 <= e0 ? (x >= e1 ? 1.0f : 0.0f) : s;
+}
+
+/* Elek eq. 7, the mask M of a level: a pixel whose spread w is below the level's threshold
+ * stays below (0), one above it passes up (1), with a smooth step over [thresh, (1 + eps)
+ * thresh] between (eps: render.epsilon). The one definition; every chain calls it. */
+inline float eq7_mask(float w, float thresh, float eps)
+{
+    return smoothstep_(thresh, (1.0f + eps) * thresh, w);
 }
 
 /* Natural log for positive normal floats, to ~1e-7 absolute: the exponent from the bits,
@@ -241,7 +249,7 @@ DEFINE_SAMPLERS(float, 1)
  * taps that read it do no transcendental work. */
 inline float4 prep_px(float3 rgb, float w, float thresh_next, float eps)
 {
-    float m = smoothstep_(thresh_next, (1.0f + eps) * thresh_next, w);
+    float m = eq7_mask(w, thresh_next, eps);
     return (float4)(m * rgb, log_pos(w > 1e-6f ? w : 1e-6f));
 }
 
@@ -249,7 +257,7 @@ inline float4 prep_px(float3 rgb, float w, float thresh_next, float eps)
 inline void store_prep(__global float4 *buf, int idx, float r, float g, float b, float w,
                        float thresh_next, float eps)
 {
-    float m = smoothstep_(thresh_next, (1.0f + eps) * thresh_next, w);
+    float m = eq7_mask(w, thresh_next, eps);
     store4(buf, idx, m * r, m * g, m * b, log_pos(w > 1e-6f ? w : 1e-6f));
 }
 

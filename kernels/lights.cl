@@ -154,90 +154,43 @@ __kernel void airlight(__global const float *depth, __global float4 *a_dir, __gl
  *    ("instruction return type cannot be vectorized"; seen with llvm-dis on PoCL's
  *    parallel.bc, POCL_LEAVE_KERNEL_COMPILER_TEMP_FILES=1). */
 
-/* AL_LANES 8 (CPUs with AVX2 and no AVX-512): the same code on float8, eight pixels of a row
- * per work-item. LLVM gives up on the loop over work-items there (the table reads are gathers,
- * which it does not emit for AVX2 CPUs, and the bounds check masks every store), so the kernel
- * ran scalar, 5.5x slower than on AVX-512; written on float8 it is vector code whatever the
- * vectoriser decides, the table reads one load per lane. Per-pixel values are alf, uniform
- * ones float. */
-#ifndef AL_LANES
-#define AL_LANES 1
-#endif
-#if AL_LANES == 8
-typedef float8 alf;
-typedef int8 ali;
-#define al_exp exp_poly8
-#define AL_ABS(v) as_float8(as_int8(v) & 0x7fffffff)
-/* lane by lane: the library's sqrt and vload8 on vectors are calls in PoCL; sqrt8 (common.h)
- * and these compile to one instruction */
-#define AL_SQRT(v) sqrt8(v)
-#define AL_INT(v) __builtin_convertvector((v), int8)
-#define AL_FLOAT(v) __builtin_convertvector((v), float8)
-#define AL_LOAD(p, k) GATHER8(p, k)
-ALWAYS_INLINE float8 al_load8(__global const float *p)
-{
-    return (float8)(p[0], p[1], p[2], p[3], p[4], p[5], p[6], p[7]);
-}
-
-/* log_pos of common.h, lane by lane */
-ALWAYS_INLINE float8 al_log(float8 x)
-{
-    int8 bits = as_int8(x);
-    int8 m = (bits & 0x007fffff) | 0x3f800000;
-    int8 big = (m > 0x3fb504f3) & 1;
-    int8 e = ((bits >> 23) & 0xff) - 127 + big;
-    float8 mant = as_float8(m - (big << 23));
-    float8 t = (mant - 1.0f) / (mant + 1.0f), t2 = t * t;
-    float8 series = t * (2.0f + t2 * (0.66666667f + t2 * (0.4f + t2 * 0.28571429f)));
-    return series + AL_FLOAT(e) * 0.69314718f;
-}
-#else
-typedef float alf;
-typedef int ali;
-#define AL_ABS(v) __builtin_fabsf(v)
-#define AL_SQRT(v) SQRT_(v)
-#define AL_INT(v) ((int)(v))
-#define AL_FLOAT(v) ((float)(v))
-#define AL_LOAD(p, k) ((p)[k])
-#define al_exp exp_poly
-#define al_log log_pos
-#endif
+#include "lanes.h"
 
 /* v clamped to [0, hi], exact inside */
-ALWAYS_INLINE alf al_clamp(alf v, float hi)
+ALWAYS_INLINE lanef al_clamp(lanef v, float hi)
 {
-    v = 0.5f * (v + AL_ABS(v));
-    alf d = v - hi;
-    return v - 0.5f * (d + AL_ABS(d));
+    v = 0.5f * (v + LANE_ABS(v));
+    lanef d = v - hi;
+    return v - 0.5f * (d + LANE_ABS(d));
 }
 
 /* bilinear look-up of table entry `e` (0: F, 1: C) at continuous (u, v) */
-ALWAYS_INLINE alf al_fetch(__global const float *tab, alf u, alf v, int e)
+ALWAYS_INLINE lanef al_fetch(__global const float *tab, lanef u, lanef v, int e)
 {
     u = al_clamp(u, AL_NB - 1.001f);
     v = al_clamp(v, AL_NX - 1.001f);
-    ali i = AL_INT(u), j = AL_INT(v);
-    alf fu = u - AL_FLOAT(i), fv = v - AL_FLOAT(j);
-    ali k = 2 * (i * AL_NX + j) + e;
-    alf p0 = AL_LOAD(tab, k), p1 = AL_LOAD(tab, k + 2), p2 = AL_LOAD(tab, k + 2 * AL_NX), p3 = AL_LOAD(tab, k + 2 * AL_NX + 2);
-    alf a = p0 + (p1 - p0) * fv, b = p2 + (p3 - p2) * fv;
+    lanei i = LANE_INT(u), j = LANE_INT(v);
+    lanef fu = u - LANE_FLOAT(i), fv = v - LANE_FLOAT(j);
+    lanei k = 2 * (i * AL_NX + j) + e;
+    lanef p0 = LANE_LOAD(tab, k), p1 = LANE_LOAD(tab, k + 2), p2 = LANE_LOAD(tab, k + 2 * AL_NX), p3 = LANE_LOAD(tab, k + 2 * AL_NX + 2);
+    lanef a = p0 + (p1 - p0) * fv, b = p2 + (p3 - p2) * fv;
     return a + (b - a) * fu;
 }
 
-ALWAYS_INLINE alf al_ex(alf q, alf R)
+ALWAYS_INLINE lanef al_ex(lanef q, lanef R)
 {
-    alf t = AL_SQRT(q * q + R * R);
+    lanef t = LANE_SQRT(q * q + R * R);
     return q >= 0.0f ? (q + t) / R : R / (t - q);
 }
 
 /* h(x) = p_g(-tanh x) / cosh x from e^x (clamped to [1e-15, 1e15], where h is below 1e-14 of
  * its peak: e^2x stays finite) */
-ALWAYS_INLINE alf al_h(float g, alf ex)
+ALWAYS_INLINE lanef al_h(float g, lanef ex)
 {
     ex = 1e-15f + al_clamp(ex - 1e-15f, 1e15f);
-    alf e2 = ex * ex, q = 1.0f / (e2 + 1.0f);
-    alf d = 1.0f + g * g + 2.0f * g * (1.0f - 2.0f * q);     /* tanh x = 1 - 2 / (e^2x + 1) */
-    return (1.0f - g * g) * 0.1591549431f * ex * q / (d * AL_SQRT(d));   /* 1 / cosh x = 2 e^x q */
+    lanef e2 = ex * ex, q = 1.0f / (e2 + 1.0f);
+    lanef d = 1.0f + g * g + 2.0f * g * (1.0f - 2.0f * q);     /* tanh x = 1 - 2 / (e^2x + 1) */
+    return (1.0f - g * g) * 0.1591549431f * ex * q / (d * LANE_SQRT(d));   /* 1 / cosh x = 2 e^x q */
 }
 
 /* ln of int_{x0}^{x1} h exp(-beta E_r) dx, E_r = ((1 + r) e^x + (1 - r) e^-x) / 2; xm, em:
@@ -250,31 +203,31 @@ ALWAYS_INLINE alf al_h(float g, alf ex)
  * it replaced 2 Gauss-Legendre nodes (5 exponentials, 9 divisions per segment; now 2
  * exponentials per segment; worst in test_table_kernel_matches_the_quadrature_kernel_on_whole_
  * frames, A / A_sc: 4.5e-4 / 1.67e-3 with Simpson, 3.0e-4 / 1.74e-3 with the 2 nodes). */
-ALWAYS_INLINE alf al_segment(__global const float *tab, float r, float xm, float em, alf beta,
-                         alf lb, alf x0, alf x1, alf ex0, alf ex1, const alf *sp, alf after)
+ALWAYS_INLINE lanef al_segment(__global const float *tab, float r, float xm, float em, lanef beta,
+                         lanef lb, lanef x0, lanef x1, lanef ex0, lanef ex1, const lanef *sp, lanef after)
 {
     const float sx = (AL_NX - 1) / (AL_X1 - AL_X0);
-    alf u = AFTER((lb - AL_LB0) * ((AL_NB - 1) / (AL_LB1 - AL_LB0)), after);
-    alf v0 = (x0 - AL_X0) * sx;
-    alf v1 = AFTER((x1 - AL_X0) * sx, v0);
-    alf e0 = 0.5f * ((1.0f + r) * ex0 + (1.0f - r) / ex0);
-    alf e1 = 0.5f * ((1.0f + r) * ex1 + (1.0f - r) / AFTER(ex1, e0));
-    alf F0 = al_fetch(tab, u, v0, 0) - beta * (x0 < xm ? e0 : em);
-    alf F1 = al_fetch(tab, u, AFTER(v1, F0), 0) - beta * (x1 < xm ? e1 : em);
-    alf C0 = al_fetch(tab, u, AFTER(v0, F1), 1) - beta * (x0 > xm ? e0 : em);
-    alf C1 = al_fetch(tab, u, AFTER(v1, C0), 1) - beta * (x1 > xm ? e1 : em);
+    lanef u = AFTER((lb - AL_LB0) * ((AL_NB - 1) / (AL_LB1 - AL_LB0)), after);
+    lanef v0 = (x0 - AL_X0) * sx;
+    lanef v1 = AFTER((x1 - AL_X0) * sx, v0);
+    lanef e0 = 0.5f * ((1.0f + r) * ex0 + (1.0f - r) / ex0);
+    lanef e1 = 0.5f * ((1.0f + r) * ex1 + (1.0f - r) / AFTER(ex1, e0));
+    lanef F0 = al_fetch(tab, u, v0, 0) - beta * (x0 < xm ? e0 : em);
+    lanef F1 = al_fetch(tab, u, AFTER(v1, F0), 0) - beta * (x1 < xm ? e1 : em);
+    lanef C0 = al_fetch(tab, u, AFTER(v0, F1), 1) - beta * (x0 > xm ? e0 : em);
+    lanef C1 = al_fetch(tab, u, AFTER(v1, C0), 1) - beta * (x1 > xm ? e1 : em);
     /* outside the table h ~ 2 p e^{-|x|}: ln F (r = 1, left) and ln C (right) go with slope +-1
      * (r is uniform: the outer choice is not per pixel) */
     F0 += r >= 1.0f ? (x0 < AL_X0 ? x0 - AL_X0 : 0.0f) : 0.0f;
     F1 += r >= 1.0f ? (x1 < AL_X0 ? x1 - AL_X0 : 0.0f) : 0.0f;
     C0 -= x0 > AL_X1 ? x0 - AL_X1 : 0.0f;
     C1 -= x1 > AL_X1 ? x1 - AL_X1 : 0.0f;
-    alf big = F1 < C0 ? F1 : C0, small = F1 < C0 ? F0 : C1;
-    alf tabled = big + al_log(1.0f - al_exp(small - big));
-    alf mid = beta * 0.5f * ((1.0f + r) * sp[0] + (1.0f - r) * sp[1]);
-    alf f0 = sp[2] * al_exp(mid - beta * e0);
-    alf f1 = sp[4] * al_exp(AFTER(mid - beta * e1, f0));
-    alf direct = -mid + al_log((x1 - x0) * (1.0f / 6.0f) * (f0 + 4.0f * sp[3] + f1));
+    lanef big = F1 < C0 ? F1 : C0, small = F1 < C0 ? F0 : C1;
+    lanef tabled = big + lane_log(1.0f - lane_exp(small - big));
+    lanef mid = beta * 0.5f * ((1.0f + r) * sp[0] + (1.0f - r) * sp[1]);
+    lanef f0 = sp[2] * lane_exp(mid - beta * e0);
+    lanef f1 = sp[4] * lane_exp(AFTER(mid - beta * e1, f0));
+    lanef direct = -mid + lane_log((x1 - x0) * (1.0f / 6.0f) * (f0 + 4.0f * sp[3] + f1));
     return small - big <= -0.6931472f ? tabled : direct;
 }
 
@@ -282,25 +235,25 @@ ALWAYS_INLINE alf al_segment(__global const float *tab, float r, float xm, float
  * absorption sa) per unit of ss I / R, out through ld, lt. The channel's uniform values:
  * r = sa / st, xm = -atanh(r), em = sqrt(1 - r^2), off = its table's offset in floats. */
 ALWAYS_INLINE void al_channel(__global const float *tab, float st, float lst, float sa, float r, float xm,
-                          float em, int off, alf R, alf d1, alf x0, alf x1, alf ex0, alf ex1, alf lR,
-                          const alf *sp, alf after, alf *ld, alf *lt)
+                          float em, int off, lanef R, lanef d1, lanef x0, lanef x1, lanef ex0, lanef ex1, lanef lR,
+                          const lanef *sp, lanef after, lanef *ld, lanef *lt)
 {
-    alf beta = st * R;
-    alf lb = AFTER(lR + lst, after);       /* ln beta, lst = ln st from the host */
-    lb = AL_LB0 + 0.5f * ((lb - AL_LB0) + AL_ABS(lb - AL_LB0));   /* beta below the table: its first row */
-    alf d = -st * d1 + al_segment(tab, 1.0f, -1e30f, 0.0f, beta, lb, x0, x1, ex0, ex1, sp, lb);
-    alf t = r < 1.0f ? -sa * d1 + al_segment(tab + off, r, xm, em, beta, lb, x0, x1, ex0, ex1, sp, d) : d;
+    lanef beta = st * R;
+    lanef lb = AFTER(lR + lst, after);       /* ln beta, lst = ln st from the host */
+    lb = AL_LB0 + 0.5f * ((lb - AL_LB0) + LANE_ABS(lb - AL_LB0));   /* beta below the table: its first row */
+    lanef d = -st * d1 + al_segment(tab, 1.0f, -1e30f, 0.0f, beta, lb, x0, x1, ex0, ex1, sp, lb);
+    lanef t = r < 1.0f ? -sa * d1 + al_segment(tab + off, r, xm, em, beta, lb, x0, x1, ex0, ex1, sp, d) : d;
     *ld = beta < AL_BMAX ? d - lR : -1e30f;
     *lt = beta < AL_BMAX ? t - lR : -1e30f;
 }
 
-#if AL_LANES == 8
+#if LANES == 8
 /* pixel_ray (density.h) of pixels i0 .. i0 + 7 of row j, depth dep */
 ALWAYS_INLINE float8 al_pixel_ray(const camera_t *c, int i0, int j, float8 dep, float8 *wx, float8 *wy, float8 *wz)
 {
     float8 dx = ((float)i0 + (float8)(0.5f, 1.5f, 2.5f, 3.5f, 4.5f, 5.5f, 6.5f, 7.5f) - c->cx) / c->focal_px;
     float dy = -(j + 0.5f - c->cy) / c->focal_y;
-    float8 dlen = AL_SQRT(dx * dx + dy * dy + 1.0f);
+    float8 dlen = LANE_SQRT(dx * dx + dy * dy + 1.0f);
     float8 r = 1.0f / dlen;
     *wx = (c->rot0.x * dx + c->rot0.y * dy - c->rot0.z) * r;
     *wy = (c->rot1.x * dx + c->rot1.y * dy - c->rot1.z) * r;
@@ -315,7 +268,7 @@ ALWAYS_INLINE float8 al_pixel_ray(const camera_t *c, int i0, int j, float8 dep, 
     if (i >= width || j >= height) return;                                                     \
     int idx = j * width + i, whole = i + 8 <= width;                                           \
     int8 lane = (int8)(0, 1, 2, 3, 4, 5, 6, 7), last = (int8)(width - 1 - i);                  \
-    float8 dep = whole ? al_load8(depth + idx) : AL_LOAD(depth + idx, lane < last ? lane : last); \
+    float8 dep = whole ? lane_load8(depth + idx) : LANE_LOAD(depth + idx, lane < last ? lane : last); \
     float8 wx, wy, wz;                                                                         \
     float8 D = al_pixel_ray(&cam, i, j, dep, &wx, &wy, &wz);
 #define AL_PUT1(L)                                                                             \
@@ -340,21 +293,21 @@ ALWAYS_INLINE float8 al_pixel_ray(const camera_t *c, int i0, int j, float8 dep, 
 /* The per-pixel part the kernels share: ray, d1, R, e^x and x at both ends, ln R. */
 #define AL_GEOMETRY                                                                            \
     AL_PIXELS                                                                                  \
-    alf cx = wy * vz - wz * vy;                                                                \
-    alf cy = AFTER(wz * vx - wx * vz, cx);                                                  \
-    alf cz = AFTER(wx * vy - wy * vx, cy);                                                  \
-    alf d1 = AFTER(wx * vx + wy * vy + wz * vz, cz);                                        \
-    alf R = AL_SQRT(cx * cx + cy * cy + cz * cz + rad2);                                       \
-    alf ex0 = al_ex(-d1, R);                                                                   \
-    alf ex1 = al_ex(AFTER(D - d1, ex0), R);                                                 \
-    alf x0 = al_log(ex0);                                                                      \
-    alf x1 = al_log(AFTER(ex1, x0));                                                        \
-    alf lR = al_log(AFTER(R, x1));                                                          \
+    lanef cx = wy * vz - wz * vy;                                                                \
+    lanef cy = AFTER(wz * vx - wx * vz, cx);                                                  \
+    lanef cz = AFTER(wx * vy - wy * vx, cy);                                                  \
+    lanef d1 = AFTER(wx * vx + wy * vy + wz * vz, cz);                                        \
+    lanef R = LANE_SQRT(cx * cx + cy * cy + cz * cz + rad2);                                       \
+    lanef ex0 = al_ex(-d1, R);                                                                   \
+    lanef ex1 = al_ex(AFTER(D - d1, ex0), R);                                                 \
+    lanef x0 = lane_log(ex0);                                                                      \
+    lanef x1 = lane_log(AFTER(ex1, x0));                                                        \
+    lanef lR = lane_log(AFTER(R, x1));                                                          \
     /* Simpson's rule on [x0, x1] where a table difference would lose its digits: e^x at the  \
      * middle (sqrt of the ends' product, clamped as al_h does), its inverse, h at the nodes;  \
      * h does not depend on the channel */                                                    \
-    alf sp[5];                                                                                 \
-    sp[0] = AL_SQRT((1e-15f + al_clamp(ex0 - 1e-15f, 1e15f)) * (1e-15f + al_clamp(ex1 - 1e-15f, 1e15f))); \
+    lanef sp[5];                                                                                 \
+    sp[0] = LANE_SQRT((1e-15f + al_clamp(ex0 - 1e-15f, 1e15f)) * (1e-15f + al_clamp(ex1 - 1e-15f, 1e15f))); \
     sp[1] = 1.0f / sp[0];                                                                      \
     sp[2] = al_h(g, AFTER(ex0, sp[1]));                                                     \
     sp[3] = al_h(g, AFTER(sp[0], sp[2]));                                                   \
@@ -364,12 +317,12 @@ ALWAYS_INLINE float8 al_pixel_ray(const camera_t *c, int i0, int j, float8 dep, 
  * ln(ss I) per channel (lk), the gain; A_sc spread at the optical depth where the ray passes
  * the light (hf clamp(d1, 0, D)). */
 #define AL_STORE                                                                               \
-    alf d0r = al_exp(lk0 + ld0);                                                               \
-    alf d1r = al_exp(AFTER(lk1 + ld1, d0r));                                                \
-    alf d2r = al_exp(AFTER(lk2 + ld2, d1r));                                                \
-    alf t0 = al_exp(AFTER(lk0 + lt0, d2r));                                                 \
-    alf t1 = al_exp(AFTER(lk1 + lt1, t0));                                                  \
-    alf t2 = al_exp(AFTER(lk2 + lt2, t1));                                                  \
+    lanef d0r = lane_exp(lk0 + ld0);                                                               \
+    lanef d1r = lane_exp(AFTER(lk1 + ld1, d0r));                                                \
+    lanef d2r = lane_exp(AFTER(lk2 + ld2, d1r));                                                \
+    lanef t0 = lane_exp(AFTER(lk0 + lt0, d2r));                                                 \
+    lanef t1 = lane_exp(AFTER(lk1 + lt1, t0));                                                  \
+    lanef t2 = lane_exp(AFTER(lk2 + lt2, t1));                                                  \
     AL_STORE_RGB
 
 /* Grey media: one exponential each for A and A + A_sc, scaled per channel by the host's
@@ -377,22 +330,22 @@ ALWAYS_INLINE float8 al_pixel_ray(const camera_t *c, int i0, int j, float8 dep, 
  * Each exponential is a dependent step of the chain that keeps LLVM from pairing them,
  * and the chain is the kernel's latency: 2 steps instead of 6 (-15 % of the kernel). */
 #define AL_STORE_GREY                                                                          \
-    alf ed = al_exp(lkm + ld0);                                                                \
-    alf et = al_exp(AFTER(lkm + lt0, ed));                                                  \
-    alf d0r = k0 * ed, d1r = AFTER(k1 * ed, d0r), d2r = AFTER(k2 * ed, d1r);             \
-    alf t0 = AFTER(k0 * et, d2r), t1 = AFTER(k1 * et, t0), t2 = AFTER(k2 * et, t1);   \
+    lanef ed = lane_exp(lkm + ld0);                                                                \
+    lanef et = lane_exp(AFTER(lkm + lt0, ed));                                                  \
+    lanef d0r = k0 * ed, d1r = AFTER(k1 * ed, d0r), d2r = AFTER(k2 * ed, d1r);             \
+    lanef t0 = AFTER(k0 * et, d2r), t1 = AFTER(k1 * et, t0), t2 = AFTER(k2 * et, t1);   \
     AL_STORE_RGB
 
 #define AL_STORE_RGB                                                                           \
-    alf s0 = t0 - d0r, s1 = AFTER(t1 - d1r, s0), s2 = AFTER(t2 - d2r, s1);               \
-    s0 = 0.5f * (s0 + AL_ABS(s0));                                                             \
-    s1 = 0.5f * (s1 + AL_ABS(s1));                                                             \
-    s2 = 0.5f * (s2 + AL_ABS(s2));                                                             \
+    lanef s0 = t0 - d0r, s1 = AFTER(t1 - d1r, s0), s2 = AFTER(t2 - d2r, s1);               \
+    s0 = 0.5f * (s0 + LANE_ABS(s0));                                                             \
+    s1 = 0.5f * (s1 + LANE_ABS(s1));                                                             \
+    s2 = 0.5f * (s2 + LANE_ABS(s2));                                                             \
     s0 += (gn0 - 1.0f) * (d0r + s0);                                                           \
     s1 = AFTER(s1 + (gn1 - 1.0f) * (d1r + s1), s0);                                         \
     s2 = AFTER(s2 + (gn2 - 1.0f) * (d2r + s2), s1);                                         \
-    alf sstar = hf * (0.5f * (d1 + AL_ABS(d1)) - 0.5f * ((d1 - D) + AL_ABS(d1 - D)));          \
-    alf wp = sstar * (0.2126f * s0 + 0.7152f * s1 + 0.0722f * s2);                             \
+    lanef sstar = hf * (0.5f * (d1 + LANE_ABS(d1)) - 0.5f * ((d1 - D) + LANE_ABS(d1 - D)));          \
+    lanef wp = sstar * (0.2126f * s0 + 0.7152f * s1 + 0.0722f * s2);                             \
     AL_PUT
 
 /* Point lights when every density primitive is homogeneous (factor hf): grey media (the three
@@ -408,7 +361,7 @@ __kernel void airlight_table_grey(__global const float *depth, __global float4 *
                                   const float vx, const float vy, const float vz, const float rad2)
 {
     AL_GEOMETRY
-    alf ld0, lt0;
+    lanef ld0, lt0;
     al_channel(tab, st, lst, sa, r, xm, em, off, R, d1, x0, x1, ex0, ex1, lR, sp, sp[4], &ld0, &lt0);
     AL_STORE_GREY
 }
@@ -425,7 +378,7 @@ __kernel void airlight_table(__global const float *depth, __global float4 *a_dir
                              const float vx, const float vy, const float vz, const float rad2)
 {
     AL_GEOMETRY
-    alf ld0, lt0, ld1, lt1, ld2, lt2;
+    lanef ld0, lt0, ld1, lt1, ld2, lt2;
     al_channel(tab, st0, lst0, sa0, r0, xm0, em0, off0, R, d1, x0, x1, ex0, ex1, lR, sp, sp[4], &ld0, &lt0);
     al_channel(tab, st1, lst1, sa1, r1, xm1, em1, off1, R, d1, x0, x1, ex0, ex1, lR, sp, lt0, &ld1, &lt1);
     al_channel(tab, st2, lst2, sa2, r2, xm2, em2, off2, R, d1, x0, x1, ex0, ex1, lR, sp, lt1, &ld2, &lt2);

@@ -30,8 +30,7 @@ __kernel void reduce_level(__global float4 *chain, __global float *spread_chain,
             int s = sy * sw + sx;
             float4 v = src[s];
             float wg = filter_w[tx] * filter_w[ty];
-            /* Eq. 7: pixels whose spread is below the level's threshold stay below. */
-            float m = masked ? smoothstep_(thresh, (1.0f + eps) * thresh, v.w) : 1.0f;
+            float m = masked ? eq7_mask(v.w, thresh, eps) : 1.0f;
             acc_c += wg * m * v.xyz;
             acc_g += wg;
             acc_s += wg * ssrc[s];
@@ -199,7 +198,7 @@ __kernel void reduce_source_inner(REDUCE_SOURCE_ARGS, const int px0, const int p
     crow[4 * i] = a0; crow[4 * i + 1] = a1; crow[4 * i + 2] = a2; crow[4 * i + 3] = lw;
 #else
     float wk = exp_poly(lw);
-    float m = smoothstep_(thresh_next, (1.0f + eps) * thresh_next, wk);
+    float m = eq7_mask(wk, thresh_next, eps);
     crow[4 * i] = a0; crow[4 * i + 1] = a1; crow[4 * i + 2] = a2; crow[4 * i + 3] = wk;
     prow[4 * i] = m * a0; prow[4 * i + 1] = m * a1; prow[4 * i + 2] = m * a2;
     prow[4 * i + 3] = log_pos(wk > 1e-6f ? wk : 1e-6f);

@@ -375,10 +375,10 @@ inline int march_shares(__global const float *depth, const int width, const int 
                                  n1 > 0.0f ? (aa1 <= 0.0f ? 0.0f : tlo1 * aa1 / n1) : INFINITY);
                 if (slo == INFINITY) continue;
                 float m0 = Rt - thi0 * sta, m1 = Rt - thi1 * st1;
-                float shi = fmax(aa0 > 0.0f ? (m0 > 0.0f ? thi0 * aa0 / m0 : INFINITY) : 0.0f,
+                float lanei = fmax(aa0 > 0.0f ? (m0 > 0.0f ? thi0 * aa0 / m0 : INFINITY) : 0.0f,
                                  aa1 > 0.0f ? (m1 > 0.0f ? thi1 * aa1 / m1 : INFINITY) : 0.0f);
                 lo = atan2(slo - d1, R);
-                hi = shi < INFINITY ? atan2(shi - d1, R) : 0.5f * M_PI_F;
+                hi = lanei < INFINITY ? atan2(lanei - d1, R) : 0.5f * M_PI_F;
             }
             mark(bits, lo, hi, a0, da);
             if ((++marks & 15) == 0 && all_set(bits)) break;      /* nothing left to shadow */
@@ -598,58 +598,26 @@ __kernel void epi_samples(__global const float *depth, __global float4 *sh_a, __
     sh_t[s] = (float4)(fT, shadowed ? 1.0f : 2.0f);      /* .w: 0 outside, 2 nothing in shadow */
 }
 
-/* SH_LANES 8 (CPUs with AVX2 and no AVX-512, as lights.cl's AL_LANES): epi_unwarp on float8,
- * eight pixels of a row per work-item. Its sample reads are gathers, which LLVM does not emit
- * for those CPUs, and PoCL ran it scalar there (~97 ms at 2 MPx against 33 on AVX-512);
- * written on float8 it is vector code whatever the vectoriser decides, a read one load per
- * lane. Per-pixel values are shf / shi; a comparison is 1 in a scalar and -1 in a vector
- * lane, so truth is tested as != 0. */
-#ifndef SH_LANES
-#define SH_LANES 1
-#endif
-#if SH_LANES == 8
-typedef float8 shf;
-typedef int8 shi;
-#define SH_F(v) __builtin_convertvector((v), float8)
-#define SH_I(v) __builtin_convertvector((v), int8)
-#define SH_SQRT(v) sqrt8(v)
-#define SH_FABS(v) as_float8(as_int8(v) & 0x7fffffff)
-#define SH_LANE0 ((int8)(0, 1, 2, 3, 4, 5, 6, 7))
-#define SH_TRUE ((int8)(-1))
-/* lane l's float o of float4 element k[l] of f (k: element indices) */
-#define SH_READ(f, k, o) GATHER8(f, 4 * (k) + (o))
-#define SH_READ1(f, k) GATHER8(f, k)
-#else
-typedef float shf;
-typedef int shi;
-#define SH_F(v) ((float)(v))
-#define SH_I(v) ((int)(v))
-#define SH_SQRT(v) SQRT_(v)
-#define SH_FABS(v) __builtin_fabsf(v)
-#define SH_LANE0 0
-#define SH_TRUE 1
-#define SH_READ(f, k, o) ((f)[4 * (k) + (o)])
-#define SH_READ1(f, k) ((f)[k])
-#endif
+#include "lanes.h"
 
 /* atan2 to 2e-6 rad (an odd degree-11 polynomial of atan on [0, 1]): the slice index needs
  * far less than a slice's 6e-3 rad, and the library's atan2, a call per pixel, was a sixth
  * of the unwarp's time */
-ALWAYS_INLINE shf fast_atan2(shf y, shf x)
+ALWAYS_INLINE lanef fast_atan2(lanef y, lanef x)
 {
-    shf ax = SH_FABS(x), ay = SH_FABS(y), mx = ax > ay ? ax : ay, mn = ax > ay ? ay : ax;
-    shf a = mx > 0.0f ? mn / mx : 0.0f, q = a * a;
-    shf r = a * (((((-0.0117212f * q + 0.05265332f) * q - 0.11643287f) * q + 0.19354346f) * q - 0.33262347f) * q
+    lanef ax = LANE_ABS(x), ay = LANE_ABS(y), mx = ax > ay ? ax : ay, mn = ax > ay ? ay : ax;
+    lanef a = mx > 0.0f ? mn / mx : 0.0f, q = a * a;
+    lanef r = a * (((((-0.0117212f * q + 0.05265332f) * q - 0.11643287f) * q + 0.19354346f) * q - 0.33262347f) * q
                  + 0.99997726f);
     r = ay > ax ? 1.57079633f - r : r;
     r = x < 0.0f ? 3.14159265f - r : r;
     return y < 0.0f ? -r : r;
 }
 
-ALWAYS_INLINE shi sh_floor(shf v)
+ALWAYS_INLINE lanei sh_floor(lanef v)
 {
-    shi i = SH_I(v);
-    return v < SH_F(i) ? i - 1 : i;
+    lanei i = LANE_INT(v);
+    return v < LANE_FLOAT(i) ? i - 1 : i;
 }
 
 /* Every pixel from the four samples around it: Intel's unwarp, bilinear weights times
@@ -668,59 +636,59 @@ __kernel void epi_unwarp(__global const float *depth, __global float4 *a_dir, __
                          const int m1, const int nm, const int ns,
                          const int full_circle, __global uchar *march)
 {
-    int i0 = SH_LANES * get_global_id(0), j = get_global_id(1);
+    int i0 = LANES * get_global_id(0), j = get_global_id(1);
     if (i0 >= width || j >= height) return;
     /* the lanes past the row's end read its last pixel and store nothing */
-    shi i = i0 + SH_LANE0;
-#if SH_LANES == 8
+    lanei i = i0 + LANE0;
+#if LANES == 8
     i = i < width - 1 ? i : width - 1;
 #endif
-    shi idx = j * width + i;
+    lanei idx = j * width + i;
     __global const float *fd = (__global const float *)a_dir, *fs = (__global const float *)a_sc;
-    shf d0 = SH_READ(fd, idx, 0), d1 = SH_READ(fd, idx, 1), d2 = SH_READ(fd, idx, 2);
-    shf s0 = SH_READ(fs, idx, 0), s1 = SH_READ(fs, idx, 1), s2 = SH_READ(fs, idx, 2);
-    shi light = d0 + d1 + d2 + s0 + s1 + s2 > 0.0f;           /* no light here: nothing to shadow */
-    shf px = SH_F(i) + 0.5f;
+    lanef d0 = LANE_READ4(fd, idx, 0), d1 = LANE_READ4(fd, idx, 1), d2 = LANE_READ4(fd, idx, 2);
+    lanef s0 = LANE_READ4(fs, idx, 0), s1 = LANE_READ4(fs, idx, 1), s2 = LANE_READ4(fs, idx, 2);
+    lanei light = d0 + d1 + d2 + s0 + s1 + s2 > 0.0f;           /* no light here: nothing to shadow */
+    lanef px = LANE_FLOAT(i) + 0.5f;
     float py = j + 0.5f;
-    shf dx = px - ex;
+    lanef dx = px - ex;
     float dy = py - ey;
-    shf r = SH_SQRT(dx * dx + dy * dy);
-    shf rel = fast_atan2(dy, dx) - a0;
+    lanef r = LANE_SQRT(dx * dx + dy * dy);
+    lanef rel = fast_atan2(dy, dx) - a0;
     const float two_pi = 2.0f * M_PI_F;
-    rel = full_circle ? rel - two_pi * SH_F(sh_floor(rel / two_pi)) : rel;
-    shf fk = rel / da, fm = r < rb ? (r - r0) / h1 : m1 + (r - rb) / h2;
+    rel = full_circle ? rel - two_pi * LANE_FLOAT(sh_floor(rel / two_pi)) : rel;
+    lanef fk = rel / da, fm = r < rb ? (r - r0) / h1 : m1 + (r - rb) / h2;
     /* clamped before the conversion: far outside the slices fk can exceed the int range */
     fk = fk < -4.0f ? -4.0f : (fk > ns + 4.0f ? ns + 4.0f : fk);
-    shi k0 = sh_floor(fk);
-    shf tk = fk - SH_F(k0);
+    lanei k0 = sh_floor(fk);
+    lanef tk = fk - LANE_FLOAT(k0);
     fm = AFTER(fm, tk);
     fm = fm < -4.0f ? -4.0f : (fm > nm + 4.0f ? nm + 4.0f : fm);
-    shi m0 = sh_floor(fm);
-    shf tm = fm - SH_F(m0);
-    shi k1 = k0 + 1;
+    lanei m0 = sh_floor(fm);
+    lanef tm = fm - LANE_FLOAT(m0);
+    lanei k1 = k0 + 1;
     k0 = full_circle ? (k0 % ns + ns) % ns : k0;
     k1 = full_circle ? (k1 % ns + ns) % ns : k1;
-    shi ok = r >= 8.0f && m0 >= 0 && m0 + 1 < nm && k0 >= 0 && k1 < ns;
+    lanei ok = r >= 8.0f && m0 >= 0 && m0 + 1 < nm && k0 >= 0 && k1 < ns;
     /* out of range: read sample 0 (weights unused) rather than branch around the reads */
-    shi kk0 = ok ? k0 : 0, kk1 = ok ? k1 : 0, mm0 = ok ? m0 : 0;
+    lanei kk0 = ok ? k0 : 0, kk1 = ok ? k1 : 0, mm0 = ok ? m0 : 0;
     /* the pixel's depth along the view axis (pixel_z, on the lanes) */
-    shf qx = (SH_F(i) + 0.5f - cam.cx) / cam.focal_px;
+    lanef qx = (LANE_FLOAT(i) + 0.5f - cam.cx) / cam.focal_px;
     float qy = (j + 0.5f - cam.cy) / cam.focal_y;
-    shf dlen = SH_SQRT(qx * qx + qy * qy + 1.0f);
-    shf dist = SH_READ1(depth, idx) * (cam.depth_is_z ? dlen : 1.0f);
-    shf zp = (dist < cam.max_depth ? dist : cam.max_depth) / dlen, thr = 0.03f * zp;
-    shf sum = 0.0f, fa0 = 0.0f, fa1 = 0.0f, fa2 = 0.0f, ft0 = 0.0f, ft1 = 0.0f, ft2 = 0.0f;
-    shi lit = SH_TRUE;      /* all four samples unshadowed: the pixel keeps its airlight */
+    lanef dlen = LANE_SQRT(qx * qx + qy * qy + 1.0f);
+    lanef dist = LANE_LOAD(depth, idx) * (cam.depth_is_z ? dlen : 1.0f);
+    lanef zp = (dist < cam.max_depth ? dist : cam.max_depth) / dlen, thr = 0.03f * zp;
+    lanef sum = 0.0f, fa0 = 0.0f, fa1 = 0.0f, fa2 = 0.0f, ft0 = 0.0f, ft1 = 0.0f, ft2 = 0.0f;
+    lanei lit = LANE_TRUE;      /* all four samples unshadowed: the pixel keeps its airlight */
     __global const float *fa = (__global const float *)sh_a, *ft = (__global const float *)sh_t;
 #pragma unroll
     for (int c = 0; c < 4; ++c) {
-        shi s = ((c & 1) ? kk1 : kk0) * nm + mm0 + (c >> 1);
-        shf a_0 = SH_READ(fa, s, 0), a_1 = SH_READ(fa, s, 1), a_2 = SH_READ(fa, s, 2), a_w = SH_READ(fa, s, 3);
-        shf t_0 = SH_READ(ft, s, 0), t_1 = SH_READ(ft, s, 1), t_2 = SH_READ(ft, s, 2), t_w = SH_READ(ft, s, 3);
+        lanei s = ((c & 1) ? kk1 : kk0) * nm + mm0 + (c >> 1);
+        lanef a_0 = LANE_READ4(fa, s, 0), a_1 = LANE_READ4(fa, s, 1), a_2 = LANE_READ4(fa, s, 2), a_w = LANE_READ4(fa, s, 3);
+        lanef t_0 = LANE_READ4(ft, s, 0), t_1 = LANE_READ4(ft, s, 1), t_2 = LANE_READ4(ft, s, 2), t_w = LANE_READ4(ft, s, 3);
         lit &= t_w == 2.0f;
-        shf dz = SH_FABS(AFTER(a_w, sum) - zp);
-        shf q = thr / (dz > thr ? dz : thr);
-        shf wgt = (t_w > 0.0f ? 1.0f : 0.0f) * ((c & 1) ? tk : 1.0f - tk) * ((c >> 1) ? tm : 1.0f - tm) * (q * q) * (q * q);
+        lanef dz = LANE_ABS(AFTER(a_w, sum) - zp);
+        lanef q = thr / (dz > thr ? dz : thr);
+        lanef wgt = (t_w > 0.0f ? 1.0f : 0.0f) * ((c & 1) ? tk : 1.0f - tk) * ((c >> 1) ? tm : 1.0f - tm) * (q * q) * (q * q);
         sum += wgt;
         fa0 += wgt * a_0;
         fa1 += AFTER(wgt, fa0) * a_1;
@@ -730,9 +698,9 @@ __kernel void epi_unwarp(__global const float *depth, __global float4 *a_dir, __
         ft2 += AFTER(wgt, ft1) * t_2;
     }
     ok = ok && sum >= 1e-2f;
-    shi flag = light && !ok, apply = light && ok && !lit;
-    shf inv = 1.0f / (sum > 0.0f ? sum : 1.0f);
-#if SH_LANES == 8
+    lanei flag = light && !ok, apply = light && ok && !lit;
+    lanef inv = 1.0f / (sum > 0.0f ? sum : 1.0f);
+#if LANES == 8
 #pragma unroll
     for (int l = 0; l < 8; ++l) {
         int o = j * width + i0 + l;

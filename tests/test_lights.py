@@ -33,7 +33,7 @@ def test_table_kernel_matches_the_quadrature_kernel_on_whole_frames(lanes, monke
     difference of two table values (all of the camera leg's attenuation minus its
     extinction), within 3e-3 (measured 1.9e-3: near surfaces, where ss D is small, the
     difference is 5-10x smaller than its terms). Both builds of the table kernels: one pixel
-    per work-item, and eight (AL_LANES 8, what CPUs with AVX2 and no AVX-512 run), on a width
+    per work-item, and eight (LANES 8, kernels/lanes.h: what CPUs with AVX2 and no AVX-512 run), on a width
     that leaves a row's last work-item 5 pixels."""
     from fogcli import pipeline
     from fogcli.runtime import get_runtime

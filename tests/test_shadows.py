@@ -164,7 +164,7 @@ def test_samples_visibility_from_the_maps_agrees_with_walking_their_lines():
 
 
 def test_unwarp_on_eight_lanes_matches_the_per_pixel_build(monkeypatch):
-    """epi_unwarp built for AVX2 CPUs (SH_LANES 8: eight pixels of a row per work-item, the
+    """epi_unwarp built for AVX2 CPUs (LANES 8, kernels/lanes.h: eight pixels of a row per work-item, the
     lanes past the row's end storing nothing) against the per-pixel build, on every machine:
     facade scene 61 x 48 (a partial last vector), five lights, the airlight with shadows agrees
     to 1e-6 of its peak (measured: identical)."""

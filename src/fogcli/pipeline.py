@@ -393,8 +393,8 @@ class Plan:
         if cfg.lights:
             from .airlight_table import DEFINES
 
-            self.lanes = rt.lanes      # pixels of a row per work-item of the table kernels (AL_LANES)
-            self.k_lights = rt.program("lights", **d, **DEFINES, AL_LANES=self.lanes)
+            self.lanes = rt.lanes      # pixels of a row per work-item of the table kernels (LANES, kernels/lanes.h)
+            self.k_lights = rt.program("lights", **d, **DEFINES, LANES=self.lanes)
         else:
             self.k_lights = None
         self._al_tables = None     # (key, device buffer) of airlight_table.tables
@@ -587,7 +587,7 @@ class Plan:
                                             *device_quad(), ls)
             t.add("lights", ev)
             if self.cfg.render.lights.shadows == "screen":      # built once per process (runtime.program)
-                k_shadows = self.rt.program("shadows", **defines(self.cfg), SH_BINS=SH_BINS, SH_LANES=self.lanes)
+                k_shadows = self.rt.program("shadows", **defines(self.cfg), SH_BINS=SH_BINS, LANES=self.lanes)
                 sh = self.cfg.render.lights
                 sh_args = (cam, lm, device_quad()[0], ls, np.float32(sh.thickness), np.int32(sh.offscreen == "shadowed"))
                 if sh.method == "march":

@@ -214,7 +214,7 @@ class Runtime:
         self.local2d = (16, 8) if gpu else LOCAL_CPU
         self.local1d = 128 if gpu else LOCAL_CPU[0] * LOCAL_CPU[1]
         # kernels written on float8 for CPUs whose vectoriser would leave them scalar:
-        # 8-wide SIMD without AVX-512 (kernels/lights.cl, AL_LANES)
+        # 8-wide SIMD without AVX-512 (kernels/lanes.h, LANES)
         self.lanes = 8 if not gpu and device.native_vector_width_float == 8 else 1
 
     def nd(self, w: int, h: int | None = None):
