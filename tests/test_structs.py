@@ -15,7 +15,7 @@ STRUCTS = [
     ("camera_t", "density.h", CAMERA_T, [("pos", "pos"), ("rot", "rot0"), ("focal_px", "focal_px"),
                                          ("focal_y", "focal_y"), ("cx", "cx"), ("cy", "cy"),
                                          ("max_depth", "max_depth"), ("depth_is_z", "depth_is_z")]),
-    ("medium_t", "preprocess.cl", MEDIUM_T, [(n, n) for n in ("sa", "ss", "emission", "ambient", "cam", "g",
+    ("medium_t", "medium.h", MEDIUM_T, [(n, n) for n in ("sa", "ss", "emission", "ambient", "cam", "g",
                                                               "spread_scale", "homogeneous", "has_medium_light",
                                                               "has_p")]),
     ("lmedium_t", "lights.h", LMEDIUM_T, [(n, n) for n in LMEDIUM_T.names]),
