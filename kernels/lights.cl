@@ -116,8 +116,8 @@ __kernel void airlight(__global const float *depth, __global float4 *a_dir, __gl
         float s0 = cuts[p], s1 = cuts[p + 1];
         if (s1 <= s0) continue;
         /* points and spots integrate in phi, the directional light in s */
-        float a0 = L.type == 2 ? s0 : atan2(s0 - d1, R);
-        float a1 = L.type == 2 ? s1 : atan2(s1 - d1, R);
+        float a0 = L.type == LIGHT_DIRECTIONAL ? s0 : atan2(s0 - d1, R);
+        float a1 = L.type == LIGHT_DIRECTIONAL ? s1 : atan2(s1 - d1, R);
         float hw = 0.5f * (a1 - a0), mid = 0.5f * (a1 + a0);
         for (int k = 0; k < m.nodes; ++k) {
             float2 nw = gl[k];
@@ -126,7 +126,7 @@ __kernel void airlight(__global const float *depth, __global float4 *a_dir, __gl
             al_accumulate(src, P, sa, st, &dir, &sc, &wp);
         }
     }
-    if (L.type != 2) al_point_gain(&L, dir, &sc, &wp, optical_depth(prims, &m, c, w, clamp(d1, 0.0f, D)));
+    if (L.type != LIGHT_DIRECTIONAL) al_point_gain(&L, dir, &sc, &wp, optical_depth(prims, &m, c, w, clamp(d1, 0.0f, D)));
     float4 od = (float4)(dir, 0.0f), os = (float4)(sc, wp);
     a_dir[idx] = od;
     a_sc[idx] = os;

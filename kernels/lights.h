@@ -16,13 +16,21 @@ typedef struct {
     int nodes;              /* Gauss-Legendre nodes per piece */
 } lmedium_t;
 
+/* light_t.type and the density primitive codes (prims[3k].x); the host's are
+ * fogcli.structs.LIGHT_TYPES and PRIM_TYPES, tested against these (tests/test_structs.py) */
+#define LIGHT_POINT 0
+#define LIGHT_SPOT 1
+#define LIGHT_DIRECTIONAL 2
+#define PRIM_EXPONENTIAL 1
+#define PRIM_SPHERE 2
+
 typedef struct {
     float4 pos;             /* world position (point, spot); .w unused */
     float4 axis;            /* spot axis / directional: towards the light, unit, world */
     float4 intensity;       /* RGB intensity or irradiance */
     float radius;
     float cos_outer, cos_inner;
-    int type;               /* 0 point, 1 spot, 2 directional */
+    int type;               /* LIGHT_POINT, LIGHT_SPOT, LIGHT_DIRECTIONAL */
     float4 gain;            /* all orders of scattering over what single scattering carries
                              * (fogcli.lights.gain), per RGB: the rest joins the scattered part */
 } light_t;
@@ -33,14 +41,14 @@ inline float hg(float g, float c)
     return (1.0f - g * g) / (12.566370614f * d * native_sqrt(d));
 }
 
-/* prims[3k] = (type 1 exponential | 2 sphere, factor, falloff | radius, 0),
+/* prims[3k] = (type PRIM_EXPONENTIAL | PRIM_SPHERE, factor, falloff | radius, 0),
  * prims[3k+1] = direction n (unit) | centre, prims[3k+2] = offset */
 inline float density_at(__global const float4 *prims, const lmedium_t *m, float3 x)
 {
     float rho = m->homogeneous;
     for (int k = 0; k < m->nprims; ++k) {
         float4 a = prims[3 * k], b = prims[3 * k + 1], o = prims[3 * k + 2];
-        if (a.x == 1.0f) {
+        if (a.x == (float)PRIM_EXPONENTIAL) {
             rho += a.y * exp(-a.z * dot(x - o.xyz, b.xyz));
         } else {
             float3 r = x - b.xyz;
@@ -56,7 +64,7 @@ inline float optical_depth(__global const float4 *prims, const lmedium_t *m, flo
     float P = m->homogeneous * L;
     for (int k = 0; k < m->nprims; ++k) {
         float4 a = prims[3 * k], b = prims[3 * k + 1], o = prims[3 * k + 2];
-        if (a.x == 1.0f) {
+        if (a.x == (float)PRIM_EXPONENTIAL) {
             float pre = a.y * exp(fmin(-a.z * dot(p - o.xyz, b.xyz), 80.0f));
             P += exponential_p(pre, a.z, dot(u, b.xyz), L);
         } else {
@@ -90,7 +98,7 @@ inline float3 al_integrand(const light_t *L, const lmedium_t *m, const lmedium_t
 {
     float s, cosa, weight;
     float3 I = L->intensity.xyz;
-    if (L->type == 2) {
+    if (L->type == LIGHT_DIRECTIONAL) {
         s = a;
         cosa = dot(L->axis.xyz, w);
         weight = 1.0f;
@@ -112,14 +120,14 @@ inline float3 al_integrand(const light_t *L, const lmedium_t *m, const lmedium_t
         Pn = tfm_tau(nc->tm, nc->coef, nc->span, nc->nz, nc->count, x);
     }
     float Pl;
-    if (L->type == 2) {
+    if (L->type == LIGHT_DIRECTIONAL) {
         Pl = optical_depth(prims, het, x, L->axis.xyz, 1e6f);
     } else {
         float3 to = L->pos.xyz - x;
         float tl = length(to);
         /* the homogeneous part over the widened distance (R / cos(phi)), like 1 / t^2 */
         Pl = (tl > 0.0f ? optical_depth(prims, m, x, to / tl, tl) : 0.0f) + m->homogeneous * (SQRT_((s - d1) * (s - d1) + R * R) - tl);
-        if (L->type == 1) {
+        if (L->type == LIGHT_SPOT) {
             float ct = tl > 0.0f ? dot(-to / tl, L->axis.xyz) : 1.0f;
             I *= smoothstep(L->cos_outer, L->cos_inner, ct);
         }
@@ -256,10 +264,10 @@ inline int ray_cuts(const light_t *L, const lmedium_t *m, __global const float4 
      * spots start at 8 / k: the phi substitution already crowds their nodes where the light
      * is (measured: the same worst error, 1.9x faster) */
     float k = m->homogeneous * fmax(st.x, fmax(st.y, st.z));
-    for (float e = L->type == 2 ? 1.0f : 8.0f; k > 0.0f && e < k * D && n < MAX_CUTS - 6; e *= 2.0f) cuts[n++] = e / k;
+    for (float e = L->type == LIGHT_DIRECTIONAL ? 1.0f : 8.0f; k > 0.0f && e < k * D && n < MAX_CUTS - 6; e *= 2.0f) cuts[n++] = e / k;
     n = sphere_cuts(prims, m, c, w, 0.0f, D, cuts, n);
-    n = graze_cuts(prims, m, c, w, l, ax, L->type == 2, 0.0f, D, cuts, n);
-    if (L->type == 1) {     /* both ends of the soft edge: smoothstep's curvature jumps there */
+    n = graze_cuts(prims, m, c, w, l, ax, L->type == LIGHT_DIRECTIONAL, 0.0f, D, cuts, n);
+    if (L->type == LIGHT_SPOT) {     /* both ends of the soft edge: smoothstep's curvature jumps there */
         n = cone_cuts(c, w, l, ax, L->cos_outer, 0.0f, D, cuts, n);
         n = cone_cuts(c, w, l, ax, L->cos_inner, 0.0f, D, cuts, n);
     }

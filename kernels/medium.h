@@ -1,5 +1,5 @@
 /* The medium as the per-pixel stage reads it (preprocess.cl: preprocess, coverage, view
- * cosines): the host fills it from pipeline.MEDIUM_T, whose layout tests/test_structs.py
+ * cosines): the host fills it from fogcli.structs.MEDIUM_T, whose layout tests/test_structs.py
  * checks against this one on the device. */
 #ifndef FOGCLI_MEDIUM_H
 #define FOGCLI_MEDIUM_H

@@ -9,7 +9,15 @@
 
 #include "common.h"
 
-typedef struct {            /* fogcli/noise.py: NOISE_T */
+/* noise_t.shape and tfm_t.kind; the host's are fogcli.structs.NOISE_SHAPES and TFM_KINDS,
+ * tested against these (tests/test_structs.py) */
+#define NOISE_BOX 0
+#define NOISE_SPHERE 1
+#define TFM_OCTAHEDRAL 0
+#define TFM_PERSPECTIVE 1
+#define TFM_ORTHOGRAPHIC 2
+
+typedef struct {            /* fogcli/structs.py: NOISE_T */
     float4 center;          /* world, m */
     float4 hsize;           /* box: half edge lengths; sphere: radius in .x */
     float factor, inv_scale, amplitude, offset;
@@ -18,7 +26,7 @@ typedef struct {            /* fogcli/noise.py: NOISE_T */
     float norm;             /* 1 / sum of the octaves' weights: fbm in [-1, 1] */
     int octaves;
     uint seed;
-    int shape;              /* 0 box, 1 sphere */
+    int shape;              /* NOISE_BOX, NOISE_SPHERE */
 } noise_t;
 
 /* a 32-bit integer hash of a lattice point (the same in numpy's uint32 arithmetic) */
@@ -62,7 +70,7 @@ inline float value_noise(float x, float y, float z, uint seed)
 inline float noise_inside(__global const noise_t *n, float3 x)
 {
     float3 r = x - n->center.xyz;
-    if (n->shape == 0) {
+    if (n->shape == NOISE_BOX) {
         float3 d = n->hsize.xyz - fabs(r);
         return fmin(d.x, fmin(d.y, d.z));
     }
@@ -102,7 +110,7 @@ inline float noise_sum(__global const noise_t *nz, int count, float3 x)
 inline int noise_chord(__global const noise_t *n, float3 p, float3 u, float *t0, float *t1)
 {
     float3 r = p - n->center.xyz;
-    if (n->shape == 0) {
+    if (n->shape == NOISE_BOX) {
         float lo = -INFINITY, hi = INFINITY;
         float rv[3] = {r.x, r.y, r.z}, uv[3] = {u.x, u.y, u.z}, hv[3] = {n->hsize.x, n->hsize.y, n->hsize.z};
         for (int a = 0; a < 3; ++a) {
@@ -169,11 +177,11 @@ inline float noise_march(__global const noise_t *nz, int count, float3 p, float3
 /* ---- transmittance function maps: per light a square map of rays, each storing the
  * optical depth of the noise along it as DCT-II coefficients over the ray's own span ---- */
 
-typedef struct {            /* fogcli/noise.py: TFM_T */
+typedef struct {            /* fogcli/structs.py: TFM_T */
     float4 origin;          /* point, spot: the light; directional: the map plane's centre */
     float4 e1, e2, e3;      /* frame; e3 the map's axis (ray direction of an orthographic map) */
     float extent;           /* perspective: tan of the half angle; orthographic: half width, m */
-    int kind;               /* 0 octahedral, 1 perspective, 2 orthographic */
+    int kind;               /* TFM_OCTAHEDRAL, TFM_PERSPECTIVE, TFM_ORTHOGRAPHIC */
     int size;               /* texels per side */
     int ncoef;
 } tfm_t;
@@ -208,11 +216,11 @@ inline void tfm_ray(const tfm_t *m, float i, float j, float3 *o, float3 *u)
 {
     float2 uv = (float2)((i + 0.5f) / m->size, (j + 0.5f) / m->size);
     float3 e1 = m->e1.xyz, e2 = m->e2.xyz, e3 = m->e3.xyz;
-    if (m->kind == 0) {
+    if (m->kind == TFM_OCTAHEDRAL) {
         float3 d = oct_decode(uv);
         *o = m->origin.xyz;
         *u = d.x * e1 + d.y * e2 + d.z * e3;
-    } else if (m->kind == 1) {
+    } else if (m->kind == TFM_PERSPECTIVE) {
         *o = m->origin.xyz;
         *u = normalize(e3 + m->extent * ((2.0f * uv.x - 1.0f) * e1 + (2.0f * uv.y - 1.0f) * e2));
     } else {
@@ -252,7 +260,7 @@ inline float tfm_texel(__global const float *coef, __global const float4 *span, 
 inline int tfm_index(const tfm_t *m, int i, int j)
 {
     int S = m->size;
-    if (m->kind == 0) {
+    if (m->kind == TFM_OCTAHEDRAL) {
         if (i < 0) { i = 0; j = S - 1 - j; } else if (i >= S) { i = S - 1; j = S - 1 - j; }
         if (j < 0) { j = 0; i = S - 1 - i; } else if (j >= S) { j = S - 1; i = S - 1 - i; }
     }
@@ -274,12 +282,12 @@ inline float tfm_tau(const tfm_t *m, __global const float *coef, __global const 
     float a = dot(v, e1), b = dot(v, e2), c = dot(v, e3), t;
     float2 uv;
     float3 o = m->origin.xyz, u;
-    if (m->kind == 0) {
+    if (m->kind == TFM_OCTAHEDRAL) {
         t = length(v);
         if (t <= 0.0f) return 0.0f;
         uv = oct_encode((float3)(a, b, c));
         u = v / t;
-    } else if (m->kind == 1) {
+    } else if (m->kind == TFM_PERSPECTIVE) {
         t = length(v);
         if (c <= 0.0f) return 0.0f;
         uv = (float2)(0.5f + 0.5f * a / (c * m->extent), 0.5f + 0.5f * b / (c * m->extent));

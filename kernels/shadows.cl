@@ -34,8 +34,8 @@
                              * missed the facade test's 1 %: 1.8 %; 64 of 16: 0.35 %, tests/test_shadows.py) */
 #endif
 #define SH_WORDS (SH_N * SH_SUB / 32)
-#ifndef SH_BINS
-#define SH_BINS 2048        /* shadow map bins per epipolar slice */
+#ifndef SH_BINS             /* shadow map bins per epipolar slice: the host sizes their buffers */
+#error "SH_BINS is set by the host (fogcli.structs.SH_BINS)"
 #endif
 
 /* min and max by compare and select: fmin / fmax are out-of-line calls in PoCL, and the maps
@@ -187,7 +187,7 @@ ALWAYS_INLINE void shares_homogeneous(const lmedium_t *m, const light_t *L, floa
 {
     const float8 lane = (float8)(0.5f, 1.5f, 2.5f, 3.5f, 4.5f, 5.5f, 6.5f, 7.5f);
     float hf = m->homogeneous, g = m->g;
-    int directional = L->type == 2, spot = L->type == 1;
+    int directional = L->type == LIGHT_DIRECTIONAL, spot = L->type == LIGHT_SPOT;
     float kA0 = -hf * (m->sa.x + m->ss.x), kA1 = -hf * (m->sa.y + m->ss.y), kA2 = -hf * (m->sa.z + m->ss.z);
     float kT0 = -hf * m->sa.x, kT1 = -hf * m->sa.y, kT2 = -hf * m->sa.z;
     /* spot: the cosine to its axis at s is (q0 + s q1) / |x - light|, lc = camera - light */
@@ -252,7 +252,7 @@ inline int march_shares(__global const float *depth, const int width, const int 
     float D = fmin(zn * dlp, cam.max_depth);
     lmedium_t het = m;
     het.homogeneous = 0.0f;
-    int directional = L.type == 2;
+    int directional = L.type == LIGHT_DIRECTIONAL;
 
     /* the plane's second axis e2 (towards the light), the light's in-plane place (d1, Rt),
      * the integration variable's range [a0, a1] (phi or s) */
@@ -479,7 +479,7 @@ __kernel void epi_maps(__global const float *depth, __global float *maps, __glob
 {
     int k = get_global_id(0);
     if (k >= ns) return;
-    int directional = L.type == 2;
+    int directional = L.type == LIGHT_DIRECTIONAL;
     float3 c = cam.pos.xyz, v = directional ? L.axis.xyz : L.pos.xyz - c;
     float dl = length(v);
     float3 u = directional ? v : v / dl;

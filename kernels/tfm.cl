@@ -67,7 +67,7 @@ inline void noise_ray(float3 c, float3 w, float D, const light_t *L, const lmedi
     float3 sa = m->sa.xyz, st = sa + m->ss.xyz;
     float3 dir = (float3)(0.0f), sc = (float3)(0.0f);
     float wp = 0.0f;
-    int directional = L->type == 2;
+    int directional = L->type == LIGHT_DIRECTIONAL;
     lmedium_t het = *m;
     het.homogeneous = 0.0f;
 

@@ -1,13 +1,14 @@
-"""The structs the host fills (numpy dtypes) against the ones the kernels read: size and every
-member's offset measured on the device (sizeof / __builtin_offsetof in a probe kernel), so a
-member added, moved or padded differently on one side fails here instead of shifting values."""
+"""What fogcli.structs declares for the host against what the kernels read: every struct's
+size and member offsets measured on the device (sizeof / __builtin_offsetof in a probe
+kernel), and every code and constant read from the kernels' headers as the device compiles
+them, so a member added, moved or padded differently, or a code renumbered, on one side
+fails here instead of shifting or misreading values."""
 import numpy as np
 import pytest
 
 from fogcli.api import make_config
-from fogcli.lights import LIGHT_T, LMEDIUM_T
-from fogcli.noise import NOISE_T, TFM_T
-from fogcli.pipeline import CAMERA_T, MEDIUM_T, defines
+from fogcli.pipeline import defines
+from fogcli.structs import C_NAMES, CAMERA_T, LIGHT_T, LMEDIUM_T, MEDIUM_T, NOISE_T, TFM_T
 from fogcli.runtime import KERNEL_DIR
 
 # (C type, the file that declares it, numpy dtype, (numpy field, C member) pairs)
@@ -44,3 +45,25 @@ def test_struct_layout_matches_device(rt, ctype, source, dtype, members):
     rt.queue.finish()
     want = [dtype.itemsize] + [dtype.fields[name][1] for name, _ in members]
     assert out.tolist() == want, dict(zip(["sizeof"] + [m for _, m in members], zip(out.tolist(), want)))
+
+
+# the header that declares each constant of fogcli.structs.C_NAMES (the default a kernel
+# compiles with where the host passes none)
+HEADERS = ("lights.h", "noise.h")
+
+
+def test_codes_and_constants_match_the_kernels(rt):
+    names = sorted(C_NAMES)
+    lines = [f'#include "{h}"' for h in HEADERS] + ["__kernel void probe_constants(__global int *out) {"]
+    lines += [f"    out[{k}] = (int)({name});" for k, name in enumerate(names)] + ["}"]
+    opts = ["-I", str(KERNEL_DIR)] + (["-D", "FOGCLI_POCL=1"] if rt.pocl else [])
+    for k, v in sorted(defines(make_config("fog")).items()):
+        opts += ["-D", f"{k}={v}"]
+    cl = rt.cl
+    prog = cl.Program(rt.ctx, "\n".join(lines)).build(options=opts)
+    out = np.full(len(names), -12345, np.int32)
+    buf = cl.Buffer(rt.ctx, cl.mem_flags.WRITE_ONLY, out.nbytes)
+    prog.probe_constants(rt.queue, (1,), None, buf)
+    cl.enqueue_copy(rt.queue, out, buf)
+    rt.queue.finish()
+    assert dict(zip(names, out.tolist())) == {n: C_NAMES[n] for n in names}

@@ -10,14 +10,8 @@ from importlib import resources
 import numpy as np
 
 from .config import Config
+from .structs import LIGHT_T, LIGHT_TYPES, LMEDIUM_T, PRIM_TYPES
 
-LIGHT_T = np.dtype({"names": ["pos", "axis", "intensity", "radius", "cos_outer", "cos_inner", "type", "gain"],
-                    "formats": [(np.float32, 4)] * 3 + [np.float32] * 3 + [np.int32] + [(np.float32, 4)],
-                    "offsets": [0, 16, 32, 48, 52, 56, 60, 64], "itemsize": 80})
-LMEDIUM_T = np.dtype({"names": ["sa", "ss", "g", "homogeneous", "nprims", "nodes"],
-                      "formats": [(np.float32, 4)] * 2 + [np.float32] * 2 + [np.int32] * 2,
-                      "offsets": [0, 16, 32, 36, 40, 44], "itemsize": 48})
-TYPES = {"point": 0, "spot": 1, "directional": 2}
 
 
 def rotation(cfg: Config) -> np.ndarray:
@@ -51,7 +45,7 @@ def light_struct(cfg: Config, light) -> np.ndarray:
         s["cos_inner"] = math.cos(math.radians(light.angle * (1.0 - light.blend)))
         if s["cos_inner"] <= s["cos_outer"]:            # blend 0: a hard edge, smoothstep needs a step
             s["cos_inner"] = np.nextafter(s["cos_outer"], np.float32(2.0))
-    s["type"] = TYPES[light.type]
+    s["type"] = LIGHT_TYPES[light.type]
     s["gain"] = [*gain(cfg, light), 1.0]
     return s
 
@@ -162,9 +156,9 @@ def medium_struct(cfg: Config) -> tuple[np.ndarray, np.ndarray]:
     for d in m.density:
         if d.type == "exponential":
             n = np.array(d.direction, np.float64)
-            prims += [[1.0, d.factor, d.falloff, 0.0], [*(n / np.linalg.norm(n)), 0.0], [*d.offset, 0.0]]
+            prims += [[float(PRIM_TYPES["exponential"]), d.factor, d.falloff, 0.0], [*(n / np.linalg.norm(n)), 0.0], [*d.offset, 0.0]]
         elif d.type == "sphere":
-            prims += [[2.0, d.factor, d.radius, 0.0], [*d.center, 0.0], [0.0] * 4]
+            prims += [[float(PRIM_TYPES["sphere"]), d.factor, d.radius, 0.0], [*d.center, 0.0], [0.0] * 4]
     s["nprims"] = len(prims) // 3
     return s, np.array(prims or [[0.0] * 4] * 3, np.float32)
 

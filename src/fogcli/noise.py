@@ -8,16 +8,8 @@ import math
 import numpy as np
 
 from .config import Config
+from .structs import NOISE_MAX_STEPS, NOISE_SHAPES, NOISE_T, TFM_KINDS, TFM_T
 
-NOISE_T = np.dtype({"names": ["center", "hsize", "factor", "inv_scale", "amplitude", "offset", "edge", "step",
-                              "norm", "octaves", "seed", "shape"],
-                    "formats": [(np.float32, 4)] * 2 + [np.float32] * 7 + [np.int32, np.uint32, np.int32],
-                    "offsets": [0, 16, 32, 36, 40, 44, 48, 52, 56, 60, 64, 68], "itemsize": 80})
-TFM_T = np.dtype({"names": ["origin", "e1", "e2", "e3", "extent", "kind", "size", "ncoef"],
-                  "formats": [(np.float32, 4)] * 4 + [np.float32] + [np.int32] * 3,
-                  "offsets": [0, 16, 32, 48, 64, 68, 72, 76], "itemsize": 80})
-KINDS = {"octahedral": 0, "perspective": 1, "orthographic": 2}
-MAX_STEPS = 512          # noise.h: NOISE_MAX_STEPS
 
 
 def primitives(cfg: Config) -> list:
@@ -35,7 +27,7 @@ def structs(cfg: Config) -> np.ndarray:
         s[k]["amplitude"], s[k]["offset"], s[k]["edge"] = d.amplitude, d.offset, d.edge_m()
         s[k]["step"] = d.march_step()
         s[k]["norm"] = 1.0 / sum(0.5 ** o for o in range(d.octaves))
-        s[k]["octaves"], s[k]["seed"], s[k]["shape"] = d.octaves, d.seed, int(d.shape == "sphere")
+        s[k]["octaves"], s[k]["seed"], s[k]["shape"] = d.octaves, d.seed, NOISE_SHAPES[d.shape]
     return s
 
 
@@ -67,7 +59,7 @@ def tfm_layout(cfg: Config, pos: np.ndarray, axis: np.ndarray, light_type: str) 
     s["size"], s["ncoef"] = r.tfm_size, r.coefficients
     if light_type == "directional":
         e3 = -np.asarray(axis, float)
-        s["kind"], s["extent"] = KINDS["orthographic"], 1.01 * rb
+        s["kind"], s["extent"] = TFM_KINDS["orthographic"], 1.01 * rb
         origin = centre - 1.01 * rb * e3
     else:
         v = centre - pos
@@ -75,10 +67,10 @@ def tfm_layout(cfg: Config, pos: np.ndarray, axis: np.ndarray, light_type: str) 
         origin = pos
         if dist > 1.05 * rb:
             e3 = v / dist
-            s["kind"], s["extent"] = KINDS["perspective"], 1.02 * math.tan(math.asin(rb / dist))
+            s["kind"], s["extent"] = TFM_KINDS["perspective"], 1.02 * math.tan(math.asin(rb / dist))
         else:
             e3 = np.asarray(axis, float) if light_type == "spot" else np.array([0.0, 0.0, 1.0])
-            s["kind"] = KINDS["octahedral"]
+            s["kind"] = TFM_KINDS["octahedral"]
     e1, e2 = _frame(e3)
     for name, v in (("origin", origin), ("e1", e1), ("e2", e2), ("e3", e3)):
         s[name] = [*v, 0.0]
@@ -213,12 +205,12 @@ def _light_leg(x: np.ndarray, pos: np.ndarray, axis: np.ndarray, directional: bo
 
 def march(p: np.ndarray, u: np.ndarray, L: float, cfg: Config, steps: int | None = None) -> float:
     """The noise's optical depth from p along unit u over [0, L] by the midpoint rule: as
-    noise.h (the primitives' finest march step, at most MAX_STEPS) unless steps is given."""
+    noise.h (the primitives' finest march step, at most NOISE_MAX_STEPS) unless steps is given."""
     t0, t1, h = (float(v[0]) for v in _span(np.asarray(p, float)[None, :], np.asarray(u, float)[None, :], cfg, 0.0, L,
                                                step=True))
     if not t1 > t0:
         return 0.0
-    n = steps or min(max(int(math.ceil((t1 - t0) / h)), 1), MAX_STEPS)
+    n = steps or min(max(int(math.ceil((t1 - t0) / h)), 1), NOISE_MAX_STEPS)
     t = t0 + (np.arange(n) + 0.5) * (t1 - t0) / n
     return float(density_sum(np.asarray(p) + t[:, None] * np.asarray(u), cfg).sum() * (t1 - t0) / n)
 

@@ -13,19 +13,9 @@ from . import pixels
 from .config import FILTERS, Config
 from .errors import ProcessingError
 from .runtime import Runtime, get_runtime
+from .structs import CAMERA_T, MEDIUM_T, SH_BINS
 
 INTERP = {"linear-bilinear": 0, "linear-bicubic": 1, "cubic-bicubic": 2}
-CAMERA_T = np.dtype([
-    ("pos", np.float32, 4), ("rot", np.float32, (3, 4)), ("focal_px", np.float32),
-    ("focal_y", np.float32), ("cx", np.float32), ("cy", np.float32), ("max_depth", np.float32),
-    ("depth_is_z", np.int32), ("_pad", np.int32, 2),   # OpenCL rounds up to float4 alignment
-], align=True)
-MEDIUM_T = np.dtype([
-    ("sa", np.float32, 4), ("ss", np.float32, 4), ("emission", np.float32, 4),
-    ("ambient", np.float32, 4), ("cam", CAMERA_T), ("g", np.float32), ("spread_scale", np.float32),
-    ("homogeneous", np.float32), ("has_medium_light", np.int32), ("has_p", np.int32),
-    ("_pad", np.int32, 3),   # OpenCL rounds the struct up to its float4 alignment
-], align=True)
 
 
 def level_sizes(width: int, height: int, levels: int | str) -> list[tuple[int, int]]:
@@ -938,9 +928,6 @@ class Plan:
                 for i, ch in enumerate("RGB"):
                     out[f"{name}.{ch}"] = src[:, :, i]
         return out
-
-
-SH_BINS = 2048     # shadow map bins per epipolar slice (kernels/shadows.cl)
 
 
 _PLANS: dict = {}
