@@ -162,9 +162,9 @@ def main() -> int:
     text = buf.getvalue()
     print(text)
     if args.doc:
-        from docblock import write_block
+        from docblock import markers, write_block
 
-        begin, end = "<!-- grid-check -->", "<!-- /grid-check -->"
+        begin, end = markers("grid-check")
         block = (f"{begin}\n## Interpolation error of the shipped grid\n\nWritten by `PYTHONPATH=src python "
                  f"benchmarks/apsf_grid_check.py --doc docs/apsf-table.md`.\n\n{text.strip()}\n{end}")
         write_block(Path(args.doc), begin, end, block, new_doc="")

@@ -21,14 +21,14 @@ sys.path.insert(0, str(ROOT))
 _spec = importlib.util.spec_from_file_location("gt_bench", ROOT / "groundtruth.py")   # not the package
 G = importlib.util.module_from_spec(_spec)
 _spec.loader.exec_module(G)
-from docblock import write_block  # noqa: E402
+from docblock import markers, write_block  # noqa: E402
 
 from fogcli import apply  # noqa: E402
 from fogcli.api import make_config  # noqa: E402
 from fogcli.metrics import rel_l1  # noqa: E402
 
 MARGINS = (0.0, 0.25, 0.5, 0.75, 1.5, 3.0)
-BEGIN, END = "<!-- border-margin -->", "<!-- /border-margin -->"
+BEGIN, END = markers("border-margin")
 
 
 def main() -> int:

@@ -211,8 +211,10 @@ def main():
             pic_lines.append(f"![{name}](images/{p.name})\n\n*{name}: path traced | fogcli default | "
                              f"exp(-beta d) blending | 4x |fogcli - path traced|*\n")
         doc = Path(args.doc)
-        head = doc.read_text().split("<!-- groundtruth -->")[0] if doc.exists() else "# Physics\n\n"
-        doc.write_text(head + "<!-- groundtruth -->\n" + text + "\n\n" + "\n".join(pic_lines))
+        from docblock import markers, write_block
+
+        begin, end = markers("groundtruth")
+        write_block(doc, begin, end, "\n".join([begin, text, "", *pic_lines, end]), new_doc="# Physics\n\n")
     per_case = {case["name"]: res for case, res in rows}
     out_json = Path(args.doc).with_suffix(".json") if args.doc else None
     if out_json:

@@ -18,10 +18,10 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path[:0] = [str(ROOT / "src"), str(ROOT / "benchmarks")]
 
-from docblock import publish_performance  # noqa: E402
+from docblock import markers, publish_performance  # noqa: E402
 from process_peak import run_measured  # noqa: E402
 
-BEGIN, END = "<!-- huge-image: begin -->", "<!-- huge-image: end -->"
+BEGIN, END = markers("huge-image")
 W, H = 16000, 12000
 
 

@@ -30,7 +30,7 @@ def test_default_border_margin_is_the_calibrations_choice():
     calibration scenes in the table benchmarks/border_margin.py wrote into docs/physics.md."""
     from fogcli.config import Render
 
-    block = (ROOT / "docs" / "physics.md").read_text().split("<!-- border-margin -->")[1].split("<!-- /border-margin -->")[0]
+    block = (ROOT / "docs" / "physics.md").read_text().split("<!-- border-margin: begin -->")[1].split("<!-- border-margin: end -->")[0]
     head = next(ln for ln in block.splitlines() if ln.startswith("| case |"))
     margins = [float(c.split()[-1]) for c in head.strip("|").split("|") if c.strip().startswith("margin")]
     row = next(ln for ln in block.splitlines() if ln.startswith("| mean, calibration scenes"))
