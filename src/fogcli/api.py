@@ -158,7 +158,7 @@ def apply(image: np.ndarray, depth: np.ndarray, config: Config | str | None = No
 
         for n in notes:
             warnings.warn(n, UserWarning, stacklevel=2)
-    from .media import hidden_warning, mean_luminance
+    from .job import hidden_warning, mean_luminance
 
     hidden = hidden_warning(mean_luminance(img), out, cfg, dm)
     if hidden:

@@ -12,8 +12,8 @@ from . import depth as depth_mod
 from . import inputs, memory, outputs
 from .config import Config
 from .errors import UserError
-from .media import hidden_warning, mean_luminance
-from .pipeline import Timings, depth_grid, finish, start, unmap
+from .media import visibility_m
+from .pipeline import Timings, depth_grid, finish, median_depth, start, unmap
 
 
 @dataclass
@@ -162,3 +162,26 @@ def write_lamps(path: Path, lamps: list) -> None:
 
     data = {"lights": [x.model_dump(mode="json") for x in lamps]}
     outputs.atomic_write(path, lambda tmp: Path(tmp).write_text(json.dumps(data, indent=1) + "\n"))
+
+
+def mean_luminance(rgb) -> float:
+    """Mean luminance of a frame, from a grid of about 256 rows of it."""
+    lum = np.array([0.2126, 0.7152, 0.0722], np.float32)
+    step = max(1, rgb.shape[0] // 256)
+    return float((rgb[::step, ::step, :3] @ lum).mean())
+
+
+def hidden_warning(l_in: float, rgb_out, cfg: Config, depth) -> str | None:
+    """One line when the medium all but hides the frame (output mean luminance below 5 % of
+    the input's, l_in: mean_luminance of the input), with the numbers that say why and the
+    relative strength that would not."""
+    l_out = mean_luminance(rgb_out)
+    if not l_in > 0 or l_out >= 0.05 * l_in:
+        return None
+    try:
+        med = f"{median_depth(depth, cfg.camera.max_depth):.3g} m"
+    except UserError:
+        med = "sky only"
+    vis = cfg.medium.visibility if isinstance(cfg.medium.visibility, str) else f"{visibility_m(cfg.medium):.3g} m"
+    return (f"the medium hides the scene: mean luminance {l_out / l_in:.1%} of the input's (visibility {vis} "
+            f"against a median depth of {med}); for a strength relative to the scene, set medium.visibility: 200% (twice the median depth)")
