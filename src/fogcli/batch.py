@@ -5,6 +5,7 @@ run), and --skip-existing resumes it."""
 from __future__ import annotations
 
 import contextlib
+import itertools
 import json
 import os
 import queue
@@ -173,7 +174,6 @@ class _StaleByFolder:
 
 
 _STALE = _StaleByFolder()
-
 
 
 END = object()
@@ -348,13 +348,9 @@ def _overlapped(source, cfg, aovs, device, progress, collect) -> None:
                 while writing:              # nothing to do but wait for the next line
                     collect(writing.pop(0)[0].result(), progress)
                 job = source.get(block=True)
-            return None if job is None or not isinstance(job, Job) else io.submit(read, job)
+            return None if job is None or job is END else io.submit(read, job)
 
         ahead = next_read(True)
-        if ahead is not None:       # OpenCL's start-up while the first frame is read and decoded
-            from .runtime import get_runtime
-
-            get_runtime(device)
         while ahead is not None:
             job, t0, st, failed = ahead.result()
             ahead = next_read(False)
@@ -431,6 +427,20 @@ class Progress:
             self.bar.close()
 
 
+def _fill(source, futs: dict, limit: int, submit) -> bool:
+    """The source's jobs submitted (submit(job) -> its future, into futs) until `limit` are
+    in flight or none is ready yet, waiting for one only while none is in flight. True: the
+    source has ended."""
+    while len(futs) < limit:
+        job = source.get(block=not futs)
+        if job is None:
+            return False
+        if job is END:
+            return True
+        futs[submit(job)] = job
+    return False
+
+
 @contextlib.contextmanager
 def _children_ignore_ctrl_c():
     """Worker processes started in here ignore SIGINT (a disposition that a spawned Python
@@ -469,16 +479,12 @@ def _pool(source, workers, cfg, aovs, device, threads, progress, collect):
                              initargs=(cfg, aovs, device, threads, started)) as ex:
         futs: dict = {}
         crashed, ended = False, False
+        def submit(job):
+            with _children_ignore_ctrl_c():            # a submit may spawn a worker
+                return ex.submit(process, job)
+
         while not crashed and (futs or not ended):
-            while not ended and len(futs) < 2 * workers:
-                job = source.get(block=not futs)
-                if job is None:
-                    break
-                if not isinstance(job, Job):
-                    ended = True
-                    break
-                with _children_ignore_ctrl_c():        # a submit may spawn a worker
-                    futs[ex.submit(process, job)] = job
+            ended = ended or _fill(source, futs, 2 * workers, submit)
             if not futs:
                 continue
             try:
@@ -559,17 +565,13 @@ def _dask(source, cfg, aovs, device, scheduler, progress, collect):
         # are submitted as they come, a bounded number in flight.
         limit = max(64, 4 * len(client.scheduler_info().get("workers", {})))
         futs: dict = {}
-        ended, i = False, 0
+        ended, count = False, itertools.count()
+
+        def submit(job):
+            return client.submit(process, job, cfg, aovs, device, pure=False, key=f"fogcli-{next(count)}-{job.input}")
+
         while futs or not ended:
-            while not ended and len(futs) < limit:
-                job = source.get(block=not futs)
-                if job is None:
-                    break
-                if not isinstance(job, Job):
-                    ended = True
-                    break
-                futs[client.submit(process, job, cfg, aovs, device, pure=False, key=f"fogcli-{i}-{job.input}")] = job
-                i += 1
+            ended = ended or _fill(source, futs, limit, submit)
             if not futs:
                 continue
             try:
@@ -625,14 +627,16 @@ def _run(items, stream: bool, total, cfg, aovs, device, jobs, scheduler, quiet, 
     """Every job of `items` (Jobs, and results of lines that are not: jobs_file.Parser)
     through the chosen runner, results into the summary."""
 
+    def entry(r, keys):            # a jobs file's line number where there is one
+        return {k: r[k] for k in (*keys, "line") if k != "line" or r.get("line")}
+
     def collect(r, progress):
         if r.get("skipped"):
-            summary.skipped.append({k: r[k] for k in ("input", "output", "line") if r.get(k)})
+            summary.skipped.append(entry(r, ("input", "output")))
         elif r["ok"]:
-            summary.done.append({k: r[k] for k in ("input", "output", "seconds", "warnings", "line") if k in r
-                                 and (k != "line" or r[k])})
+            summary.done.append(entry(r, ("input", "output", "seconds", "warnings")))
         else:
-            summary.failed.append({k: r[k] for k in ("input", "reason", "line") if k != "line" or r.get(k)})
+            summary.failed.append(entry(r, ("input", "reason")))
         progress.update(r)
 
     progress = Progress(total, quiet)

@@ -210,9 +210,8 @@ def _batch_jobs_file(jobs_file, input_dir, depth_pattern, fmt, recursive, save_d
                      camera_file, sets, layer, view, aovs, drop_channels, device, jobs, skip_existing, scheduler,
                      report, quiet):
     """fogcli batch --jobs-file: the folder options have no meaning here; the config
-    options are every line's base (media.assemble checks them once, before any line)."""
+    options are every line's base (checked once, before any line: jobs_file.Parser)."""
     from .batch import run_jobs_file
-    from .media import assemble
 
     if input_dir is not None:
         raise UserError("--jobs-file takes no INPUT_DIR or OUTPUT_DIR (each line names its files)")
@@ -220,10 +219,9 @@ def _batch_jobs_file(jobs_file, input_dir, depth_pattern, fmt, recursive, save_d
                     ("--recursive", recursive)):
         if v:
             raise UserError(f"{name} is for folders; with --jobs-file each line says it "
-                                   "(depth, output's extension, save_depth)")
+                            "(depth, output's extension, save_depth)")
     if not jobs_file.strip():
         raise UserError("--jobs-file: empty; expected a file name or -")
-    assemble(medium, config_file, sets, camera_file)       # a bad --set fails the command, not every line
     return run_jobs_file(jobs_file, medium=medium, configs=(config_file,) if config_file else (), sets=sets,
                          camera=camera_file, jobs=jobs, skip_existing=skip_existing, scheduler=scheduler,
                          aovs=aovs, device=device, quiet=quiet, report=Path(report) if report else None,

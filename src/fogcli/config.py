@@ -163,6 +163,11 @@ class Medium(_Model):
         """The summed factor of the homogeneous density primitives."""
         return sum(d.factor for d in self.density if d.type == "homogeneous")
 
+    @property
+    def heterogeneous(self) -> bool:
+        """A primitive other than a homogeneous one: its optical depth P is found per pixel."""
+        return any(d.type != "homogeneous" for d in self.density)
+
     def for_depth(self, median_depth: float) -> "Medium":
         """A relative visibility ('40%') made metres: the coefficients scaled so that the mean
         extinction gives that visibility at this share of the frame's median depth."""
@@ -442,7 +447,7 @@ class Config(_Model):
         r = self.render
         if self.lights and not (r.method == "pyramid" and r.fetch == "source" and r.psf == "apsf"):
             raise ValueError("lights: lights need render.method pyramid with fetch source and psf apsf (the defaults)")
-        if r.lights.airlight == "pk" and any(d.type != "homogeneous" for d in self.medium.density):
+        if r.lights.airlight == "pk" and self.medium.heterogeneous:
             raise ValueError("render.lights.airlight: pk is for homogeneous media; use quadrature")
         return self
 

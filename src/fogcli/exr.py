@@ -114,9 +114,12 @@ def write_passthrough(path: Path, tmp: str, frame, rgb: np.ndarray, alpha: np.nd
             if kept is not None and kept.shape != (spec.height, spec.width, len(frame.kept_channels)):
                 kept = None
             # the column of the strips each channel of the part is in (kept: only those not replaced)
-            col = {c: k for k, c in enumerate(frame.kept_channels)} if kept is not None else dict(enumerate(range(nch)))
-            if kept is not None and any(c not in replace and c not in col for c in range(nch)):
-                kept, col = None, dict(enumerate(range(nch)))
+            if kept is not None:
+                col = {c: k for k, c in enumerate(frame.kept_channels)}
+                if any(c not in replace and c not in col for c in range(nch)):
+                    kept = None
+            if kept is None:
+                col = {c: c for c in range(nch)}
             # all half: handed over as half (converted faster here than by the writer)
             as_half = all(str(f) == "half" for f in o.channelformats)
             for y0, y1, px in _strip_reader(inp, i, spec, nch, read_fmt, kept):

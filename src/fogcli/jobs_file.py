@@ -12,6 +12,8 @@ from pathlib import Path
 
 from .errors import UserError
 from .job import Job
+from .media import assemble
+from .outputs import output_is_whole
 
 # What a line may say; paths are relative to the current folder, as on the command line.
 KEYS = ("input", "output", "depth", "camera", "medium", "config", "set", "layer", "view", "save_depth")
@@ -84,27 +86,22 @@ def _csv_lines(f, source: str):
         raise UserError(f"--jobs-file {source}: not CSV ({exc})") from None
 
 
-def _as_list(v, key: str) -> list[str]:
+def _strings(v, expected: str) -> list[str]:
+    """A string or a list of strings as a list (none: empty); else LineError(expected)."""
     if v is None:
         return []
     if isinstance(v, str):
         return [v]
     if isinstance(v, list) and all(isinstance(x, str) for x in v):
         return v
-    raise LineError(f"{key}: expected a file name or a list of them")
+    raise LineError(expected)
 
 
 def _sets(v) -> list[str]:
     """`set` as a list of KEY=VALUE, or a map of dotted keys to values (any JSON value)."""
-    if v is None:
-        return []
-    if isinstance(v, str):
-        return [v]
-    if isinstance(v, list) and all(isinstance(x, str) for x in v):
-        return v
     if isinstance(v, dict):
         return [f"{k}={json.dumps(x)}" for k, x in v.items()]
-    raise LineError("set: expected KEY=VALUE, a list of them, or a map of keys to values")
+    return _strings(v, "set: expected KEY=VALUE, a list of them, or a map of keys to values")
 
 
 class Parser:
@@ -118,12 +115,11 @@ class Parser:
         self.base = (medium, tuple(configs), tuple(sets), camera)
         self.layer, self.view, self.drop_channels = layer, view, drop_channels
         self.protected = tuple(protected)
-        self._configs: dict = {}
+        # the command's own config, validated before any line: a bad --set fails the command
+        self._configs: dict = {self.base: assemble(medium, list(configs), tuple(sets), camera)}
         self._outputs: dict = {}        # output (real path) -> the line that writes it
 
     def config(self, medium, configs, sets, camera):
-        from .media import assemble
-
         key = (medium, tuple(configs), tuple(sets), camera)
         got = self._configs.get(key)
         if got is None:
@@ -161,22 +157,20 @@ class Parser:
             if d.get(k) is not None and (not isinstance(d[k], str) or not d[k].strip()):
                 raise LineError(f"{k}: expected a non-empty string")
         medium, configs, sets, camera = self.base
-        cfg = self.config(d.get("medium") or medium, configs + tuple(_as_list(d.get("config"), "config")),
-                          sets + tuple(_sets(d.get("set"))), d.get("camera") or camera)
+        own = _strings(d.get("config"), "config: expected a file name or a list of them")
+        cfg = self.config(d.get("medium") or medium, configs + tuple(own), sets + tuple(_sets(d.get("set"))),
+                          d.get("camera") or camera)
         out = os.path.realpath(d["output"])
         if out in self._outputs:
             raise LineError(f"output {d['output']} is also written by line {self._outputs[out]}")
         self._outputs[out] = number
-        given = tuple(p for p in (d.get("camera"), d.get("medium"), *_as_list(d.get("config"), "config"))
-                      if p and Path(p).is_file())
+        given = tuple(p for p in (d.get("camera"), d.get("medium"), *own) if p and Path(p).is_file())
         return Job(d["input"], d["output"], d.get("depth"), d.get("layer") or self.layer,
                    d.get("view") or self.view, d.get("save_depth"), self.drop_channels,
                    self.protected + given, cfg=cfg, label=f"{self.label}:{number}")
 
     def results(self, skip_existing: bool):
         """Per line: a Job to run, or the line's result (a failure, a skipped output)."""
-        from .outputs import output_is_whole
-
         for number, text in _text_lines(self.source):
             where = f"{self.label}:{number}"
             try:

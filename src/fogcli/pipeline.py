@@ -130,7 +130,7 @@ def medium_struct(cfg: Config, width: int, height: int) -> np.ndarray:
     s["spread_scale"] = cfg.render.spread_scale
     s["homogeneous"] = m.homogeneous
     s["has_medium_light"] = int(any(m.emission) or any(m.ambient))
-    s["has_p"] = int(any(d.type != "homogeneous" for d in m.density))
+    s["has_p"] = int(m.heterogeneous)
     return s
 
 
@@ -265,7 +265,7 @@ def plan_features(cfg: Config, aovs=()) -> Features:
                     bool({"optical_depth", "emission", "direct"} & set(aovs)), bool(cfg.lights),
                     uses_apsf(cfg) and r.emission_profile == "lambertian", tuple(aovs), r.method == "reference",
                     bool(cfg.lights) and r.lights.shadows == "screen" and r.lights.method == "epipolar",
-                    not uses_apsf(cfg) or bool(aovs) or any(d.type != "homogeneous" for d in cfg.medium.density))
+                    not uses_apsf(cfg) or bool(aovs) or cfg.medium.heterogeneous)
 
 
 def buffer_bytes(n: int, t: int, f: Features, rows: int) -> dict:

@@ -67,23 +67,21 @@ def check_radiance(px: np.ndarray, label: str) -> None:
 def gather(picks: list[tuple[np.ndarray, int]], dtype) -> np.ndarray:
     """(h, w, k) contiguous array of dtype whose channel j is channel picks[j][1] of frame
     picks[j][0] ((h, w, c) or (h, w), any float type and strides)."""
-    dtype = np.dtype(dtype)
     h, w = picks[0][0].shape[:2]
-    out = np.empty((h, w, len(picks)), dtype)
+    out = np.empty((h, w, len(picks)), np.dtype(dtype))
     j = 0
-    while j < len(picks):
-        a, c = picks[j]
-        if a.ndim == 2:
-            a, c = a[:, :, None], 0
-        if not 0 <= int(c) < a.shape[2]:
-            raise IndexError(f"gather: channel {c} of an array of shape {a.shape}")
-        run = 1            # the next picks that continue this one's channels of the same array
-        while j + run < len(picks) and picks[j + run][0] is picks[j][0] and picks[j][0].ndim == 3 \
-                and picks[j + run][1] == c + run and c + run < a.shape[2]:
-            run += 1
-        with np.errstate(over="ignore"):
-            out[:, :, j:j + run] = a[:, :, c:c + run]
-        j += run
+    while j < len(picks):       # the next picks of the same frame move together (_move's runs)
+        a = picks[j][0]
+        k = j + 1
+        while k < len(picks) and picks[k][0] is a:
+            k += 1
+        idx = [int(c) if a.ndim == 3 else 0 for _, c in picks[j:k]]
+        src = a if a.ndim == 3 else a[:, :, None]
+        if not 0 <= min(idx) <= max(idx) < src.shape[2]:
+            raise IndexError(f"gather: channels {idx} of an array of shape {a.shape}")
+        with np.errstate(over="ignore"):        # beyond a half's range: inf, as numpy's cast
+            _move(out, j, src, idx)
+        j = k
     return out
 
 
