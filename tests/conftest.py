@@ -2,8 +2,8 @@ import numpy as np
 import pytest
 
 from fogcli.api import make_config
-from fogcli.pipeline import get_plan
-from fogcli.runtime import get_runtime
+from fogcli.device.plan import get_plan
+from fogcli.device.runtime import get_runtime
 
 
 @pytest.fixture(scope="session")

@@ -26,7 +26,7 @@ def _render():
 def test_fog_then_composite_equals_composite_then_fog(medium):
     """The documented convention (camera.empty_depth 0: the plate carries its own medium):
     over(fogcli(render), plate) against fogcli(over(render, plate)) with the plate at depth 0,
-    within 1 % relative L1 (measured table: docs/config.md, benchmarks/compositing.py); the
+    within 1 % relative L1 (measured table: docs/config.md, tools/compositing.py); the
     edge pixels, whose plate part is attenuated as the object in the second order, make the
     difference."""
     rgb, a, z, plate = _render()

@@ -1,4 +1,4 @@
-"""render.psf: apsf — the host's lookup table (fogcli.apsf) and the kernels that read it,
+"""render.psf: apsf — the host's lookup table (fogcli.physics.apsf) and the kernels that read it,
 against numpy oracles (tests/oracles.py). Tolerances: float32 kernels vs float64 oracles,
 2e-4 relative unless stated."""
 import math
@@ -8,9 +8,13 @@ import pytest
 
 import oracles
 from conftest import plan_for
-from fogcli import apsf
-from fogcli.pipeline import Timings, read_chain
-from fogcli.runtime import LOCAL_CPU
+from fogcli.physics import apsf
+from fogcli.device.plan import Timings
+from fogcli.device.run import read_chain
+from fogcli.device.runtime import LOCAL_CPU
+from fogcli.device.composite import composite_source
+from fogcli.device.preprocess import preprocess, upload
+from fogcli.device.pyramid import collapse, reduce
 
 FOG = ("medium.absorption=[0.02, 0.05, 0.1]", "medium.scattering=[0.3, 0.2, 0.25]", "medium.asymmetry=0.8",
        "camera.fov=70", "camera.depth=distance", "camera.max_depth=300")
@@ -123,8 +127,8 @@ def test_preprocess_apsf_matches_oracle(rt, rng):
     img, depth = _frame(rng, w, h)
     plan, cfg = plan_for(rt, w, h, *FOG, "render.psf=apsf", "render.emission_profile=isotropic")
     t = Timings()
-    plan.upload(img, depth, t)
-    plan.preprocess(t)
+    upload(plan, img, depth, t)
+    preprocess(plan, t)
     chains, _ = read_chain(plan)
     focal = (w / 2) / math.tan(math.radians(70) / 2)
     at, sc, _, _, P = oracles.preprocess(img, depth, cfg.medium.absorption, cfg.medium.scattering, 0.8, focal,
@@ -153,14 +157,14 @@ def test_apsf_collapse_matches_oracle(rt, rng, interp, border, size):
     plan, cfg = plan_for(rt, w, h, *FOG, "render.psf=apsf", f"render.interpolation={interp}",
                          f"render.border={border}", aovs=("scattered",))
     t = Timings()
-    plan.upload(img, depth, t)
-    plan.preprocess(t)
+    upload(plan, img, depth, t)
+    preprocess(plan, t)
     level0 = read_chain(plan)[0][0].astype(np.float64)
-    plan.pyramid(t, masked=True)
-    plan.collapse(t)
-    plan.composite_source(t)
+    reduce(plan, t, masked=True)
+    collapse(plan, t)
+    composite_source(plan, t)
     got = _download(plan, plan.scat_aov, 4)[:, :, :3]
-    from fogcli.config import FILTERS
+    from fogcli.physics.calibration import FILTERS
 
     want = oracles.apsf_collapse(level0[:, :, :3], level0[:, :, 3], plan.lut_host.astype(np.float64),
                                  len(plan.sizes) - 1, FILTERS[4], interp != "linear-bilinear",
@@ -213,11 +217,11 @@ def test_apsf_reference_matches_brute_force(rt, rng, border):
     plan, cfg = plan_for(rt, w, h, *FOG, "render.psf=apsf", "render.method=reference",
                          f"render.border={border}", "camera.fov=20", aovs=("scattered",))
     t = Timings()
-    plan.upload(img, depth, t)
-    plan.preprocess(t)
+    upload(plan, img, depth, t)
+    preprocess(plan, t)
     level0 = read_chain(plan)[0][0].astype(np.float64)
-    from fogcli.pipeline import border_margin
-    from fogcli.reference import reference_into
+    from fogcli.device.plan import border_margin
+    from fogcli.device.reference import reference_into
 
     reference_into(plan, t)
     got = _download(plan, plan.scat_aov, 4)[:, :, :3]
@@ -275,8 +279,8 @@ def test_lambertian_view_cosine_on_a_tilted_plane(rt, rng):
     levels0 = []
     for plan in (plan_i, plan_l):
         tm = Timings()
-        plan.upload(img, depth, tm)
-        plan.preprocess(tm)
+        upload(plan, img, depth, tm)
+        preprocess(plan, tm)
         levels0.append(read_chain(plan)[0][0].astype(np.float64))
     cos_true = np.abs((p / np.linalg.norm(p, axis=-1, keepdims=True)) @ n)
     lut = plan_l.lut_host.astype(np.float64)
@@ -300,8 +304,8 @@ def test_apsf_with_heterogeneous_media_separation_emission_and_every_aov():
     image adds to the direct and medium light, and separation keeps the scattered energy."""
     from fogcli import apply
     from fogcli.api import make_config
-    from fogcli.aovs import AOV_NAMES
-    from fogcli.scenes import scene
+    from fogcli.config.aovs import AOV_NAMES
+    from hdr_scenes import scene
 
     rgb, z, fov = scene(96, 64, seed=21, night=True)
     sets = [f"camera.fov={fov}", "medium.emission=[0.002, 0.002, 0.003]", "medium.ambient=[0.05, 0.05, 0.08]",
@@ -327,7 +331,7 @@ def _view_cosines(cfg, depth):
     planar z, or from the ray length with camera.depth distance), along each axis the
     one-sided difference with the smaller depth step (the inward one at the image's edge),
     |cos| between the normal and the line of sight."""
-    from fogcli.noise import pinhole_rays
+    from light_oracles import pinhole_rays
 
     h, w = depth.shape
     dirs, lengths = pinhole_rays(cfg, depth)
@@ -364,8 +368,8 @@ def test_view_cosines_match_oracle(rt, rng, w, h, kind):
     plan, cfg = plan_for(rt, w, h, "camera.fov=60", "render.psf=apsf", "render.emission_profile=lambertian",
                          f"camera.depth={kind}")
     tm = Timings()
-    plan.upload(rng.uniform(0, 1, (h, w, 4)).astype(np.float32), depth, tm)
-    plan.preprocess(tm)
+    upload(plan, rng.uniform(0, 1, (h, w, 4)).astype(np.float32), depth, tm)
+    preprocess(plan, tm)
     got = _download(plan, plan.cosines, 1)
     np.testing.assert_allclose(got, _view_cosines(cfg, depth), atol=1e-4)
 
@@ -374,20 +378,21 @@ def test_grey_media_build_matches_the_per_channel_build(monkeypatch):
     """Fog, haze and smoke have the same coefficients in R, G, B: their programs are built
     with MEDIUM_GREY (one channel's table reads and exponentials serve three). The output is
     the per-channel build's, bit for bit; a medium that differs in any channel is not grey."""
-    from fogcli import apply, pipeline
+    from fogcli import apply
+    from fogcli.device import plan as device_plan
     from fogcli.api import make_config
-    from fogcli.scenes import scene
+    from hdr_scenes import scene
 
     rgb, z, fov = scene(96, 64, seed=22, night=True)
     sets = [f"camera.fov={fov}", "medium.density=[{type: homogeneous, factor: 0.5}, "
             "{type: sphere, factor: 2.0, center: [0, 0, -15], radius: 4}]"]
     cfg = make_config("fog", sets=sets)
-    assert pipeline.defines(cfg).get("MEDIUM_GREY") == 1
+    assert device_plan.defines(cfg).get("MEDIUM_GREY") == 1
     for other in ("sea", make_config("fog", sets=["medium.absorption=[0.001, 0.001, 0.0010001]"])):
-        assert "MEDIUM_GREY" not in pipeline.defines(make_config(other) if isinstance(other, str) else other)
+        assert "MEDIUM_GREY" not in device_plan.defines(make_config(other) if isinstance(other, str) else other)
     grey = apply(rgb, z, cfg, aovs=("scattered",), return_aovs=True)
-    real = pipeline.defines
-    monkeypatch.setattr(pipeline, "defines", lambda c: {k: v for k, v in real(c).items() if k != "MEDIUM_GREY"})
+    real = device_plan.defines
+    monkeypatch.setattr(device_plan, "defines", lambda c: {k: v for k, v in real(c).items() if k != "MEDIUM_GREY"})
     per_channel = apply(rgb, z, cfg, aovs=("scattered",), return_aovs=True)
     assert np.array_equal(grey[0], per_channel[0])
     for k in grey[1]:

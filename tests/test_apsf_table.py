@@ -1,5 +1,5 @@
-"""The shipped APSF table (src/fogcli/data/apsf.npz) against fresh, small, seeded Monte Carlo
-runs of fogcli.apsf_mc, against quadrature, and against what is exactly true of it.
+"""The shipped APSF table (src/fogcli/physics/data/apsf.npz) against fresh, small, seeded Monte Carlo
+runs of tools/apsf_mc.py, against quadrature, and against what is exactly true of it.
 
 Tolerances on Monte Carlo numbers come from the noise of the run itself: each check runs
 NB independent seeds and allows K_SIGMA standard errors of their mean, plus the table's own
@@ -11,9 +11,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from fogcli import apsf_mc as mc
+import apsf_mc as mc
 
-TABLE = Path(__file__).resolve().parents[1] / "src" / "fogcli" / "data" / "apsf.npz"
+TABLE = Path(__file__).resolve().parents[1] / "src" / "fogcli" / "physics" / "data" / "apsf.npz"
 NB = 6            # independent seeds per Monte Carlo check
 K_SIGMA = 4.0     # allowed deviation in standard errors (a seeded run: deterministic pass/fail)
 
@@ -21,7 +21,7 @@ K_SIGMA = 4.0     # allowed deviation in standard errors (a seeded run: determin
 @pytest.fixture(scope="module")
 def tab():
     if not TABLE.exists():
-        pytest.skip("no table: run benchmarks/make_apsf_table.py")
+        pytest.skip("no table: run tools/make_apsf_table.py")
     with np.load(TABLE) as z:
         return {k: z[k] for k in z.files}
 

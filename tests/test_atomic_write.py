@@ -4,7 +4,7 @@ import os
 import threading
 import time
 
-from fogcli import outputs
+from fogcli.io import outputs
 
 
 def _fds() -> int:

@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
-from fogcli.scenes import scene
+from hdr_scenes import scene
 from test_cli import read, write_img
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -194,8 +194,9 @@ def test_jobs_1_writes_two_frames_at_once_within_the_pixel_budget(tmp_path, monk
     so that completion order is the reverse)."""
     import threading
 
-    from fogcli import batch, job
-    from fogcli.media import assemble
+    from fogcli.batch import runners as batch
+    from fogcli.frame import job
+    from fogcli.config.presets import assemble
 
     src = tmp_path / "in"
     src.mkdir()

@@ -9,8 +9,13 @@ import oracles
 from conftest import plan_for
 from fogcli import apply
 from fogcli.api import make_config
-from fogcli.metrics import rel_l1
-from fogcli.pipeline import EXT_LEVEL, Timings, border_margin, read_chain
+from metrics import rel_l1
+from fogcli.device.plan import EXT_LEVEL, Timings, border_margin
+from fogcli.device.run import read_chain
+from fogcli.device.border import extend
+from fogcli.device.composite import composite_source
+from fogcli.device.preprocess import preprocess, upload
+from fogcli.device.pyramid import collapse, reduce
 from test_apsf import FOG, _download, _frame
 
 
@@ -25,18 +30,18 @@ def test_border_kernels_match_oracle(rt, rng):
     img, depth = _frame(rng, w, h)
     plan, cfg = plan_for(rt, w, h, *FOG, "render.psf=apsf", "render.border=extend", aovs=("scattered",))
     t = Timings()
-    plan.upload(img, depth, t)
-    plan.preprocess(t)
+    upload(plan, img, depth, t)
+    preprocess(plan, t)
     level0 = read_chain(plan)[0][0].astype(np.float64)
 
     def image(ext):
-        # from the upload on: the result is written over the direct light (pipeline.ALIASES)
-        plan.upload(img, depth, t)
-        plan.preprocess(t)
-        plan.pyramid(t, masked=True)
-        on = plan.extend(t) if ext else False
-        plan.collapse(t, ext=on)
-        plan.composite_source(t)
+        # from the upload on: the result is written over the direct light (plan.ALIASES)
+        upload(plan, img, depth, t)
+        preprocess(plan, t)
+        reduce(plan, t, masked=True)
+        on = extend(plan, t) if ext else False
+        collapse(plan, t, ext=on)
+        composite_source(plan, t)
         return _download(plan, plan.out, 4)[:, :, :3].astype(np.float64), on
 
     before, _ = image(False)
@@ -125,11 +130,11 @@ def test_black_edges_add_nothing(rng):
 
 def test_default_border_is_the_measured_one():
     """The default border policy is the one closest to path tracing on the scenes that continue
-    past the frame, as benchmarks/groundtruth.py last wrote it (docs/physics.json)."""
+    past the frame, as tools/groundtruth.py last wrote it (docs/physics.json)."""
     import json
     from pathlib import Path
 
-    from fogcli.config import Render
+    from fogcli.config.model import Render
 
     doc = json.loads((Path(__file__).resolve().parents[1] / "docs" / "physics.json").read_text())
     r = Render()

@@ -1,4 +1,4 @@
-"""One declaration of the device buffers (pipeline.BUFFERS): what a plan allocates, what the
+"""One declaration of the device buffers (plan.BUFFERS): what a plan allocates, what the
 memory check counts and what keys the plan cache all come from it."""
 from types import SimpleNamespace
 
@@ -6,7 +6,7 @@ import pytest
 
 from conftest import plan_for
 from fogcli.errors import ProcessingError
-from fogcli.pipeline import ALIASES, BUFFERS, buffer_bytes, check_memory, planned_bytes, plan_features
+from fogcli.device.plan import ALIASES, BUFFERS, buffer_bytes, check_memory, plan_features, planned_bytes
 
 
 @pytest.mark.parametrize("sets,aovs", [((), ()), (("render.psf=apsf", "render.border=extend"), ("scattered", "transmittance")),

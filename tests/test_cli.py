@@ -12,7 +12,7 @@ import pytest
 from click.testing import CliRunner
 
 from fogcli.cli import main
-from fogcli.colour import linear_to_srgb
+from fogcli.io.colour import linear_to_srgb
 
 ROOT = Path(__file__).resolve().parents[1]
 SAMPLE = ROOT / "samples" / "harbour.exr"
@@ -21,7 +21,7 @@ SAMPLE = ROOT / "samples" / "harbour.exr"
 def write_img(path, data, names, fmt="float", window=None, display=None, attrs=(), tile=None):
     """data (h, w, c) or (h, w) -> an image file through OpenImageIO (format from the
     extension); attrs: (name, value) or (name, TypeDesc, value) items. Also the fuzz
-    harness's writer (benchmarks/fuzz.py)."""
+    harness's writer (tools/fuzz.py)."""
     data = np.ascontiguousarray(data, np.float32 if fmt in ("float", "half") else None)
     if data.ndim == 2:
         data = data[:, :, None]
@@ -302,7 +302,7 @@ def test_device_choice(rgbz, tmp_path, monkeypatch):
     code, text, _ = run("apply", p, "-o", tmp_path / "o.exr", "--device", "no-such-thing")
     assert_one_line_error(code, text, "--device 'no-such-thing': no such OpenCL device")
     assert run("apply", p, "-o", tmp_path / "o.exr", "--device", "0:0")[0] == 0
-    from fogcli import runtime
+    from fogcli.device import runtime
 
     monkeypatch.setenv("FOGCLI_DEVICE", "nope")
     with pytest.raises(runtime.UserError, match="FOGCLI_DEVICE 'nope'"):
@@ -315,7 +315,7 @@ def test_output_targets_refused_or_written_whole(rgbz, tmp_path, monkeypatch):
     and written by Python, which sees ENOSPC)."""
     import errno
 
-    from fogcli import outputs
+    from fogcli.io import outputs
 
     p, rgb, z = rgbz
     assert_one_line_error(*run("apply", p, "-o", tmp_path)[:2], "is a folder")
@@ -337,7 +337,7 @@ def test_output_targets_refused_or_written_whole(rgbz, tmp_path, monkeypatch):
 
 
 def test_frame_larger_than_limits_memory_is_refused_from_its_header(rgbz, tmp_path, monkeypatch):
-    from fogcli import memory
+    from fogcli.device import memory
 
     p, rgb, z = rgbz
     monkeypatch.setattr(memory, "available_bytes", lambda: 100_000)     # auto: 60 % of it

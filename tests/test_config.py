@@ -2,9 +2,9 @@
 import pytest
 
 from fogcli.api import make_config
-from fogcli.config import VISIBILITY_CONTRAST
+from fogcli.config.model import VISIBILITY_CONTRAST
 from fogcli.errors import UserError
-from fogcli.media import assemble, check_file, presets
+from fogcli.config.presets import assemble, check_file, presets
 
 
 def test_every_preset_is_valid_and_has_a_source_comment():
@@ -81,7 +81,7 @@ def test_set_errors_and_unknown_preset():
 
 
 def test_derived_c_and_calibrated_defaults():
-    from fogcli.config import c_theory
+    from fogcli.physics.calibration import c_theory
 
     # 4 taps (1,3,3,1)/8 have variance 3/4; a bicubic B-spline fetch adds 1/3
     assert c_theory(4, "linear-bicubic", "receiver") == pytest.approx((0.75 / 3 + 1 / 3) ** 0.5)
@@ -178,17 +178,16 @@ def test_docs_key_reference_is_generated_and_valid(tmp_path):
 
     from test_cli import ROOT
 
-    sys.path.insert(0, str(ROOT / "docs"))
     import make_config_doc
 
     text = (ROOT / "docs" / "config.md").read_text()
-    assert make_config_doc.reference() in text, "docs/config.md is stale: run python docs/make_config_doc.py"
+    assert make_config_doc.reference() in text, "docs/config.md is stale: run python tools/make_config_doc.py"
     block = make_config_doc.reference().split("```yaml\n", 1)[1].rsplit("```", 1)[0]
     (tmp_path / "ref.yaml").write_text(block)
     assert check_file(str(tmp_path / "ref.yaml")) == []
     from pydantic import BaseModel
 
-    from fogcli.config import Config
+    from fogcli.config.model import Config
 
     def keys(model, pre=""):
         for name, f in model.model_fields.items():

@@ -8,10 +8,10 @@ import numpy as np
 import pytest
 
 from fogcli import apply
-from fogcli import depth as D
+from fogcli.io import depth as D
 from fogcli.api import make_config
 from fogcli.errors import UserError
-from fogcli.intrinsics import load as load_camera
+from fogcli.config.intrinsics import load as load_camera
 
 
 def _cam(*sets):
@@ -141,7 +141,7 @@ def test_principal_point_and_calibrated_size(tmp_path):
     intrinsics for 640x480 scale to a 320x240 image."""
     f = tmp_path / "k.json"
     f.write_text(json.dumps({"width": 640, "height": 480, "intrinsic_matrix": [[300, 0, 100], [0, 300, 380], [0, 0, 1]]}))
-    from fogcli.media import assemble
+    from fogcli.config.presets import assemble
 
     cfg = assemble("fog", None, ("medium.scattering=0.0001", "medium.absorption=0"), str(f))
     h, w = 240, 320
@@ -158,7 +158,7 @@ def test_principal_point_and_calibrated_size(tmp_path):
 def test_disparity_uses_intrinsics_scaled_to_the_image(tmp_path):
     """Intrinsics for 640x480, image and disparity at 320x240: z = B * (f / 2) / d, through
     the Python API as through the command line."""
-    from fogcli.media import assemble
+    from fogcli.config.presets import assemble
 
     f = tmp_path / "k.json"
     f.write_text(json.dumps({"width": 640, "height": 480, "baseline": 0.5,
@@ -172,7 +172,7 @@ def test_disparity_uses_intrinsics_scaled_to_the_image(tmp_path):
 
 
 def test_hole_fill_does_not_blend_two_surfaces():
-    """Depth 4 px misaligned with colour, Kinect-like holes (benchmarks/holefill.py): fills at
+    """Depth 4 px misaligned with colour, Kinect-like holes (tools/holefill.py): fills at
     a depth no surface within 10 px has, measured 1.2 % of the hole pixels with the plain
     average and 0.48 % with the two-surface split on this 320x240 room; must stay below
     1 % and below 60 % of the plain average's."""
@@ -180,10 +180,10 @@ def test_hole_fill_does_not_blend_two_surfaces():
 
     from test_cli import ROOT
 
-    sys.path.insert(0, str(ROOT / "benchmarks"))
+    sys.path.insert(0, str(ROOT / "tools"))
     from holefill import degrade, intermediate
 
-    from fogcli.scenes import room
+    from hdr_scenes import room
 
     rgb, z, _ = room(320, 240)
     dm, truth, holes = degrade(z, 4)

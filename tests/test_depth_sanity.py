@@ -7,8 +7,8 @@ import numpy as np
 import OpenImageIO as oiio
 
 import fogcli
-from fogcli.config import Camera
-from fogcli.depth import decode
+from fogcli.config.model import Camera
+from fogcli.io.depth import decode
 from test_cli import ROOT, write_img
 
 

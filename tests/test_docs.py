@@ -4,8 +4,8 @@ import re
 
 from test_cli import ROOT
 
-TEXTS = [ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md")), *sorted((ROOT / "src" / "fogcli").glob("*.py")),
-         *sorted((ROOT / "kernels").glob("*"))]
+TEXTS = [ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md")), *sorted((ROOT / "src" / "fogcli").rglob("*.py")),
+         *sorted((ROOT / "src" / "fogcli" / "device" / "kernels").glob("*"))]
 
 
 def test_no_reference_outside_the_repository():
@@ -19,7 +19,7 @@ def test_no_reference_outside_the_repository():
 
 def test_documents_and_images_referred_to_exist():
     for p in TEXTS[: 1 + len(list((ROOT / "docs").glob("*.md")))]:
-        for ref in set(re.findall(r"(docs/[\w./-]+\.(?:md|png|jpg|py))", p.read_text())):
+        for ref in set(re.findall(r"((?:docs|tools)/[\w./-]+\.(?:md|png|jpg|py))", p.read_text())):
             assert (ROOT / ref).exists(), f"{p.name} names {ref}"
         for img in re.findall(r"\]\((images/[\w.-]+)\)", p.read_text()):
             assert (p.parent / img).exists(), f"{p.name} shows {img}"
@@ -27,8 +27,8 @@ def test_documents_and_images_referred_to_exist():
 
 def test_default_border_margin_is_the_calibrations_choice():
     """render.border_margin's default is the margin of the lowest mean relative L1 on the
-    calibration scenes in the table benchmarks/border_margin.py wrote into docs/physics.md."""
-    from fogcli.config import Render
+    calibration scenes in the table tools/border_margin.py wrote into docs/physics.md."""
+    from fogcli.config.model import Render
 
     block = (ROOT / "docs" / "physics.md").read_text().split("<!-- border-margin: begin -->")[1].split("<!-- border-margin: end -->")[0]
     head = next(ln for ln in block.splitlines() if ln.startswith("| case |"))

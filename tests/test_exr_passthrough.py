@@ -186,8 +186,8 @@ def test_kept_pixels_write_what_a_second_decode_writes(tmp_path, zfmt):
     import dataclasses
     import warnings
 
-    from fogcli.exr import write_passthrough
-    from fogcli.inputs import read_image
+    from fogcli.io.exr import write_passthrough
+    from fogcli.io.images import read_image
 
     names = ["R", "G", "B", "A", "Z"]
     src = tmp_path / "in.exr"

@@ -1,4 +1,4 @@
-"""A fixed fast subset of the fuzz harness (benchmarks/fuzz.py): about 36 malformed or
+"""A fixed fast subset of the fuzz harness (tools/fuzz.py): about 36 malformed or
 edge-case inputs covering every generator class (corrupt and crafted images, channel
 layouts, pixel values, path kinds, depth files, YAML configs, --set values, --camera JSON,
 command lines, batch folders). Each runs `fogcli` in a subprocess and must meet the
@@ -9,7 +9,6 @@ from pathlib import Path
 
 import pytest
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
 
 import fuzz  # noqa: E402
 

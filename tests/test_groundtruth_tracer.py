@@ -1,4 +1,4 @@
-"""The equiangular path tracer of benchmarks/groundtruth (the reference of the night scenes with
+"""The equiangular path tracer of tools/groundtruth (the reference of the night scenes with
 point lights) against exact answers: a furnace, single scattering by quadrature, and the vacuum
 image Mitsuba rendered of the same scene."""
 import importlib.util
@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-GT = Path(__file__).resolve().parents[1] / "benchmarks" / "groundtruth"
+GT = Path(__file__).resolve().parents[1] / "tools" / "groundtruth"
 
 
 @pytest.fixture(scope="module")

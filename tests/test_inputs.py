@@ -7,7 +7,7 @@ from click.testing import CliRunner
 
 from fogcli.cli import main
 from fogcli.errors import UserError
-from fogcli.inputs import read_image
+from fogcli.io.images import read_image
 from test_cli import read, write_img
 
 
@@ -192,7 +192,7 @@ def test_rgbd_frame_jpeg_and_millimetre_png(tmp_path):
 
 @pytest.mark.parametrize("cs,decode", [("sRGB", "srgb"), ("lin_rec709", "linear"), ("g22_rec709", "gamma"), (None, "srgb")])
 def test_png_colour_space_metadata(tmp_path, cs, decode):
-    from fogcli.colour import srgb_to_linear
+    from fogcli.io.colour import srgb_to_linear
 
     v = np.linspace(0, 1, 24, dtype=np.float32).reshape(2, 4, 3)
     p = tmp_path / "c.png"

@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 import OpenImageIO as oiio
 
-from fogcli.scenes import scene
+from hdr_scenes import scene
 
 ROOT = Path(__file__).resolve().parents[1]
 

@@ -7,12 +7,17 @@ import pytest
 
 import oracles
 from conftest import plan_for
-from fogcli import pipeline
+from fogcli.device import plan as device_plan
+from fogcli.device import pyramid
 from fogcli.api import make_config
-from fogcli.config import FILTERS
-from fogcli.pipeline import Timings, read_chain, write_level0
-from fogcli.reference import brute_force
-from fogcli.runtime import LOCAL_CPU
+from fogcli.physics.calibration import FILTERS
+from fogcli.device.plan import Timings
+from fogcli.device.run import read_chain, write_level0
+from fogcli.device.reference import brute_force
+from fogcli.device.runtime import LOCAL_CPU
+from fogcli.device.composite import composite, composite_source
+from fogcli.device.preprocess import preprocess, upload
+from fogcli.device.pyramid import collapse, reduce
 
 
 def _whole(plan, buf):
@@ -50,8 +55,8 @@ def test_preprocess_matches_oracle(rt, rng, model, depth_kind):
             "medium.emission=[0.1, 0.2, 0.3]", "medium.ambient=[1, 2, 0.5]", *pp)
     plan, cfg = plan_for(rt, w, h, *sets, aovs=("transmittance", "emission"))
     t = Timings()
-    plan.upload(img, depth * np.float32(0.5), t)
-    plan.preprocess(t)
+    upload(plan, img, depth * np.float32(0.5), t)
+    preprocess(plan, t)
     direct = _download(plan, plan.direct, 4)
     medium = _download(plan, plan.medium, 4)
     chains, spreads = read_chain(plan)
@@ -73,8 +78,8 @@ def test_preprocess_matches_oracle(rt, rng, model, depth_kind):
     plan2, _ = plan_for(rt, w, h, *sets)
     assert not plan2.split_medium
     t = Timings()
-    plan2.upload(img, depth * np.float32(0.5), t)
-    plan2.preprocess(t)
+    upload(plan2, img, depth * np.float32(0.5), t)
+    preprocess(plan2, t)
     np.testing.assert_allclose(_download(plan2, plan2.direct, 4)[:, :, :3], at + med, rtol=1e-4, atol=1e-6)
 
 
@@ -87,8 +92,8 @@ def test_spread_w_stable_limits(rt):
                            "medium.asymmetry=0.9", "camera.depth=distance",
                            "render.spread_model=paper", "render.spread_scale=1280")
         t = Timings()
-        plan.upload(img, depth, t)
-        plan.preprocess(t)
+        upload(plan, img, depth, t)
+        preprocess(plan, t)
         _, spreads = read_chain(plan)
         s = spreads[0][0]
         assert np.isfinite(s).all()
@@ -117,11 +122,11 @@ def test_reduce_level_matches_oracle(rt, rng, taps, masked, fetch, size, monkeyp
     plan, cfg = plan_for(rt, w, h, f"render.kernel={taps}", "render.c=0.9", "render.epsilon=1.5",
                          "render.threshold=1.2", "render.levels=2", f"render.fetch={fetch}")
     write_level0(plan, src, spread)
-    plan.pyramid(Timings(), masked=masked)
+    reduce(plan, Timings(), masked=masked)
     chains, spreads = read_chain(plan)
     if size[0] > 100:
         (_, sw, sh, _), (_, dw, dh, _) = plan.lv[0], plan.lv[1]
-        x0, x1, y0, y1 = pipeline.reduce_region(sw, sh, dw, dh, taps, 0, rt.local2d)
+        x0, x1, y0, y1 = pyramid.reduce_region(sw, sh, dw, dh, taps, 0, rt.local2d)
         assert (x1 - x0) * (y1 - y0) >= 0.4 * dw * dh
     lvl, slvl = src.astype(np.float64), spread.astype(np.float64)
     for k in (1, 2):
@@ -139,28 +144,28 @@ def test_reduce_inner_matches_the_checked_one(rt, rng, sets, monkeypatch):
     reduce_level_source on every pixel: the same sums in the same order, so the colour and
     prep chains agree to float32 rounding (1e-6 of each level's peak; measured 0), apsf with
     its conservation margin and the top level's kept share, and the Gaussian chain."""
-    from fogcli.pipeline import get_plan
+    from fogcli.device.plan import get_plan
 
-    monkeypatch.setattr(rt, "lanes", 1)      # the interior kernel on every CPU (see pipeline.pyramid)
+    monkeypatch.setattr(rt, "lanes", 1)      # the interior kernel on every CPU (see pyramid.reduce)
     h, w = 97, 331
     img = (rng.uniform(0, 2, (h, w, 4)) ** 3).astype(np.float32)
     z = rng.uniform(2, 60, (h, w)).astype(np.float32)
     cfg = make_config("fog", sets=sets)
     got = {}
     for inner in (True, False):
-        monkeypatch.setattr(pipeline, "_PLANS", {})
+        monkeypatch.setattr(device_plan, "_PLANS", {})
         if not inner:
-            monkeypatch.setattr(pipeline, "reduce_region", lambda *a: None)
+            monkeypatch.setattr(pyramid, "reduce_region", lambda *a: None)
         plan = get_plan(rt, w, h, cfg)
         t = Timings()
-        plan.upload(img, z, t)
-        plan.preprocess(t)
-        plan.pyramid(t, masked=True)
+        upload(plan, img, z, t)
+        preprocess(plan, t)
+        reduce(plan, t, masked=True)
         got[inner] = tuple(_whole(plan, b) for b in (plan.chain, plan.prep))
         if inner:
             (_, sw, sh, _), (_, dw, dh, _) = plan.lv[0], plan.lv[1]
             taps = len(FILTERS[cfg.render.kernel])
-            region = pipeline.reduce_region(sw, sh, dw, dh, taps, taps // 2 if plan.apsf else 0, rt.local2d)
+            region = pyramid.reduce_region(sw, sh, dw, dh, taps, taps // 2 if plan.apsf else 0, rt.local2d)
             assert region is not None and (region[1] - region[0]) * (region[3] - region[2]) >= 0.5 * dw * dh
     for k in range(1, len(plan.sizes)):
         o, lw, lh, _ = (int(v) for v in plan.lv[k])
@@ -179,13 +184,13 @@ def test_source_collapse_matches_oracle(rt, rng, interp, size):
     plan, cfg = plan_for(rt, w, h, f"render.interpolation={interp}", "render.c=0.8", "render.epsilon=1",
                          "render.threshold=1.1", "render.fetch=source", aovs=("scattered",))
     t = Timings()
-    plan.upload(np.zeros((h, w, 4), np.float32), np.ones((h, w), np.float32), t)
-    plan.preprocess(t)
+    upload(plan, np.zeros((h, w, 4), np.float32), np.ones((h, w), np.float32), t)
+    preprocess(plan, t)
     write_level0(plan, src, src[:, :, 3])
-    plan.pyramid(t, masked=True)
+    reduce(plan, t, masked=True)
     before, _ = read_chain(plan)
-    plan.collapse(t)
-    plan.composite_source(t)
+    collapse(plan, t)
+    composite_source(plan, t)
     out = _download(plan, plan.out, 4)
     expect = oracles.collapse(before, 0.8, 1.0, cubic=(interp != "linear-bilinear"), thr=1.1, a=plan.half_step())
     assert plan.half_step() > 0.3
@@ -205,7 +210,8 @@ def test_pair_composite_matches_the_per_pixel_one(sets, monkeypatch):
     AOV and the separated chain's accumulating pass; on a size whose pair rectangle leaves
     strips on all four sides."""
     import fogcli
-    from fogcli import pipeline
+    from fogcli.device import plan as device_plan
+    from fogcli.device import pyramid
 
     rng = np.random.default_rng(5)
     h, w = 97, 331
@@ -214,13 +220,13 @@ def test_pair_composite_matches_the_per_pixel_one(sets, monkeypatch):
     cfg = fogcli.make_config("fog", sets=sets)
     got = {}
     for pairs in (True, False):
-        monkeypatch.setattr(pipeline, "_PLANS", {})
+        monkeypatch.setattr(device_plan, "_PLANS", {})
         if not pairs:
-            monkeypatch.setattr(pipeline, "pair_region", lambda *a: None)
+            monkeypatch.setattr(device_plan, "pair_region", lambda *a: None)
         out, planes = fogcli.apply(rgb, z, cfg, aovs=("scattered",), return_aovs=True)
         got[pairs] = (out, planes["scattered.R"])
         if pairs:
-            regions = next(iter(pipeline._PLANS.values()))._pairs
+            regions = next(iter(device_plan._PLANS.values()))._pairs
             x0, x1, y0, y1 = regions[0]
             assert 0 < x0 and x1 < w and 0 < y0 and y1 < h and x1 - x0 >= 64
             assert regions[1] is not None          # the level-1 collapse takes pairs too
@@ -240,13 +246,13 @@ def test_receiver_composite_matches_oracle(rt, rng, interp):
     plan, cfg = plan_for(rt, w, h, f"render.interpolation={interp}", f"render.c={c}", "render.fetch=receiver",
                          aovs=("level",))
     t = Timings()
-    plan.upload(np.zeros((h, w, 4), np.float32), np.ones((h, w), np.float32), t)
-    plan.preprocess(t)
+    upload(plan, np.zeros((h, w, 4), np.float32), np.ones((h, w), np.float32), t)
+    preprocess(plan, t)
     write_level0(plan, src, spread)
-    plan.pyramid(t, masked=True)
+    reduce(plan, t, masked=True)
     chains, spreads = read_chain(plan)
     direct = _download(plan, plan.direct, 4)      # before the result is written over it
-    plan.composite(t, depth_blur=True)
+    composite(plan, t, depth_blur=True)
     assert not plan.split_medium      # the medium's light is inside `direct` here
     medium = np.zeros_like(direct)
     out = _download(plan, plan.out, 4)
@@ -290,13 +296,13 @@ def test_reference_kernels_match_brute_force_oracle(rt, rng):
     sc[:, :, 3] = spread
     plan, cfg = plan_for(rt, w, h, "render.method=reference")
     t = Timings()
-    plan.upload(np.zeros((h, w, 4), np.float32), np.ones((h, w), np.float32), t)
-    plan.preprocess(t)   # direct and medium terms: zero image, so zero
+    upload(plan, np.zeros((h, w, 4), np.float32), np.ones((h, w), np.float32), t)
+    preprocess(plan, t)   # direct and medium terms: zero image, so zero
     write_level0(plan, sc, spread)
     want = oracles.reference(sc[:, :, :3].astype(np.float64), spread.astype(np.float64))
     brute = brute_force(plan, t)
     np.testing.assert_allclose(brute, want, rtol=2e-4, atol=1e-6)
-    from fogcli.reference import reference_into
+    from fogcli.device.reference import reference_into
 
     reference_into(plan, t)
     binned = _download(plan, plan.out, 4)[:, :, :3]
@@ -316,8 +322,8 @@ def test_separation_mask_matches_oracle(rt, rng):
                          "render.separation.luminance_width=3", "render.separation.depth=150",
                          "render.separation.depth_width=100", "camera.depth=distance")
     t = Timings()
-    plan.upload(img, depth, t)
-    plan.preprocess(t)
+    upload(plan, img, depth, t)
+    preprocess(plan, t)
     chains, _ = read_chain(plan)
     sep = np.empty((w * h, 4), np.float32)
     plan.rt.cl.enqueue_copy(plan.rt.queue, sep, plan.chain2)

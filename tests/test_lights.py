@@ -11,7 +11,6 @@ import pytest
 
 import fogcli
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
 from lights import lamp_frame, worst_error  # noqa: E402
 
 
@@ -19,7 +18,7 @@ def test_airlight_kernel_against_float64_quadrature():
     """108 geometries x 10 pixels (a sky pixel, the pixel whose ray holds the light, 8 more),
     at the default node count: worst relative error of A (the airlight AOV) and of its
     twice-scattered part, on pixels holding at least 1e-3 of the case's peak, <= 1e-3
-    (measured per node count in docs/lights.md, benchmarks/lights.py)."""
+    (measured per node count in docs/lights.md, tools/lights.py)."""
     worst, where = worst_error()
     assert 0.0 < worst <= 1e-3, where
 
@@ -35,11 +34,11 @@ def test_table_kernel_matches_the_quadrature_kernel_on_whole_frames(lanes, monke
     difference is 5-10x smaller than its terms). Both builds of the table kernels: one pixel
     per work-item, and eight (LANES 8, kernels/lanes.h: what CPUs with AVX2 and no AVX-512 run), on a width
     that leaves a row's last work-item 5 pixels."""
-    from fogcli import pipeline
-    from fogcli.runtime import get_runtime
+    from fogcli.device import plan as device_plan
+    from fogcli.device.runtime import get_runtime
 
     monkeypatch.setattr(get_runtime(), "lanes", lanes)
-    monkeypatch.setattr(pipeline, "_PLANS", {})       # plans hold the kernels built for their lanes
+    monkeypatch.setattr(device_plan, "_PLANS", {})       # plans hold the kernels built for their lanes
     rng = np.random.default_rng(11)
     depth = rng.uniform(1.0, 80.0, (48, 61)).astype(np.float32)
     depth[:8, :8] = np.inf
@@ -116,8 +115,8 @@ def test_detected_lamp_position_and_intensity():
     L, c, r = np.array([300.0, 250.0, 200.0]), np.array([1.0, 1.5, -12.0]), 0.2
     rgb, z, f = lamp_frame(L=L, c=c, r=r)
     cfg = fogcli.make_config("fog", sets=["lights=[{type: auto}]"])
-    from fogcli.config import AutoLights
-    from fogcli.lights import detect_lamps
+    from fogcli.config.model import AutoLights
+    from fogcli.frame.lamps import detect_lamps
 
     lamps, mask, notes = detect_lamps(rgb, z, cfg, AutoLights(type="auto"))
     assert len(lamps) == 1 and mask.sum() > 0, notes
@@ -136,7 +135,7 @@ def test_detected_lamp_position_and_intensity():
 
 
 def test_sample_lights_file_is_valid():
-    from fogcli.media import check_file
+    from fogcli.config.presets import check_file
     from test_cli import ROOT
 
     assert check_file(str(ROOT / "samples" / "harbour-lights.yaml")) == []
@@ -210,17 +209,17 @@ def test_lamps_found_are_written_as_a_config_that_reads_back(tmp_path):
 
 
 def test_light_gain_is_all_orders_over_what_single_scattering_carries():
-    """fogcli.lights.gain: the point-spread table's energy (all orders) over the energy of
+    """fogcli.device.lights.gain: the point-spread table's energy (all orders) over the energy of
     single scattering with the light leg in extinction and the camera leg in absorption
     (light_gain.npz, regenerated here for three grid entries to float32 precision); at an
     off-grid distance it matches the two energies computed directly within the table's
     interpolation (2 %); 1 for a directional light; at least 1."""
     from make_light_gain import carried_energy
 
-    from fogcli.apsf import load_table, spread, thin_energy
-    from fogcli.lights import gain
+    from fogcli.physics.apsf import load_table, spread, thin_energy
+    from fogcli.device.lights import gain
 
-    with np.load(Path(fogcli.__file__).parent / "data" / "light_gain.npz") as z:
+    with np.load(Path(fogcli.__file__).parent / "physics" / "data" / "light_gain.npz") as z:
         stored, gs, albs, taus = z["carried_ratio"], z["g"], z["albedo"], z["tau"]
     for i, j, k in [(9, 16, 12), (3, 8, 20), (12, 12, 5)]:
         want = carried_energy(float(taus[k]), float(gs[i]), float(albs[j])) / thin_energy(taus[k], albs[j])
@@ -248,8 +247,8 @@ def test_a_near_lamp_in_front_of_a_far_one_is_two_lamps():
     a_on = a_rgb[..., 0] > 0.06
     rgb = np.where(a_on[..., None], a_rgb, b_rgb)
     z = np.where(a_z < 40, a_z, b_z)
-    from fogcli.config import AutoLights
-    from fogcli.lights import detect_lamps
+    from fogcli.config.model import AutoLights
+    from fogcli.frame.lamps import detect_lamps
 
     lamps = detect_lamps(rgb, z, fogcli.make_config("fog"), AutoLights(type="auto"))[0]
     dists = sorted(np.linalg.norm(x.position) - x.radius for x in lamps)
@@ -279,8 +278,8 @@ def test_a_near_lamp_over_a_far_one_keeps_its_own_colour():
     cn, cf = near_hit.reshape(h, ss, w, ss).mean(axis=(1, 3)), far_hit.reshape(h, ss, w, ss).mean(axis=(1, 3))
     z = np.where(cn > 0.5, 6.0, np.where(cf > 0.5, 14.0, 40.0))
     assert ((cn > 0) & (cn < 1) & (cf > 0)).sum() >= 4, "the near lamp's edge has to lie over the far lamp"
-    from fogcli.config import AutoLights
-    from fogcli.lights import detect_lamps
+    from fogcli.config.model import AutoLights
+    from fogcli.frame.lamps import detect_lamps
 
     found = sorted(detect_lamps(rgb.astype(np.float32), z.astype(np.float32), fogcli.make_config("fog"),
                                 AutoLights(type="auto"))[0], key=lambda x: np.linalg.norm(x.position))

@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 
 import fogcli
-from fogcli.media import presets
-from fogcli.pipeline import median_depth
-from fogcli.scenes import room
+from fogcli.config.presets import presets
+from fogcli.frame.scene import median_depth
+from hdr_scenes import room
 from test_cli import SAMPLE, run
 
 LUM = np.array([0.2126, 0.7152, 0.0722], np.float32)

@@ -10,8 +10,8 @@ import numpy as np
 import OpenImageIO as oiio
 
 from fogcli.api import make_config
-from fogcli.memory import estimate, limit_bytes
-from fogcli.scenes import scene
+from fogcli.device.memory import estimate, limit_bytes
+from hdr_scenes import scene
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -28,11 +28,11 @@ def write_rgbz(path: Path, w: int, h: int) -> None:
 
 def peak_rss(*args) -> int:
     """Peak resident bytes of `fogcli apply ...` in a process of its own."""
-    sys.path.insert(0, str(ROOT / "benchmarks"))
+    sys.path.insert(0, str(ROOT / "tools"))
     try:
         from process_peak import run_measured
     finally:
-        sys.path.remove(str(ROOT / "benchmarks"))
+        sys.path.remove(str(ROOT / "tools"))
     env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(ROOT / "src"), os.environ.get("PYTHONPATH", "")]))
     r = run_measured([sys.executable, "-m", "fogcli", "apply", *args], env)
     assert r["code"] == 0, r["stderr"]
@@ -51,7 +51,7 @@ def test_the_estimate_covers_what_a_frame_takes(tmp_path):
 
 
 def test_limit_of_a_share_and_of_a_size(monkeypatch):
-    from fogcli import memory
+    from fogcli.device import memory
 
     monkeypatch.setattr(memory, "available_bytes", lambda: 10 * 2**30)
     assert limit_bytes("auto") == int(0.6 * 10 * 2**30)

@@ -1,6 +1,6 @@
 import numpy as np
 
-from fogcli.metrics import rel_l1, ssim
+from metrics import rel_l1, ssim
 
 
 def test_rel_l1_and_ssim_basics():

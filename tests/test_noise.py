@@ -8,9 +8,10 @@ import numpy as np
 import pytest
 
 import fogcli
-from fogcli import noise
+from fogcli.device import noise
 from fogcli.errors import UserError
-from fogcli.lights import placed
+from fogcli.device.geometry import placed
+import light_oracles
 
 SMOKE = ("{type: noise, factor: %s, scale: 1.5, octaves: 6, shape: %s, center: [0, 0, -8], radius: 2, "
          "size: [3, 4, 3], seed: 3, edge: %s}")
@@ -30,7 +31,7 @@ LIGHTS = {"point outside": "{type: point, position: [-4, 3, -5], intensity: [1, 
 
 def test_noise_density_matches_the_numpy_oracle_through_the_camera_march():
     """The optical_depth AOV of a medium of noise alone (p_noise: the midpoint rule over the
-    rays' spans, the primitives' march step) against noise.march with the same steps in
+    rays' spans, the primitives' march step) against light_oracles.march with the same steps in
     float64, over a frame looking at a box and a sphere of noise of different seeds and
     octaves: the lattice hash, the fade, the octaves and the bounds all agree to 1e-4 of
     the largest optical depth (float32 positions, ~1e-6 each)."""
@@ -41,10 +42,10 @@ def test_noise_density_matches_the_numpy_oracle_through_the_camera_march():
     depth = np.random.default_rng(1).uniform(4.0, 20.0, (H, W)).astype(np.float32)
     _, planes = fogcli.apply(np.zeros((H, W, 3), np.float32), depth, cfg, aovs=("optical_depth",), return_aovs=True)
     got = planes["optical_depth"]
-    dirs, lengths = noise.pinhole_rays(cfg, depth)
+    dirs, lengths = light_oracles.pinhole_rays(cfg, depth)
     ref = np.zeros((H, W))
     for j, i in np.ndindex(H, W):
-        ref[j, i] = noise.march(np.zeros(3), dirs[j, i], lengths[j, i], cfg)
+        ref[j, i] = light_oracles.march(np.zeros(3), dirs[j, i], lengths[j, i], cfg)
     assert ref.max() > 1.0 and (ref == 0).mean() > 0.2     # rays through the noise and beside it
     assert np.abs(got - ref).max() <= 1e-4 * ref.max()
 
@@ -59,9 +60,9 @@ def test_lattice_hash_is_the_same_in_numpy_and_on_the_device():
     W, H = 24, 24
     depth = np.full((H, W), 1.9, np.float32)
     _, planes = fogcli.apply(np.zeros((H, W, 3), np.float32), depth, cfg, aovs=("optical_depth",), return_aovs=True)
-    dirs, lengths = noise.pinhole_rays(cfg, depth)
+    dirs, lengths = light_oracles.pinhole_rays(cfg, depth)
     for j, i in [(0, 0), (5, 20), (23, 3), (12, 12), (20, 22)]:
-        ref = noise.march(np.zeros(3), dirs[j, i], float(lengths[j, i]), cfg)
+        ref = light_oracles.march(np.zeros(3), dirs[j, i], float(lengths[j, i]), cfg)
         assert abs(planes["optical_depth"][j, i] - ref) <= 2e-4 * max(ref, 1.0), (i, j)
 
 
@@ -73,7 +74,7 @@ def test_transmittance_function_map_against_the_marched_transmittance(light, sha
     marched in float64 (2048 steps) from 1500 random points in and around the noise, whose
     optical depth reaches 8-10: mean |dT| <= 2e-3 and max <= 0.03 (issue 11's acceptance;
     measured on soft and hard edges, every map kind: mean 2e-5 - 6e-5, max 0.001 - 0.007,
-    benchmarks/shadows.py)."""
+    tools/shadows.py)."""
     cfg = _cfg(LIGHTS[light], shape=shape, edge=edge)
     L = cfg.lights[0]
     rng = np.random.default_rng(5)
@@ -82,10 +83,10 @@ def test_transmittance_function_map_against_the_marched_transmittance(light, sha
     ex = []
     for p in pts:
         if L.type == "directional":
-            ex.append(noise.march(p + 50 * axis, -axis, 50.0, cfg, steps=2048))
+            ex.append(light_oracles.march(p + 50 * axis, -axis, 50.0, cfg, steps=2048))
         else:
             v = p - pos
-            ex.append(noise.march(pos, v / np.linalg.norm(v), float(np.linalg.norm(v)), cfg, steps=2048))
+            ex.append(light_oracles.march(pos, v / np.linalg.norm(v), float(np.linalg.norm(v)), cfg, steps=2048))
     ex = np.array(ex)
     got = noise.probe_map(cfg, L, pts).astype(float)
     dT = np.abs(np.exp(-got) - np.exp(-ex))
@@ -100,7 +101,7 @@ def test_two_coefficients_fail_the_acceptance():
     L = cfg.lights[0]
     pos, _ = placed(cfg, L)
     pts = np.array([0, 0, -8.0]) + np.random.default_rng(6).uniform(-1.4, 1.4, (300, 3))
-    ex = np.array([noise.march(pos, (p - pos) / np.linalg.norm(p - pos), float(np.linalg.norm(p - pos)), cfg, steps=1024)
+    ex = np.array([light_oracles.march(pos, (p - pos) / np.linalg.norm(p - pos), float(np.linalg.norm(p - pos)), cfg, steps=1024)
                    for p in pts])
     dT = np.abs(np.exp(-noise.probe_map(cfg, L, pts).astype(float)) - np.exp(-ex))
     assert dT.max() > 0.03
@@ -109,10 +110,10 @@ def test_two_coefficients_fail_the_acceptance():
 @pytest.mark.parametrize("light", ["spot", "point", "directional"])
 def test_airlight_through_noise_against_a_float64_double_march(light):
     """airlight_noise (the camera leg marched, the light leg from the map) on a 24 x 18
-    frame of a smoke column in thin fog, against noise.airlight_double_march (512 phi
+    frame of a smoke column in thin fog, against light_oracles.airlight_double_march (512 phi
     steps and 8 per march step on the camera ray, every point's light leg marched over 256
     steps, float64): relative L1 of the airlight <= 1 % (issue 11; the full benchmark
-    frames: benchmarks/shadows.py)."""
+    frames: tools/shadows.py)."""
     lights = {"spot": "{type: spot, position: [-3, 3, -6], direction: [1, -1, -0.6], angle: 30, intensity: [300, 300, 300]}",
               "point": "{type: point, position: [-2.5, 2, -5], intensity: [100, 100, 100]}",
               "directional": "{type: directional, direction: [-0.4, 1, 0.3], irradiance: [3, 3, 3]}"}
@@ -125,7 +126,7 @@ def test_airlight_through_noise_against_a_float64_double_march(light):
     depth[:, :5] = 6.0
     _, planes = fogcli.apply(np.zeros((H, W, 3), np.float32), depth, cfg, aovs=("airlight",), return_aovs=True)
     got = np.dstack([planes[f"airlight.{c}"] for c in "RGB"])
-    ref = noise.double_march_image(cfg, depth, nodes=256, light_steps=128)
+    ref = light_oracles.double_march_image(cfg, depth, nodes=256, light_steps=128)
     rel = np.abs(got - ref).sum() / ref.sum()
     assert ref.max() > 0 and rel <= 0.01, rel
 
@@ -147,8 +148,8 @@ def test_strided_rays_match_every_pixel_marched():
     agree on meeting the noise, else marched (airlight_fill, p_noise). Against stride 1 on a
     frame with a floor, a near wall strip and the column's silhouettes, the spot's image
     just above the frame: relative L1 of the airlight and its scattered part <= 2e-3, of the
-    optical depth <= 1e-3 (at 1920 x 1080: benchmarks/smoke.py)."""
-    from fogcli.noise import stride
+    optical depth <= 1e-3 (at 1920 x 1080: tools/smoke.py)."""
+    from fogcli.device.noise import stride
 
     W, H = 160, 120
     f = (W / 2) / math.tan(math.radians(30))
@@ -173,7 +174,7 @@ def test_strided_rays_match_every_pixel_marched():
 
 
 def test_a_reused_plan_takes_each_configs_noise():
-    """Plans are cached per image size and compile-time options (pipeline.get_plan); the noise
+    """Plans are cached per image size and compile-time options (plan.get_plan); the noise
     primitives are uploaded per run, so a second config with denser noise is denser."""
     depth = np.full((24, 32), 20.0, np.float32)
     got = []

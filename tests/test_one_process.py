@@ -13,7 +13,7 @@ import numpy as np
 import OpenImageIO as oiio
 import pytest
 
-from fogcli.scenes import scene
+from hdr_scenes import scene
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -104,7 +104,7 @@ def test_commands_without_pixels_load_no_device_or_image_library():
             "try:\n    main()\nexcept SystemExit:\n    pass\n"
             "heavy = sorted(m for m in ('pyopencl', 'OpenImageIO', 'cv2', 'dask', 'distributed', 'rawpy') "
             "if m in sys.modules)\nprint(','.join(heavy), file=sys.stderr)\n")
-    cfg = ROOT / "configs" / "fog.yaml"
+    cfg = ROOT / "src" / "fogcli" / "config" / "media" / "fog.yaml"
     for args in (["--help"], ["apply", "--help"], ["batch", "--help"], ["media"], ["check", str(cfg)],
                  ["config", "--show", "--medium", "sea"]):
         r = subprocess.run([sys.executable, "-c", code, *args], capture_output=True, text=True, env=marked_env("x"),

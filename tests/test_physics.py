@@ -7,8 +7,8 @@ import pytest
 import oracles
 from fogcli import apply
 from fogcli.api import make_config
-from fogcli.metrics import rel_l1
-from fogcli.scenes import scene
+from metrics import rel_l1
+from hdr_scenes import scene
 
 
 @pytest.mark.parametrize("method", ["pyramid", "naive", "reference"])
@@ -95,7 +95,7 @@ def test_resolution_invariance(model, medium):
 def test_pyramid_is_close_to_reference_on_a_night_scene():
     """A fidelity floor that a broken pyramid cannot meet (the calibration table in
     docs/calibration.md has the full numbers)."""
-    from fogcli.metrics import ssim
+    from metrics import ssim
 
     rgb, z, fov = scene(160, 120, seed=11, night=True)
     sets = [f"camera.fov={fov}"]
@@ -110,7 +110,7 @@ def test_pyramid_is_close_to_reference_on_a_night_scene():
 def test_ambient_auto_is_the_far_radiance():
     """ambient: auto takes the median sky colour; at the sky, where P is huge, the medium
     term tends to (ss / st) L_a (Delalandre eq. 7)."""
-    from fogcli.ambient import estimate
+    from fogcli.physics.ambient import estimate
 
     rgb, z, fov = scene(96, 64, seed=1, night=False)
     sky = ~np.isfinite(z)

@@ -5,7 +5,9 @@ from float32 and from half columns, and the radiance check."""
 import numpy as np
 import pytest
 
-from fogcli import pixels
+from fogcli.device.preprocess import pack_rgba
+from fogcli.io import pixels
+from fogcli.physics.limits import check_radiance
 
 
 def _frame(h, w, c, dtype, seed=0):
@@ -52,11 +54,11 @@ def test_pack_rgba_into_a_foreign_buffer(with_alpha):
     alpha = _frame(31, 47, 1, np.float32, seed=4)[:, :, 0] if with_alpha else None
     buf = bytearray(31 * 47 * 16)
     dst = np.frombuffer(buf, np.float32).reshape(31, 47, 4)
-    pixels.pack_rgba(dst, rgb, alpha)
+    pack_rgba(dst, rgb, alpha)
     want = np.dstack([rgb, alpha if with_alpha else np.ones((31, 47), np.float32)])
     _same(np.frombuffer(buf, np.float32).reshape(31, 47, 4), want)
     dst2 = np.zeros((31, 47, 4), np.float32)
-    pixels.pack_rgba(dst2, rgb[:, :, ::-1], alpha)                      # a view: numpy's path
+    pack_rgba(dst2, rgb[:, :, ::-1], alpha)                      # a view: numpy's path
     _same(dst2[:, :, :3], np.ascontiguousarray(rgb[:, :, ::-1]))
 
 
@@ -106,14 +108,14 @@ def test_pack_rgba_from_half_columns_and_the_radiance_check():
     view = pixels.columns(px, [0, 1, 2])
     assert np.shares_memory(view, px)                   # a run: no copy
     dst = np.zeros((19, 23, 4), np.float32)
-    pixels.pack_rgba(dst, view, None)
+    pack_rgba(dst, view, None)
     _same(dst, np.dstack([px[:, :, :3].astype(np.float32), np.ones((19, 23), np.float32)]))
-    pixels.check_radiance(dst, "colour")                # finite: passes
+    check_radiance(dst, "colour")                # finite: passes
     assert not np.shares_memory(pixels.columns(px, [2, 1, 0]), px)
     dst[3, 4, 1] = np.inf
     dst[5, 6, 0] = np.nan
     with pytest.raises(UserError, match="colour: 2 pixel\\(s\\) hold NaN or infinite colour values"):
-        pixels.check_radiance(dst, "colour")
+        check_radiance(dst, "colour")
     dst[3, 4, 1], dst[5, 6, 0] = 1e21, 0.0
     with pytest.raises(UserError, match="colour values up to 1e\\+21"):
-        pixels.check_radiance(dst, "colour")
+        check_radiance(dst, "colour")

@@ -1,4 +1,4 @@
-"""The program binary cache (fogcli.runtime): programs are built from source once per
+"""The program binary cache (fogcli.device.runtime): programs are built from source once per
 machine and loaded from their device binary after that, keyed by everything that can
 change the binary."""
 import shutil
@@ -6,9 +6,10 @@ import shutil
 import numpy as np
 import pytest
 
-from fogcli import apply, runtime
+from fogcli import apply
+from fogcli.device import runtime
 from fogcli.api import make_config
-from fogcli.pipeline import defines
+from fogcli.device.plan import defines
 
 D4 = defines(make_config("fog"))
 D2 = defines(make_config("fog", sets=["render.kernel=2"]))
@@ -100,14 +101,14 @@ def test_cache_off_and_same_results(cache, monkeypatch, rng):
     cfg = make_config("fog")
     monkeypatch.setenv("FOGCLI_KERNEL_CACHE", "0")
     monkeypatch.setattr(runtime, "_RUNTIMES", {})
-    from fogcli import pipeline
-    monkeypatch.setattr(pipeline, "_PLANS", {})
+    from fogcli.device import plan as device_plan
+    monkeypatch.setattr(device_plan, "_PLANS", {})
     plain = apply(img, depth, cfg)
     assert not cache.exists() or not list(cache.iterdir())
     monkeypatch.setenv("FOGCLI_KERNEL_CACHE", "1")
     for _ in range(2):                     # the first writes the binaries, the second loads them
         monkeypatch.setattr(runtime, "_RUNTIMES", {})
-        monkeypatch.setattr(pipeline, "_PLANS", {})
+        monkeypatch.setattr(device_plan, "_PLANS", {})
         np.testing.assert_array_equal(apply(img, depth, cfg), plain)
     assert len(list(cache.glob("*.bin"))) >= 4
 

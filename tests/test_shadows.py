@@ -8,7 +8,6 @@ import numpy as np
 
 from oracles import shadow_fraction
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
 # the medium (thin enough that the far part of a ray still counts) and the airlight AOV helper
 from shadows import CASES, SA, SS, G, against_geometry, airlight, facade_scene  # noqa: E402
 
@@ -55,12 +54,12 @@ def test_screen_shadows_match_a_brute_force_march_of_the_same_model():
 
 
 def test_screen_shadows_of_facade_quads_match_geometric_shadows():
-    """Thin facade quads facing the camera against the sky (benchmarks/shadows.py; edges on
+    """Thin facade quads facing the camera against the sky (tools/shadows.py; edges on
     pixel edges, so the depth map holds the scene exactly), thickness 0.01 m, five lights (points
     behind a quad, beside the quads, behind the camera; the sun behind the camera and from the
     side): the airlight with screen-space shadows against exact segment-quad visibility in
     2048 cells, relative L1 <= 1 % at 64 x 48 (measured 0.03-0.72 %; at 256 x 192:
-    benchmarks/shadows.py -> docs/lights.md)."""
+    tools/shadows.py -> docs/lights.md)."""
     geo = against_geometry(48, 64, thicknesses=(0.01,))
     assert all(share > 0.002 for share, _ in geo.values()), geo
     assert max(errs[0] for _, errs in geo.values()) <= 0.01, geo
@@ -142,7 +141,7 @@ def test_epipolar_dense_zone_is_15_percent_of_the_image_and_at_most_64_pixels():
     side on small images (256 x 192: 38.4 px, which the 1 % above needs: 13 px gave 2 %), at
     most lights.DENSE_PX (64) on large ones (1920 x 1080: 0.23 % from the march, as with 128 px)."""
     from fogcli import make_config
-    from fogcli.lights import DENSE_PX, epipolar_layout
+    from fogcli.device.shadows import DENSE_PX, epipolar_layout
 
     for w, h, zone in ((256, 192, 0.15 * 256), (1920, 1080, DENSE_PX)):
         cfg = make_config(None, sets=["lights=[{type: point, position: [0, 0, -10], intensity: 1}]"])
@@ -168,14 +167,14 @@ def test_unwarp_on_eight_lanes_matches_the_per_pixel_build(monkeypatch):
     lanes past the row's end storing nothing) against the per-pixel build, on every machine:
     facade scene 61 x 48 (a partial last vector), five lights, the airlight with shadows agrees
     to 1e-6 of its peak (measured: identical)."""
-    from fogcli import pipeline
-    from fogcli.runtime import get_runtime
+    from fogcli.device import plan as device_plan
+    from fogcli.device.runtime import get_runtime
 
     z = facade_scene(48, 61)
     got = []
     for lanes in (1, 8):
         monkeypatch.setattr(get_runtime(), "lanes", lanes)
-        monkeypatch.setattr(pipeline, "_PLANS", {})       # plans hold the kernels built for their lanes
+        monkeypatch.setattr(device_plan, "_PLANS", {})       # plans hold the kernels built for their lanes
         got.append([airlight(z, spec, "render.lights.shadows=screen", "render.lights.thickness=0.05")
                     for spec, _, _ in CASES.values()])
     for a, b in zip(*got):

@@ -1,4 +1,4 @@
-"""What fogcli.structs declares for the host against what the kernels read: every struct's
+"""What fogcli.device.structs declares for the host against what the kernels read: every struct's
 size and member offsets measured on the device (sizeof / __builtin_offsetof in a probe
 kernel), and every code and constant read from the kernels' headers as the device compiles
 them, so a member added, moved or padded differently, or a code renumbered, on one side
@@ -7,9 +7,9 @@ import numpy as np
 import pytest
 
 from fogcli.api import make_config
-from fogcli.pipeline import defines
-from fogcli.structs import C_NAMES, CAMERA_T, LIGHT_T, LMEDIUM_T, MEDIUM_T, NOISE_T, TFM_T
-from fogcli.runtime import KERNEL_DIR
+from fogcli.device.plan import defines
+from fogcli.device.structs import C_NAMES, CAMERA_T, LIGHT_T, LMEDIUM_T, MEDIUM_T, NOISE_T, TFM_T
+from fogcli.device.runtime import KERNEL_DIR
 
 # (C type, the file that declares it, numpy dtype, (numpy field, C member) pairs)
 STRUCTS = [
@@ -47,7 +47,7 @@ def test_struct_layout_matches_device(rt, ctype, source, dtype, members):
     assert out.tolist() == want, dict(zip(["sizeof"] + [m for _, m in members], zip(out.tolist(), want)))
 
 
-# the header that declares each constant of fogcli.structs.C_NAMES (the default a kernel
+# the header that declares each constant of fogcli.device.structs.C_NAMES (the default a kernel
 # compiles with where the host passes none)
 HEADERS = ("lights.h", "noise.h")
 

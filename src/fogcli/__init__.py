@@ -15,7 +15,7 @@ __all__ = ["apply", "make_config", "read_camera", "read_depth", "read_image", "w
 def __getattr__(name):
     # lazy: every command imports this package, and `fogcli --help` must stay light
     if name in __all__:
-        from . import api, errors
+        from fogcli import api, errors
 
         return getattr(errors if name == "UserError" else api, name)
     raise AttributeError(f"module 'fogcli' has no attribute {name!r}")

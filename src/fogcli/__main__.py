@@ -1,3 +1,3 @@
-from .cli import main
+from fogcli.cli import main
 
 main()

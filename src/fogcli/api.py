@@ -15,13 +15,15 @@ from pathlib import Path
 
 import numpy as np
 
-from . import depth as depth_mod
-from .colour import srgb_to_linear
-from .config import Config
-from .errors import UserError
-from .inputs import Frame
-from .media import assemble
-from .pipeline import Timings, run
+from fogcli.io import depth as depth_mod
+from fogcli.io.colour import srgb_to_linear
+from fogcli.config.model import Config
+from fogcli.errors import UserError
+from fogcli.io.images import Frame
+from fogcli.config.presets import assemble
+from fogcli.device.plan import Timings
+from fogcli.device.run import run
+from fogcli.frame.scene import for_image
 
 
 def make_config(medium: str | None = None, config: str | None = None, sets=(), camera: dict | None = None,
@@ -39,7 +41,7 @@ def make_config(medium: str | None = None, config: str | None = None, sets=(), c
 def read_image(path: str | Path, layer: str | None = None, view: str | None = None) -> Frame:
     """An image file as fogcli reads it: .rgb (h, w, 3) float32 scene-linear, .alpha,
     .depth (an embedded Z channel, raw) and what an EXR output keeps of it."""
-    from .inputs import read_image as _read
+    from fogcli.io.images import read_image as _read
 
     frame = _read(path, layer, view)
     frame.rgb      # made and checked now: a bad file is refused here, as documented
@@ -49,7 +51,7 @@ def read_image(path: str | Path, layer: str | None = None, view: str | None = No
 def read_depth(path: str | Path) -> np.ndarray:
     """The raw values of a depth file (EXR, TIFF, PNG16, NPY), decoded later by the
     config's camera section."""
-    from .inputs import read_depth as _read
+    from fogcli.io.images import read_depth as _read
 
     return _read(path)
 
@@ -57,7 +59,7 @@ def read_depth(path: str | Path) -> np.ndarray:
 def read_camera(path: str | Path) -> dict:
     """Pinhole intrinsics JSON (Open3D, Cityscapes, plain fx/fy/cx/cy) as a camera section
     for make_config(camera=...)."""
-    from .intrinsics import load
+    from fogcli.config.intrinsics import load
 
     return load(path)["camera"]
 
@@ -68,7 +70,7 @@ def write_image(path: str | Path, rgb: np.ndarray, alpha: np.ndarray | None = No
     """Write scene-linear rgb (EXR/HDR) or display-referred sRGB (PNG/TIFF/JPEG, after
     `exposure` stops), atomically. With ``like`` (the Frame read), an EXR keeps the input's
     other channels, parts, views, windows, pixel types and compression."""
-    from . import outputs
+    from fogcli.io import outputs
 
     path = Path(path)
     rgb = _float_image(rgb, "rgb", None)[0]
@@ -120,7 +122,7 @@ def apply(image: np.ndarray, depth: np.ndarray, config: Config | str | None = No
     Returns (h, w, 3) float32, or (h, w, 4) with the output alpha when the input had one;
     with return_aovs, (image, {aov channel: plane}).
     """
-    from .pixels import MAX_RADIANCE
+    from fogcli.physics.limits import MAX_RADIANCE
 
     if colour not in (None, "srgb", "linear"):
         raise UserError(f"colour: expected 'srgb', 'linear' or None, got {colour!r}")
@@ -152,13 +154,15 @@ def apply(image: np.ndarray, depth: np.ndarray, config: Config | str | None = No
         for n in rep.notes:
             warnings.warn(n, UserWarning, stacklevel=2)
     notes: list = []
-    out, a_out, planes = run(img, dm, cfg, alpha=alpha, aovs=aovs, device=device, timings=timings, report=notes)
+    frame_cfg, lamp_mask = for_image(img, dm, cfg, report=notes)
+    out, a_out, planes = run(img, dm, frame_cfg, alpha=alpha, aovs=aovs, device=device, timings=timings,
+                             lamp_mask=lamp_mask)
     if notes:
         import warnings
 
         for n in notes:
             warnings.warn(n, UserWarning, stacklevel=2)
-    from .job import hidden_warning, mean_luminance
+    from fogcli.frame.job import hidden_warning, mean_luminance
 
     hidden = hidden_warning(mean_luminance(img), out, cfg, dm)
     if hidden:

@@ -12,9 +12,9 @@ from pathlib import Path
 
 import click
 
-from . import __version__
-from .errors import ProcessingError, UserError
-from .aovs import AOV_NAMES
+from fogcli import __version__
+from fogcli.errors import ProcessingError, UserError
+from fogcli.config.aovs import AOV_NAMES
 
 
 def _fail(msg: str, code: int):
@@ -124,10 +124,11 @@ def medium_options(fn):
 def apply(input, depth_path, medium, config_file, camera_file, sets, layer, view, aovs, drop_channels, device,
           output, save_depth, lamps, timings):
     """Apply a medium to INPUT."""
-    from . import outputs
-    from .job import Job, run_job
-    from .media import assemble
-    from .pipeline import Timings, kernel_ms
+    from fogcli.io import outputs
+    from fogcli.frame.job import Job, run_job
+    from fogcli.config.presets import assemble
+    from fogcli.device.plan import Timings
+    from fogcli.device.run import kernel_ms
 
     start = time.perf_counter()
     cfg = assemble(medium, config_file, sets, camera_file)
@@ -141,7 +142,7 @@ def apply(input, depth_path, medium, config_file, camera_file, sets, layer, view
     for w in res.warnings:
         click.echo(f"fogcli: warning: {w}", err=True)
     if timings:
-        from .runtime import get_runtime
+        from fogcli.device.runtime import get_runtime
 
         stages, kms = kernel_ms(t)
         report = {"stages": {k: round(v, 3) for k, v in stages.items()}, "kernel_ms": round(kms, 3),
@@ -175,7 +176,7 @@ def batch(input_dir, output_dir, jobs_file, depth_pattern, medium, config_file, 
           drop_channels, device, fmt, recursive, jobs, skip_existing, scheduler, report, save_depth, quiet):
     """Apply a medium to every image of INPUT_DIR, writing OUTPUT_DIR/<stem>.<format>; or to
     every line of --jobs-file. Exit 0 when all were written (or skipped), 3 when some failed."""
-    from .batch import describe_failure
+    from fogcli.batch.runners import describe_failure
 
     given = [Path(p) for p in (config_file, camera_file, medium) if p and Path(p).is_file()]
     if jobs_file is not None:
@@ -185,9 +186,9 @@ def batch(input_dir, output_dir, jobs_file, depth_pattern, medium, config_file, 
     else:
         if input_dir is None or output_dir is None:
             raise UserError("expected INPUT_DIR and OUTPUT_DIR, or --jobs-file FILE")
-        from .batch import run_batch
-        from .media import assemble
-        from .outputs import refuse_overwrite
+        from fogcli.batch.runners import run_batch
+        from fogcli.config.presets import assemble
+        from fogcli.io.outputs import refuse_overwrite
 
         cfg = assemble(medium, config_file, sets, camera_file)
         if report:
@@ -211,7 +212,7 @@ def _batch_jobs_file(jobs_file, input_dir, depth_pattern, fmt, recursive, save_d
                      report, quiet):
     """fogcli batch --jobs-file: the folder options have no meaning here; the config
     options are every line's base (checked once, before any line: jobs_file.Parser)."""
-    from .batch import run_jobs_file
+    from fogcli.batch.runners import run_jobs_file
 
     if input_dir is not None:
         raise UserError("--jobs-file takes no INPUT_DIR or OUTPUT_DIR (each line names its files)")
@@ -232,7 +233,7 @@ def _batch_jobs_file(jobs_file, input_dir, depth_pattern, fmt, recursive, save_d
 @guarded
 def devices():
     """List OpenCL platforms and devices, marking the default."""
-    from .runtime import choose, list_devices
+    from fogcli.device.runtime import choose, list_devices
 
     devs = list_devices()
     env = os.environ.get("FOGCLI_DEVICE")
@@ -249,7 +250,7 @@ def devices():
 @guarded
 def media():
     """List the bundled medium presets."""
-    from .media import assemble, describe, presets, visibility_m
+    from fogcli.config.presets import assemble, describe, presets, visibility_m
 
     for name, path in presets().items():
         m = assemble(name).medium
@@ -273,8 +274,8 @@ def config_cmd(files, show, medium, camera_file, sets):
     order) < --camera < --set, validated, with the image-independent auto values resolved."""
     import yaml
 
-    from .config import resolved_data
-    from .media import assemble
+    from fogcli.config.model import resolved_data
+    from fogcli.config.presets import assemble
 
     class Dumper(yaml.SafeDumper):
         pass
@@ -290,7 +291,7 @@ def config_cmd(files, show, medium, camera_file, sets):
 @guarded
 def check(files):
     """Validate config files; report every problem with its line."""
-    from .media import check_file
+    from fogcli.config.presets import check_file
 
     bad = 0
     for f in files:

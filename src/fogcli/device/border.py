@@ -1,0 +1,50 @@
+"""render.border: extend (kernels/pyramid.cl border_sources): the frame's edge continued past
+each side, its light spread by a second, smaller plan and added to the main chain's level
+EXT_LEVEL (pyramid.inject)."""
+from __future__ import annotations
+
+import numpy as np
+
+from fogcli.device.composite import composite_source
+from fogcli.device.plan import EXT_LEVEL, Plan, Timings, border_margin
+from fogcli.device.preprocess import upload_lut
+from fogcli.device.pyramid import collapse, reduce
+
+
+def extend(plan, t: Timings) -> bool:
+    """render.border: extend. The frame's edge continued `border_margin` past each side:
+    those sources' light is spread by a second apsf chain on the padded frame at the
+    resolution of level EXT_LEVEL (their light reaches the frame only through blurs of
+    several pixels and more; the open main chain has the frame's own); collapse(ext=True)
+    adds it to that level. About 1/16 of the main chain's pixels at margin 0.5. Returns
+    whether there is one."""
+    mx, my = border_margin(plan.cfg, plan.w, plan.h)
+    plan._ext_level = min(EXT_LEVEL, len(plan.sizes) - 1)
+    if not (mx or my) or plan._ext_level == 0:
+        return False
+    s = 2 ** plan._ext_level
+    ox, oy = -(-mx // s) * s, -(-my // s) * s
+    pw, ph = -(-(plan.w + 2 * ox) // s), -(-(plan.h + 2 * oy) // s)
+    cam = plan.cfg.camera.model_copy(update=dict(focal_px=plan.cfg.camera.focal(plan.w) / s, focal_px_y=None,
+                                                 calibrated_size=None))
+    render = plan.cfg.render.model_copy(update=dict(border="open", levels="auto",
+                                                    separation=plan.cfg.render.separation.model_copy(
+                                                        update=dict(enabled=False))))
+    cfg = plan.cfg.model_copy(update=dict(camera=cam, render=render, lights=[]))
+    if plan._ext is None:
+        plan._ext = Plan(plan.rt, pw, ph, cfg)
+    ext = plan._ext
+    # no direct light of its own: zeros, every frame (its result is written over them)
+    for buf in (ext.direct, ext.medium):
+        t.add("composite", plan.rt.cl.enqueue_fill_buffer(plan.rt.queue, buf, np.float32(0), 0, buf.size))
+    ext.cfg = cfg
+    upload_lut(ext, t)
+    q, i32 = plan.rt.queue, np.int32
+    t.add("pyramid", ext.k_border_src(q, *plan.rt.nd(pw, ph), plan.chain, i32(plan.w), i32(plan.h), ext.chain,
+                                      ext.prep, i32(pw), i32(ph), i32(ox), i32(oy), i32(mx), i32(my), i32(s),
+                                      ext.lut))
+    reduce(ext, t, masked=True)
+    collapse(ext, t)
+    composite_source(ext, t)
+    plan._ext_geom = (np.int32(pw), np.int32(ox // s), np.int32(oy // s))
+    return True

@@ -1,0 +1,281 @@
+/* Stage 1: split the input into attenuated, scattered and medium terms (docs/conventions.md, Per pixel, 4.3;
+ * Elek sec. 3.2 with the thesis' eq. 4.4-4.5, Iser eq. 4.29, Delalandre eq. 7).
+ * Depth arrives raw (as stored in the file, holes already filled); the camera model
+ * turns it into a ray length here so that a z-buffer never reaches the physics. */
+#include "common.h"
+#include "density.h"
+#include "medium.h"
+
+#ifndef CAM_Z
+#define CAM_Z 0     /* 1: the depth is planar (camera.depth is not distance) */
+#endif
+
+
+#ifdef EMISSION_LAMBERT
+/* Camera-space point of pixel (i, j), clamped to the image (inner: known to be inside);
+ * unclamped depth (surfaces) */
+__attribute__((always_inline)) inline void cam_point(const camera_t *c, __global const float *depth, int w, int h,
+                                                     int i, int j, int inner,
+                      float *x, float *y, float *z)
+{
+    i = inner ? i : clampi_(i, 0, w - 1);
+    j = inner ? j : clampi_(j, 0, h - 1);
+    float dx = (i + 0.5f - c->cx) / c->focal_px, dy = -(j + 0.5f - c->cy) / c->focal_y;
+    float dlen = SQRT_(dx * dx + dy * dy + 1.0f);
+    float s = depth[j * w + i] * (c->depth_is_z ? 1.0f : 1.0f / dlen);   /* planar depth */
+    *x = dx * s; *y = dy * s; *z = -s;
+}
+
+/* |cos| between the surface normal and the line to the camera. The normal comes from the
+ * depth map with, along each axis, the one-sided difference whose depth step is smaller,
+ * so that a depth edge does not tilt the surfaces on either side of it. Sky and anything
+ * that is not finite count as facing the camera. inner (a constant): all four neighbours
+ * are inside the image. */
+__attribute__((always_inline)) inline float view_cosine(const camera_t *c, __global const float *depth, int w, int h,
+                                                        int i, int j, int inner)
+{
+    float px, py, pz, ax, ay, az, bx, by, bz;
+    cam_point(c, depth, w, h, i, j, inner, &px, &py, &pz);
+    cam_point(c, depth, w, h, i + 1, j, inner, &ax, &ay, &az);
+    cam_point(c, depth, w, h, i - 1, j, inner, &bx, &by, &bz);
+    int fwd = inner ? absf_(az - pz) < absf_(pz - bz) : (i == 0) || (i < w - 1 && absf_(az - pz) < absf_(pz - bz));
+    float ux = fwd ? ax - px : px - bx, uy = fwd ? ay - py : py - by, uz = fwd ? az - pz : pz - bz;
+    cam_point(c, depth, w, h, i, j + 1, inner, &ax, &ay, &az);
+    cam_point(c, depth, w, h, i, j - 1, inner, &bx, &by, &bz);
+    fwd = inner ? absf_(az - pz) < absf_(pz - bz) : (j == 0) || (j < h - 1 && absf_(az - pz) < absf_(pz - bz));
+    float vx = fwd ? ax - px : px - bx, vy = fwd ? ay - py : py - by, vz = fwd ? az - pz : pz - bz;
+    if (w == 1) { ux = 1.0f; uy = 0.0f; uz = 0.0f; }
+    if (h == 1) { vx = 0.0f; vy = 1.0f; vz = 0.0f; }
+    float nx = uy * vz - uz * vy, ny = uz * vx - ux * vz, nz = ux * vy - uy * vx;
+    float cosv = absf_(nx * px + ny * py + nz * pz)
+               / SQRT_((nx * nx + ny * ny + nz * nz) * (px * px + py * py + pz * pz));
+    return (cosv == cosv && cosv <= 1.0f) ? cosv : 1.0f;   /* NaN (sky, flat zero) */
+}
+
+/* Stage 1a (emission_profile: lambertian): the view cosine of every pixel, in a kernel of
+ * its own so that the neighbour reads and their branches do not keep the preprocess
+ * kernel from being vectorised. */
+__kernel void view_cosines(__global const float *depth, __global float *cosv, const int width,
+                           const int height, const camera_t cam)
+{
+    int i = get_global_id(0), j = get_global_id(1);
+    if (OUTSIDE(i, j, width, height)) return;
+    float wx, wy, wz;
+    float dist = pixel_ray(&cam, i, j, depth[j * width + i], &wx, &wy, &wz);
+    /* sky and anything at max_depth: a dome facing the camera */
+    float v = view_cosine(&cam, depth, width, height, i, j, 0);  /* evaluated everywhere: no conditional loads */
+    cosv[j * width + i] = dist < cam.max_depth ? v : 1.0f;
+}
+
+/* view_cosines' interior (every pixel whose four neighbours are inside the image), on whole
+ * work-groups of the rectangle Plan.preprocess gives (Plan._launch_inner): no clamped reads,
+ * so the loads are linear in the work-item and PoCL vectorises it (view_cosines' clamped
+ * neighbour reads are gathers). */
+__kernel void view_cosines_inner(__global const float *depth, __global float *cosv, const int width,
+                                 const int height, const camera_t cam)
+{
+    int i = get_global_id(0), j = get_global_id(1);
+#if CAM_Z
+    /* Planar depth: a point is z (rx, ry, -1), and a neighbour's ray differs from this
+     * pixel's by one reciprocal focal length, so the five points need no square root and
+     * no division (view_cosine's per-point ones made this kernel compute-bound). The
+     * cosine does not depend on the scale of p, so p is the ray. */
+    float ifx = 1.0f / cam.focal_px, ify = 1.0f / cam.focal_y;
+    float rx = (i + 0.5f - cam.cx) * ifx, ry = -(j + 0.5f - cam.cy) * ify;
+    int idx = j * width + i;
+    float z = depth[idx], zr = depth[idx + 1], zl = depth[idx - 1], zd = depth[idx + width], zu = depth[idx - width];
+    int fx = absf_(zr - z) < absf_(z - zl), fy = absf_(zd - z) < absf_(z - zu);
+    /* u = P(i+1) - P(i) or P(i) - P(i-1); v likewise down the rows (ray y falls by ify) */
+    float ux = fx ? zr * (rx + ifx) - z * rx : z * rx - zl * (rx - ifx);
+    float uy = fx ? (zr - z) * ry : (z - zl) * ry;
+    float uz = fx ? z - zr : zl - z;
+    float vx = fy ? (zd - z) * rx : (z - zu) * rx;
+    float vy = fy ? zd * (ry - ify) - z * ry : z * ry - zu * (ry + ify);
+    float vz = fy ? z - zd : zu - z;
+    float nx = uy * vz - uz * vy, ny = uz * vx - ux * vz, nz = ux * vy - uy * vx;
+    float r2 = rx * rx + ry * ry + 1.0f;
+    float v = absf_(nx * rx + ny * ry - nz) / SQRT_((nx * nx + ny * ny + nz * nz) * r2);
+    v = (v == v && v <= 1.0f) ? v : 1.0f;   /* NaN (sky, flat zero) */
+    cosv[idx] = z * z * r2 < cam.max_depth * cam.max_depth ? v : 1.0f;
+#else
+    float wx, wy, wz;
+    float dist = pixel_ray(&cam, i, j, depth[j * width + i], &wx, &wy, &wz);
+    float v = view_cosine(&cam, depth, width, height, i, j, 1);
+    cosv[j * width + i] = dist < cam.max_depth ? v : 1.0f;
+#endif
+}
+#endif
+
+/* What a plan writes besides direct and scat0 is fixed when it is built (-D PRE_SOURCE,
+ * PRE_SEP, PRE_SPLIT_MEDIUM, PRE_TRANSMITTANCE, each 0 or 1; left out, 0): a store under a
+ * run-time flag is a masked store, which kept PoCL from vectorising this kernel on AVX2
+ * (3x slower; tools/pocl_vectorisation.py has the pattern). */
+#ifndef PRE_SOURCE
+#define PRE_SOURCE 0
+#endif
+#ifndef PRE_SEP
+#define PRE_SEP 0
+#endif
+#ifndef PRE_SPLIT_MEDIUM
+#define PRE_SPLIT_MEDIUM 0
+#endif
+#ifndef PRE_TRANSMITTANCE
+#define PRE_TRANSMITTANCE 0
+#endif
+/* the Gaussian spread of level 0: read by the Gaussian chains and the spread and level
+ * AOVs; the apsf source collapse does without it (1 unless the plan leaves it out) */
+#ifndef PRE_SPREAD
+#define PRE_SPREAD 1
+#endif
+__kernel void preprocess(__global const float4 *image, __global const float *depth,
+                         __global float4 *direct, __global float4 *scat0,
+                         __global float *spread0, __global float4 *medium_term,
+                         __global float4 *transmittance,
+                         const int width, const int height, const medium_t m,
+                         __global float4 *prep0, const float thresh1,
+                         const float eps, __global float4 *sep_chain0, __global float4 *sep_prep0,
+                         const float4 sep_par, __global const float *lut,
+                         __global const float *cosines)
+{
+    int i = get_global_id(0), j = get_global_id(1);
+    if (OUTSIDE(i, j, width, height)) return;
+    int idx = j * width + i;
+
+    float wx, wy, wz;
+    float dist = pixel_ray(&m.cam, i, j, depth[idx], &wx, &wy, &wz);
+    /* spread0 is read before it is overwritten below, by this work-item only */
+    float P = m.homogeneous * dist + (m.has_p ? spread0[idx] : 0.0f);
+    /* per channel, scalar and with polynomial exponentials: PoCL vectorises the kernel
+     * across work-items only without builtin calls and float3 arithmetic */
+    float L[3], alpha;
+    load4(image, idx, &L[0], &L[1], &L[2], &alpha);
+    MEDIUM_RATES(m, sa, ss);
+    float le[3] = {m.emission.x, m.emission.y, m.emission.z};
+    float la[3] = {m.ambient.x, m.ambient.y, m.ambient.z};
+    float at[3], sc[3], med[3], tr[3];
+    for (int c = 0; c < 3; ++c) {
+        float st = sa[c] + ss[c];
+        float t_all = exp_poly(-st * P);
+        tr[c] = t_all;
+        at[c] = t_all * L[c];
+        /* exp(-sa P)(1 - exp(-ss P)) = exp(-sa P) - exp(-st P); the thesis form (docs/conventions.md, Per pixel) */
+        sc[c] = (exp_poly(-sa[c] * P) - t_all) * L[c];
+        /* 1 - exp(-st P) by its series in thin media; st -> 0 limits: emission grows as
+         * P, ambient vanishes */
+        float one_minus = one_minus_exp(st * P);
+        float em_w = st > 0.0f ? one_minus / st : P;
+        float amb_w = st > 0.0f ? ss[c] / st * one_minus : 0.0f;
+        med[c] = m.has_medium_light ? le[c] * em_w + la[c] * amb_w : 0.0f;
+    }
+
+    float sigma = spread_px(P, dist, m.sa.w, m.ss.w, m.g, m.spread_scale, m.cam.focal_px,
+                            (float)width);
+#ifdef PSF_APSF
+    /* radiative transfer: the scattered energy is the thin-medium form times the table's
+     * ratio (lower where long multiply scattered paths absorb more); the chain carries
+     * log P, from which every level reads its shares */
+    float lp = log_pos(P > 1e-30f ? P : 1e-30f);
+    int nlev = (int)lut[3];
+    float lf;
+    int li = lut_pos(lut, lp, &lf);
+#ifdef EMISSION_LAMBERT
+    /* the energy ratio times the Lambertian weight at this pixel's view cosine, one table */
+    float lw0, lw1, lw2;
+    lambert_at(lut, nlev, li, lf, cosines[idx], &lw0, &lw1, &lw2);
+    sc[0] *= lw0; sc[1] *= lw1; sc[2] *= lw2;
+#else
+    sc[0] *= lut_get(lut, lut_ratio(nlev, 0), li, lf);
+    sc[1] *= lut_get(lut, lut_ratio(nlev, 1), li, lf);
+    sc[2] *= lut_get(lut, lut_ratio(nlev, 2), li, lf);
+#endif
+#if PRE_SOURCE
+    /* level 0's shares passed up (store_prep_apsf's), read here with the other table reads:
+     * after the stores below LLVM must assume they changed the table and reads it again,
+     * by gathers (measured ~7 ms of the stage at 2 MPx) */
+    float up0 = lut_get(lut, lut_updown(0, 0, 0), li, lf), up1 = lut_get(lut, lut_updown(0, 1, 0), li, lf),
+          up2 = lut_get(lut, lut_updown(0, 2, 0), li, lf);
+#endif
+    float wv = lp;
+#else
+    float wv = sigma;
+#endif
+
+    /* emission and ambient travel in `direct` unless an AOV wants them apart: one buffer
+     * less to write here and to read in the composite */
+    float keep = PRE_SPLIT_MEDIUM ? 0.0f : 1.0f;
+    store4(direct, idx, at[0] + keep * med[0], at[1] + keep * med[1], at[2] + keep * med[2], alpha);
+#if PRE_SEP
+    {
+        /* Iser eq. 4.25: bright (luminance of L above sep_par.x, width .y) and near (D' = P
+         * below .z, width .w) pixels get a chain of their own */
+        float ms = smoothstep_(sep_par.x, sep_par.x + sep_par.y,
+                               0.2126f * L[0] + 0.7152f * L[1] + 0.0722f * L[2])
+                 * (1.0f - smoothstep_(sep_par.z - sep_par.w, sep_par.z, P));
+        float l0 = ms * sc[0], l1 = ms * sc[1], l2 = ms * sc[2];
+        sc[0] -= l0; sc[1] -= l1; sc[2] -= l2;
+        store4(sep_chain0, idx, l0, l1, l2, wv);
+#ifdef PSF_APSF
+        store_prep_apsf(sep_prep0, idx, l0, l1, l2, lp, lut, 0);
+#else
+        store_prep(sep_prep0, idx, l0, l1, l2, sigma, thresh1, eps);
+#endif
+    }
+#endif
+    store4(scat0, idx, sc[0], sc[1], sc[2], wv);
+#if PRE_SPREAD
+    spread0[idx] = sigma;
+#endif
+#if PRE_SPLIT_MEDIUM
+    store4(medium_term, idx, med[0], med[1], med[2], P);
+#endif
+#if PRE_TRANSMITTANCE
+    store4(transmittance, idx, tr[0], tr[1], tr[2], 1.0f);
+#endif
+#if PRE_SOURCE && defined(PSF_APSF)
+    store4(prep0, idx, up0 * sc[0], up1 * sc[1], up2 * sc[2], lp);
+#elif PRE_SOURCE
+    store_prep(prep0, idx, sc[0], sc[1], sc[2], sigma, thresh1, eps);
+#endif
+}
+
+/* Stage 1b (inputs with alpha): the output alpha of a premultiplied pixel. Its uncovered
+ * part (1 - alpha) looks at camera.empty_depth; a plate composited there afterwards reaches
+ * the camera as the model carries a source at that depth: transmitted plus scattered
+ * (the scattered energy x the point-spread ratio, a surface facing the camera), weighted by
+ * luminance. So out.a = 1 - (1 - a) t_e, and compositing the result over a smooth plate
+ * equals processing the plate at that depth. P_empty: the heterogeneous primitives' optical
+ * depth to empty_depth (has_p), else the homogeneous part alone. */
+__kernel void coverage(__global float4 *direct, __global const float *P_empty, const int has_p,
+                       const int width, const int height, const medium_t m, const float empty_depth,
+                       __global const float *lut)
+{
+    int i = get_global_id(0), j = get_global_id(1);
+    if (i >= width || j >= height) return;
+    int idx = j * width + i;
+    float4 d = direct[idx];
+    if (d.w >= 1.0f) return;
+    float wx, wy, wz;
+    float dist = pixel_ray(&m.cam, i, j, empty_depth, &wx, &wy, &wz);
+    float P = m.homogeneous * dist + (has_p ? P_empty[idx] : 0.0f);
+    MEDIUM_RATES(m, sa, ss);
+    float lum[3] = {0.2126f, 0.7152f, 0.0722f};
+    float r[3] = {1.0f, 1.0f, 1.0f};
+#ifdef PSF_APSF
+    float lp = log_pos(P > 1e-30f ? P : 1e-30f);
+    int nlev = (int)lut[3];
+    float lf;
+    int li = lut_pos(lut, lp, &lf);
+#ifdef EMISSION_LAMBERT
+    lambert_at(lut, nlev, li, lf, 1.0f, &r[0], &r[1], &r[2]);   /* the ratio times the weight, as preprocess */
+#else
+    for (int c = 0; c < 3; ++c) r[c] = lut_get(lut, lut_ratio(nlev, c), li, lf);
+#endif
+#endif
+    float te = 0.0f;
+    for (int c = 0; c < 3; ++c) {
+        float t_all = exp_poly(-(sa[c] + ss[c]) * P);
+        te += lum[c] * (t_all + (exp_poly(-sa[c] * P) - t_all) * r[c]);
+    }
+    te = te < 1.0f ? te : 1.0f;
+    direct[idx].w = 1.0f - (1.0f - d.w) * te;
+}

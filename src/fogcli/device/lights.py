@@ -1,0 +1,240 @@
+"""Lights in the medium on the host: the structs of kernels/lights.cl (lights placed in the
+world, the medium with its density primitives, the Gauss-Legendre nodes) and a float64
+numpy reference of the single-scattered airlight that the kernel is tested against."""
+from __future__ import annotations
+
+import math
+from functools import lru_cache
+
+import numpy as np
+
+from fogcli.config.model import Config
+from fogcli.device.geometry import placed
+from fogcli.device.noise import airlight_noise, noise_args
+from fogcli.device.plan import Timings, defines
+from fogcli.device.shadows import epipolar
+from fogcli.device.structs import LIGHT_T, LIGHT_TYPES, SH_BINS, camera_struct, lmedium_struct
+from fogcli.physics.airlight_table import NB, NX, tables
+from fogcli.physics.apsf import _slice_ga, load_table, log_along_tau, read_data
+
+
+def light_struct(cfg: Config, light) -> np.ndarray:
+    s = np.zeros((), LIGHT_T)
+    pos, axis = placed(cfg, light)
+    s["pos"], s["axis"] = [*pos, 0.0], [*axis, 0.0]
+    s["intensity"] = [*(light.irradiance if light.type == "directional" else light.intensity), 0.0]
+    s["radius"] = getattr(light, "radius", 0.0)
+    if light.type == "spot":
+        s["cos_outer"] = math.cos(math.radians(light.angle))
+        s["cos_inner"] = math.cos(math.radians(light.angle * (1.0 - light.blend)))
+        if s["cos_inner"] <= s["cos_outer"]:            # blend 0: a hard edge, smoothstep needs a step
+            s["cos_inner"] = np.nextafter(s["cos_outer"], np.float32(2.0))
+    s["type"] = LIGHT_TYPES[light.type]
+    s["gain"] = [*gain(cfg, light), 1.0]
+    return s
+
+
+@lru_cache(maxsize=1)
+def _gain_table() -> dict:
+    """The point-spread table's energy (all orders) and, on the same grid, the energy of
+    single scattering as the light model carries it (tools/make_light_gain.py), both
+    over the thin-medium form."""
+    tab = load_table()
+    z = read_data("light_gain")
+    carried = np.asarray(z["carried_ratio"], np.float64)
+    assert np.array_equal(z["tau"], tab["tau"]) and np.array_equal(z["albedo"], tab["albedo"])
+    ok = (carried > 0) & (tab["ratio"] > 0)
+    return {"g": tab["g"], "albedo": tab["albedo"], "tau": tab["tau"],
+            "ratio": np.where(ok, tab["ratio"] / np.where(ok, carried, 1.0), 1.0)}
+
+
+def gain(cfg: Config, light) -> np.ndarray:
+    """Per RGB: the energy of all orders of scattering around a point source at the light's
+    optical distance from the camera over what the light model carries (single scattering,
+    light leg in extinction, camera leg in absorption). A light's airlight is exact single
+    scattering; the light it would get from scattering on its way to the medium (forward in
+    fog: x1.1 at 1 scattering length, x1.4 at 3) is added to its scattered part, which the
+    point spread spreads. 1 for directional lights (no distance) and where the medium does
+    not scatter."""
+    if light.type == "directional":
+        return np.ones(3)
+    m = cfg.medium
+    pos, _ = placed(cfg, light)
+    cam = np.array(cfg.camera.position, np.float64)
+    dist = float(np.linalg.norm(pos - cam))
+    P = float(optical_depth(cam[None], ((pos - cam) / max(dist, 1e-12))[None], np.array([dist]), cfg)[0]) if dist > 0 else 0.0
+    tab = _gain_table()
+    out = np.ones(3)
+    for c, (sa, ss) in enumerate(zip(m.absorption, m.scattering)):
+        if ss > 0 and P > 0:
+            ratio = _slice_ga(tab, "ratio", m.asymmetry, ss / (sa + ss))
+            out[c] = float(log_along_tau(tab, ratio, np.array([ss * P]))[0])
+    # all orders carry at least what single scattering does; below 1 is the table's noise
+    return np.maximum(out, 1.0)
+
+
+def gauss_legendre(n: int) -> np.ndarray:
+    x, w = np.polynomial.legendre.leggauss(n)
+    return np.ascontiguousarray(np.stack([x, w], axis=1), np.float32)
+
+
+def medium_density(x: np.ndarray, cfg: Config) -> np.ndarray:
+    rho = np.zeros(x.shape[:-1])
+    for d in cfg.medium.density:
+        if d.type == "homogeneous":
+            rho += d.factor
+        elif d.type == "exponential":
+            n = np.array(d.direction, float) / np.linalg.norm(d.direction)
+            rho += d.factor * np.exp(-d.falloff * ((x - np.array(d.offset)) @ n))
+        elif d.type == "sphere":
+            r2 = ((x - np.array(d.center)) ** 2).sum(-1)
+            rho += d.factor * np.maximum(0.0, 1.0 - r2 / d.radius ** 2)
+    return rho
+
+
+def optical_depth(p: np.ndarray, u: np.ndarray, L: np.ndarray, cfg: Config, skip_homogeneous=False) -> np.ndarray:
+    """Optical depth (density units) from points p along unit u over lengths L, in closed form
+    and float64 (the analytic media; tests/test_density.py checks the same forms against
+    quadrature)."""
+    P = np.zeros(np.shape(L))
+    for d in cfg.medium.density:
+        if d.type == "homogeneous":
+            P = P + (0.0 if skip_homogeneous else d.factor * L)
+        elif d.type == "exponential":
+            n = np.array(d.direction, float) / np.linalg.norm(d.direction)
+            pre = d.factor * np.exp(np.minimum(-d.falloff * ((p - np.array(d.offset)) @ n), 700.0))
+            x = -d.falloff * (u @ n) * L
+            with np.errstate(over="ignore", invalid="ignore"):
+                f = np.where(np.abs(x) < 1e-8, 1.0 + x / 2, np.expm1(x) / np.where(x == 0, 1.0, x))
+            P = P + pre * L * f
+        elif d.type == "sphere":
+            co = p - np.array(d.center)
+            B = (co * u).sum(-1)
+            perp = co - B[..., None] * u
+            s2 = d.radius ** 2 - (perp * perp).sum(-1)
+            sq = np.sqrt(np.maximum(s2, 0.0))
+            u1, u2 = np.maximum(B, -sq), np.minimum(L + B, sq)
+            du = u2 - u1
+            P = P + np.where((s2 > 0) & (du > 0), d.factor / d.radius ** 2 * du * (s2 - (u2 * u2 + u1 * u2 + u1 * u1) / 3), 0.0)
+    return P
+
+
+# -- on a plan (kernels/lights.cl)
+
+def airlight(plan, t: Timings) -> None:
+    """Every light's airlight (kernels/lights.cl): a_dir kept for after the pyramid, a_sc
+    into level 0 of the colour chain (merged with the image's scattered light)."""
+    cl, q, n = plan.rt.cl, plan.rt.queue, plan.w * plan.h
+    lm, prims = lmedium_struct(plan.cfg)
+    mf = cl.mem_flags
+    quad = []           # (primitives, Gauss-Legendre nodes) on the device, made when a kernel needs them
+
+    def device_quad():
+        if not quad:
+            quad.extend((cl.Buffer(plan.rt.ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=prims),
+                         cl.Buffer(plan.rt.ctx, mf.READ_ONLY | mf.COPY_HOST_PTR,
+                                   hostbuf=gauss_legendre(int(lm["nodes"])))))
+        return quad
+    cam = camera_struct(plan.cfg, plan.w, plan.h)
+    pk = plan.cfg.render.lights.airlight == "pk"
+    homogeneous = int(lm["nprims"]) == 0
+    lights = [x for x in plan.cfg.lights if x.type != "auto"]
+    if len(lights) > 1 and plan._light_tmp is None:     # the second light on: summed after
+        plan._light_tmp = (cl.Buffer(plan.rt.ctx, mf.READ_WRITE, 16 * n), cl.Buffer(plan.rt.ctx, mf.READ_WRITE, 16 * n))
+    size = plan.rt.nd(plan.w, plan.h)
+    for k, light in enumerate(lights):
+        dst = (plan.a_dir, plan.a_sc) if k == 0 else plan._light_tmp
+        ls = light_struct(plan.cfg, light)
+        if pk and light.type == "point":        # Pradhan & Kumar's closed form
+            ev = plan.k_lights.airlight_pk(q, *size, plan.depth, *dst, np.int32(plan.w), np.int32(plan.h), cam, lm, ls)
+        elif noise_args(plan) is not None:     # the light leg from a map, the camera leg marched
+            ev = airlight_noise(plan, t, dst, cam, lm, device_quad()[0], ls, light)
+        elif homogeneous and light.type == "point":    # tables instead of quadrature
+            tab, grey, per_channel, common = table_args(plan, ls)
+            tsize = plan.rt.nd(-(-plan.w // plan.lanes), plan.h)
+            if grey:        # ln(ss I) per channel as its largest and exp(each - largest)
+                lk = [float(x) for x in common[2:5]]
+                lkm = max(lk)
+                scale = [np.float32(math.exp(x - lkm)) for x in lk]
+                ev = plan.k_lights.airlight_table_grey(q, *tsize, plan.depth, *dst, np.int32(plan.w),
+                                                       np.int32(plan.h), cam, tab, *common[:2], *per_channel[0],
+                                                       np.float32(lkm), *scale, *common[5:])
+            else:
+                ev = plan.k_lights.airlight_table(q, *tsize, plan.depth, *dst, np.int32(plan.w), np.int32(plan.h),
+                                                  cam, tab, *common[:2], *[x for c in per_channel for x in c],
+                                                  *common[2:])
+        elif homogeneous and light.type == "directional":     # closed form
+            ev = plan.k_lights.airlight_sun(q, *size, plan.depth, *dst, np.int32(plan.w), np.int32(plan.h), cam, lm, ls)
+        else:
+            ev = plan.k_lights.airlight(q, *size, plan.depth, *dst, np.int32(plan.w), np.int32(plan.h), cam, lm,
+                                        *device_quad(), ls)
+        t.add("lights", ev)
+        if plan.cfg.render.lights.shadows == "screen":      # built once per process (runtime.program)
+            k_shadows = plan.rt.program("shadows", **defines(plan.cfg), SH_BINS=SH_BINS, LANES=plan.lanes)
+            sh = plan.cfg.render.lights
+            sh_args = (cam, lm, device_quad()[0], ls, np.float32(sh.thickness), np.int32(sh.offscreen == "shadowed"))
+            if sh.method == "march":
+                t.add("shadows", k_shadows.shadow_march(q, *size, plan.depth, *dst, np.int32(plan.w),
+                                                        np.int32(plan.h), *sh_args))
+            else:
+                epipolar(plan, t, k_shadows, dst, sh_args, light)
+        if k > 0:
+            t.add("lights", plan.k_lights.add_light(q, *plan.rt.nd(n), plan.a_dir, dst[0], plan.a_sc, dst[1],
+                                                    np.int32(n)))
+    t.add("lights", plan.k_lights.airlight_to_chain(
+        q, *plan.rt.nd(n), plan.a_sc, plan.chain, plan.prep, plan.lut, np.int32(n)))
+
+
+def airlight_tables(plan):
+    """(the medium's airlight tables on the device (fogcli/airlight_table.py), kept while
+    g and the channels' sa / st stay the same: r = 1, then one table per distinct r;
+    each channel's r = sa / st; each channel's table)."""
+    m = plan.cfg.medium
+    st = [a + s for a, s in zip(m.absorption, m.scattering)]
+    r = [round(a / t, 6) if t > 0 else 1.0 for a, t in zip(m.absorption, st)]
+    distinct = tuple(dict.fromkeys(x for x in r if x < 1.0))
+    key = (float(m.asymmetry), distinct)
+    if plan._al_tables is None or plan._al_tables[0] != key:
+        host = tables(*key)
+        buf = plan.rt.cl.Buffer(plan.rt.ctx, plan.rt.cl.mem_flags.READ_ONLY | plan.rt.cl.mem_flags.COPY_HOST_PTR,
+                                hostbuf=host)
+        plan._al_tables = (key, buf)
+    kind = [1 + distinct.index(x) if x < 1.0 else 0 for x in r]
+    return plan._al_tables[1], r, kind
+
+
+def table_args(plan, ls):
+    """The airlight tables on the device and the uniform values of airlight_table(_grey)
+    as scalars (a float4 argument's lanes worked on the same way get paired by LLVM and
+    stop PoCL's vectoriser): (tables, grey, per channel (st, ln st, sa, r, xm, em, table
+    offset), (g, hf, ln(ss I) x 3, gain x 3, camera-to-light x 3, radius^2))."""
+    tab, rs, kind = airlight_tables(plan)
+    m = plan.cfg.medium
+    hf = m.homogeneous
+    f = np.float32
+    per = []
+    for c in range(3):
+        r = rs[c]
+        xm, em = (-math.atanh(r), math.sqrt(1.0 - r * r)) if r < 1.0 else (-1e30, 0.0)
+        st = hf * (m.absorption[c] + m.scattering[c])
+        per.append((f(st), f(math.log(st)) if st > 0 else f(-1e30), f(hf * m.absorption[c]), f(r), f(xm), f(em),
+                    np.int32(kind[c] * 2 * NB * NX)))
+    k = [hf * m.scattering[c] * float(ls["intensity"][c]) for c in range(3)]
+    v = np.array(ls["pos"][:3], np.float64) - np.array(plan.cfg.camera.position, np.float64)
+    common = ([f(m.asymmetry), f(hf)] + [f(math.log(x)) if x > 0 else f(-1e30) for x in k]
+              + [f(x) for x in ls["gain"][:3]] + [f(x) for x in v] + [f(float(ls["radius"]) ** 2)])
+    grey = len(set(m.absorption)) == 1 and len(set(m.scattering)) == 1
+    return tab, grey, per, common
+
+
+def clear_sources(plan, t: Timings, mask: np.ndarray) -> None:
+    cl, n = plan.rt.cl, plan.w * plan.h
+    buf = cl.Buffer(plan.rt.ctx, cl.mem_flags.READ_ONLY | cl.mem_flags.COPY_HOST_PTR,
+                    hostbuf=np.ascontiguousarray(mask, np.uint8))
+    t.add("lights", plan.k_lights.clear_sources(plan.rt.queue, *plan.rt.nd(n), plan.chain, plan.prep, buf,
+                                                 np.int32(n)))
+
+
+def add_airlight(plan, t: Timings) -> None:
+    n = plan.w * plan.h
+    t.add("lights", plan.k_lights.add_airlight(plan.rt.queue, *plan.rt.nd(n), plan.out, plan.a_dir, np.int32(n)))

@@ -1,0 +1,384 @@
+"""The per-image plan: the device buffers of one image size, declared once (BUFFERS: name ->
+bytes, from which allocation, the memory estimate and the plan cache key follow) and
+allocated once per size (silx style), with the kernels its options build. The stages
+(preprocess, pyramid, composite, lights, shadows, noise, reference) are modules that run
+on a plan; run.py orders them. Kernel times come from OpenCL profiling events, per stage."""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from fogcli.config.model import Config
+from fogcli.errors import ProcessingError
+from fogcli.physics.airlight_table import DEFINES
+from fogcli.physics.apsf import COS_MIN, NC, NP, conservation_tables, edge_tables, load_table, lut_offsets
+from fogcli.physics.calibration import FILTERS
+from fogcli.device.runtime import Runtime
+
+INTERP = {"linear-bilinear": 0, "linear-bicubic": 1, "cubic-bicubic": 2}
+
+
+def level_sizes(width: int, height: int, levels: int | str) -> list[tuple[int, int]]:
+    """Level 0 and every halving (rounded up) down to 1x1, or `levels` levels above 0."""
+    sizes = [(width, height)]
+    while sizes[-1] != (1, 1) and (levels == "auto" or len(sizes) <= int(levels)):
+        w, h = sizes[-1]
+        sizes.append(((w + 1) // 2, (h + 1) // 2))
+    return sizes
+
+
+@dataclass
+class Timings:
+    stages: dict = field(default_factory=dict)
+
+    def add(self, stage: str, event) -> None:
+        """One event, or the list of a split launch (Runtime.launch2d / launch1d)."""
+        self.stages.setdefault(stage, []).extend(event if isinstance(event, list) else [event])
+
+    def add_copy(self, stage: str, event) -> None:
+        """A copy from host memory: waited for and kept as its time. The event itself would
+        keep the host array alive until the end of the frame (pyopencl's NannyEvent)."""
+        event.wait()
+        self.stages.setdefault(stage, []).append((event.profile.end - event.profile.start) * 1e-6)
+
+    def resolve(self) -> dict[str, float]:
+        out = {}
+        for stage, events in self.stages.items():
+            out[stage] = sum(e if isinstance(e, float) else (e.profile.end - e.profile.start) * 1e-6 for e in events)
+        return out
+
+
+def defines(cfg: Config) -> dict:
+    taps = FILTERS[cfg.render.kernel]
+    d = {"FILTER_TAPS": len(taps), "FILTER_WEIGHTS": ",".join(f"{t!r}f" for t in taps),
+         "INTERP": INTERP[cfg.render.interpolation]}
+    if cfg.render.spread_model == "paper":
+        d["SPREAD_PAPER"] = 1
+    if uses_apsf(cfg):
+        d["PSF_APSF"] = 1
+        d["APSF_NP"] = NP
+        if cfg.render.emission_profile == "lambertian":
+            d.update(EMISSION_LAMBERT=1, APSF_NC=NC, APSF_COS_MIN=f"{COS_MIN!r}f",
+                     APSF_J=len(load_table()["sigma_u"]))
+    if open_border(cfg):
+        d["BORDER_OPEN"] = 1
+    m = cfg.medium
+    if len(set(m.absorption)) == 1 and len(set(m.scattering)) == 1:
+        d["MEDIUM_GREY"] = 1      # fog, haze, smoke: one channel's table reads and exponentials serve all three
+    return d
+
+
+EXT_LEVEL = 3   # render.border: extend spreads the continued edge at level 3's resolution (1/8)
+
+
+def open_border(cfg: Config) -> bool:
+    """Light that crosses the frame's edge (or the edge continued, `extend`) leaves. `extend`
+    needs the tabulated point spread; with the Gaussian one it continues the edge without
+    limit, which is the closed border."""
+    return cfg.render.border == "open" or (cfg.render.border == "extend" and uses_apsf(cfg))
+
+
+def border_margin(cfg: Config, width: int, height: int) -> tuple[int, int]:
+    """`render.border: extend`: pixels the frame's edge is continued by on each side (x, y)."""
+    if cfg.render.border != "extend" or not uses_apsf(cfg):
+        return 0, 0
+    f = cfg.render.border_margin
+    return int(round(f * width)), int(round(f * height))
+
+
+def uses_apsf(cfg: Config) -> bool:
+    """The tabulated point spread runs in the source collapse and in the reference."""
+    r = cfg.render
+    return r.psf == "apsf" and (r.method == "reference" or (r.method == "pyramid" and r.fetch == "source"))
+
+
+@dataclass(frozen=True)
+class Features:
+    """What a plan computes, as far as its device memory goes."""
+    source: bool          # the source collapse: a prep chain
+    sep: bool             # pixel separation: a second chain
+    split_medium: bool    # emission + ambient in a buffer of their own (AOVs)
+    lights: bool
+    lambert: bool         # emission_profile lambertian: view cosines
+    aovs: tuple
+    reference: bool       # method reference: three more full-size planes
+    epipolar: bool        # lights with screen shadows, method epipolar: a flag per pixel
+    spread0: bool         # the source collapse reads level 0 of the spread chain (a Gaussian
+                          # spread, the AOVs, or the P of a heterogeneous medium); no level above
+
+
+# The per-frame device buffers, declared once: name -> bytes for n pixels in r rows, a pyramid
+# of t pixels in all (every level) and the plan's features. Plan allocates them (0: a 16-byte
+# placeholder, or the buffer ALIASES names), check_memory sums them, and the reference's
+# planes are declared the same way.
+BUFFERS = {
+    "image": lambda n, t, f, r: 16 * n,                       # RGBA in; scratch after preprocess
+    # metric depth, read up to the lights; then (the source collapse) level k+1 up-sampled
+    # along y to level k's rows, as colour planes (up_planes: the pair kernels, up_rows):
+    # 12 h ceil(w / 2) <= 6 n + 6 h bytes at level 0, the largest
+    "depth": lambda n, t, f, r: max(4 * n, (6 * n + 6 * r) * f.source),
+    "direct": lambda n, t, f, r: 16 * n,                      # L exp(-st P) (+ L_em + L_amb)
+    "medium": lambda n, t, f, r: 16 * n * f.split_medium,
+    "chain": lambda n, t, f, r: 16 * t,                       # colour chain, every level
+    "spread": lambda n, t, f, r: 4 * (n * f.spread0 if f.source else t),
+    "prep": lambda n, t, f, r: 16 * t * f.source,
+    "up_planes": lambda n, t, f, r: 0,                     # in `depth`, free by then
+    "chain2": lambda n, t, f, r: 16 * t * f.sep,
+    "prep2": lambda n, t, f, r: 16 * t * f.sep,
+    "half2": lambda n, t, f, r: 16 * n * f.sep,
+    "spread2": lambda n, t, f, r: 4 * t * f.sep,             # unused output of reduce_level
+    # the result, written over `direct` (every stage that writes it reads direct at its own
+    # pixel only, first) unless the direct AOV must keep it
+    "out": lambda n, t, f, r: 16 * n * ("direct" in f.aovs),
+    "a_dir": lambda n, t, f, r: 16 * n * f.lights,            # airlight reaching the camera directly
+    "a_sc": lambda n, t, f, r: 16 * n * f.lights,             # ... and scattered again on the way
+    "trans": lambda n, t, f, r: 16 * n * ("transmittance" in f.aovs),
+    "level_aov": lambda n, t, f, r: 4 * n * bool(f.aovs),
+    "scat_aov": lambda n, t, f, r: 16 * n * bool(f.aovs),
+    "cosines": lambda n, t, f, r: 4 * n * f.lambert,
+    "epi_flags": lambda n, t, f, r: n * f.epipolar,           # pixels the epipolar unwarp leaves to the march
+}
+# Buffers declared with 0 bytes that are another one: up_planes is made after the last read
+# of the depth; out is written over direct (see above)
+ALIASES = {"up_planes": "depth", "out": "direct"}
+
+
+REFERENCE_BUFFERS = {"src": lambda n: 16 * n, "tmp": lambda n: 16 * n, "acc": lambda n: 16 * n}
+
+
+def plan_features(cfg: Config, aovs=()) -> Features:
+    r = cfg.render
+    source = r.method == "pyramid" and r.fetch == "source"
+    return Features(source, r.method == "pyramid" and r.separation.enabled,
+                    bool({"optical_depth", "emission", "direct"} & set(aovs)), bool(cfg.lights),
+                    uses_apsf(cfg) and r.emission_profile == "lambertian", tuple(aovs), r.method == "reference",
+                    bool(cfg.lights) and r.lights.shadows == "screen" and r.lights.method == "epipolar",
+                    not uses_apsf(cfg) or bool(aovs) or cfg.medium.heterogeneous)
+
+
+def buffer_bytes(n: int, t: int, f: Features, rows: int) -> dict:
+    return {name: int(size(n, t, f, rows)) for name, size in BUFFERS.items()}
+
+
+def planned_bytes(n: int, t: int, f: Features, cfg: Config, rows: int) -> int:
+    """Everything one frame may allocate: the declared buffers, the reference's planes, the
+    airlight of a second light (two planes), and the extension plan of `border: extend`
+    (the padded frame at 1/2^EXT_LEVEL: about (1 + 2 margin)^2 / 64 of a plan)."""
+    total = sum(buffer_bytes(n, t, f, rows).values())
+    if f.reference:
+        total += sum(size(n) for size in REFERENCE_BUFFERS.values())
+    if f.lights and len(cfg.lights) > 1:
+        total += 32 * n
+    if cfg.render.border == "extend" and f.source and uses_apsf(cfg):
+        total += int(total * (1 + 2 * cfg.render.border_margin) ** 2 / 4 ** EXT_LEVEL)
+    return total
+
+
+def check_memory(rt: Runtime, width: int, height: int, sizes: dict, need: int) -> None:
+    """Refuse before allocating: the device's memory and its largest single allocation."""
+    dev = rt.device
+    if need > dev.global_mem_size:
+        raise ProcessingError(f"image of {width}x{height} needs {need / 2**20:.0f} MiB, "
+                              f"device {rt.info.name} has {dev.global_mem_size / 2**20:.0f} MiB")
+    name, big = max(sizes.items(), key=lambda kv: kv[1])
+    if big > dev.max_mem_alloc_size:
+        raise ProcessingError(f"image of {width}x{height}: its {name} buffer needs {big / 2**20:.0f} MiB in one "
+                              f"piece, device {rt.info.name} allocates at most {dev.max_mem_alloc_size / 2**20:.0f} MiB")
+
+
+def pair_region(sizes: list, nt: int, local: tuple) -> tuple | None:
+    """The pixels of level sizes[0] the two-pixel kernels take (kernels/pairs.h), (x0, x1, y0, y1),
+    on whole work-groups of pairs: where the taps of the level above, sizes[1] (nt + 1 columns
+    about x / 2, nt rows), and the half image's x - 1 .. x + 2
+    need no clamp and the apsf conservation factors are 1 (up2_cons: 2 texels from the upper
+    level's edges). None when the levels are too few or the image too small for one work-group."""
+    if len(sizes) < 2:
+        return None
+    (w, h), (w1, h1) = sizes[0], sizes[1]
+    xs = [i2 for i2 in range(w // 2) if i2 - nt // 2 >= 2 and i2 + nt // 2 + 1 <= w1 - 2 and 2 * i2 + 2 <= w - 1]
+    ys = [j for j in range(h) if (j >> 1) - nt // 2 + (j & 1) >= 2 and (j >> 1) + nt // 2 + (j & 1) <= h1 - 2]
+    if not xs or not ys:
+        return None
+    nx, ny = (xs[-1] + 1 - xs[0]) // local[0] * local[0], (ys[-1] + 1 - ys[0]) // local[1] * local[1]
+    if nx == 0 or ny == 0:
+        return None
+    return 2 * xs[0], 2 * (xs[0] + nx), ys[0], ys[0] + ny
+
+
+class Plan:
+    """Device buffers for one image size and one set of compile-time options."""
+
+    def __init__(self, rt: Runtime, width: int, height: int, cfg: Config, aovs=()):
+        self.rt, self.w, self.h, self.cfg = rt, width, height, cfg
+        cl = rt.cl
+        self.aovs = tuple(aovs)
+        self.features = f = plan_features(cfg, aovs)
+        # L_em + L_amb ride in `direct` unless an AOV needs them (or P) on their own
+        self.split_medium, self.source, self.sep, self.lambert = f.split_medium, f.source, f.sep, f.lambert
+        self.sizes = level_sizes(width, height, cfg.render.levels)
+        offs = np.cumsum([0] + [w * h for w, h in self.sizes])
+        self.lv = np.array([[o, w, h, 0] for o, (w, h) in zip(offs[:-1], self.sizes)], np.int32)
+        total = int(offs[-1])
+        n = width * height
+        mf = cl.mem_flags
+        self.apsf = uses_apsf(cfg)
+        sizes = buffer_bytes(n, total, f, height)
+        check_memory(rt, width, height, sizes, planned_bytes(n, total, f, cfg, height))
+        try:
+            for name, nbytes in sizes.items():      # a feature that is off keeps a 16-byte placeholder
+                setattr(self, name, cl.Buffer(rt.ctx, mf.READ_WRITE, max(int(nbytes), 16)))
+            for name, other in ALIASES.items():
+                if not sizes[name]:
+                    setattr(self, name, getattr(self, other))
+            self.lv_buf = cl.Buffer(rt.ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=self.lv)
+            B = lambda nbytes: cl.Buffer(rt.ctx, mf.READ_WRITE, max(int(nbytes), 16))  # noqa: E731
+            self.lut = B(4 * self.lut_floats()) if self.apsf else B(16)
+            self._lut_key = None
+            self.edge_off = [0] * len(self.sizes)
+            self.edge = B(16)
+            self.cons_off = [0] * (len(self.sizes) + 1)
+            self.cons = B(16)
+            if self.apsf and self.source:
+                tab, offs = conservation_tables(self.sizes, FILTERS[cfg.render.kernel],
+                                                cfg.render.interpolation != "linear-bilinear",
+                                                open_border(cfg))
+                self.cons_off = offs + [0]
+                self.cons = cl.Buffer(rt.ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=tab)
+            if self.apsf and open_border(cfg):
+                tab, self.edge_off = edge_tables(self.sizes, cfg.render.resolved()[0], 2.0 * self.half_step())
+                self.edge = cl.Buffer(rt.ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=tab)
+        except cl.Error as exc:
+            raise ProcessingError(f"cannot allocate device buffers for {width}x{height}: {exc}") from exc
+        d = defines(cfg)
+        pre = dict(d, PRE_SOURCE=int(self.source), PRE_SEP=int(self.sep), PRE_SPLIT_MEDIUM=int(self.split_medium),
+                   PRE_TRANSMITTANCE=int("transmittance" in self.aovs),
+                   PRE_SPREAD=int(not (self.apsf and self.source) or bool(self.aovs)),
+                   CAM_Z=int(cfg.camera.depth != "distance"))   # planar depth: view_cosines_inner without roots
+        self.k_pre_prog = rt.program("preprocess", **pre)
+        self.k_pre_whole = rt.program("preprocess", WHOLE_GROUPS=1, **pre)
+        self.k_density = rt.program("density", **d)
+        pyr = rt.program("pyramid", **d)
+        self.k_reduce, self.k_reduce_src = pyr.reduce_level, pyr.reduce_level_source
+        self.k_reduce_inner = pyr.reduce_source_inner
+        self.k_prep0 = pyr.prep_level0
+        whole = rt.program("pyramid", WHOLE_GROUPS=1, **d)     # launch2d / launch1d: no bounds check
+        self.k_collapse = (whole.collapse_level, pyr.collapse_level)
+        self.k_collapse_pairs = whole.collapse_pairs
+        self.k_split = (whole.split_level, pyr.split_level)
+        self.k_up_rows = (whole.up_rows, pyr.up_rows)
+        self.k_comp = rt.program("composite", **d).composite
+        # composite_source: what it writes fixed at build time, on whole work-groups (as preprocess);
+        # [True]: the separated chain's pass, which adds its light
+        # and composite_source_pairs, two pixels a work-item, on the part away from the edges
+        self.k_comp_src, self.k_comp_pairs = {}, {}
+        for second in (False, True) if self.sep else (False,):
+            comp = dict(d, COMP_AOV=int(bool(self.aovs)), COMP_SPLIT_MEDIUM=int(self.split_medium),
+                        COMP_ACCUMULATE=int(second))
+            whole = rt.program("composite", WHOLE_GROUPS=1, **comp)
+            self.k_comp_src[second] = (whole.composite_source, rt.program("composite", **comp).composite_source)
+            self.k_comp_pairs[second] = whole.composite_source_pairs
+        # per level k: the rectangle its two-pixel kernels take (level 0: composite_source_pairs)
+        self._pairs = [pair_region(self.sizes[k:], 2 if d["INTERP"] == 0 else 4, rt.local2d)
+                       for k in range(len(self.sizes))]
+        self.k_comp_sep = rt.program("composite", **d).composite_separated
+        self.k_border_src = pyr.border_sources if self.apsf else None
+        self.k_border_inject = pyr.border_inject if self.apsf else None
+        if cfg.lights:
+            self.lanes = rt.lanes      # pixels of a row per work-item of the table kernels (LANES, kernels/lanes.h)
+            self.k_lights = rt.program("lights", **d, **DEFINES, LANES=self.lanes)
+        else:
+            self.k_lights = None
+        self._al_tables = None     # (key, device buffer) of airlight_table.tables
+        self._noise = None         # (the noise_t array's bytes, its device copy, count): noise_args
+        self._light_tmp = None     # (t_dir, t_sc): the airlight of the second and later lights
+        self._tfm = None           # (floats, coefficients, spans): a light's transmittance function map
+        self._noise_samples = None  # (count, A_dir, A_sc) at the samples of render.noise_stride
+        self._p_samples = None     # (count, buffer): the noise's optical depth at the same samples
+        self._epi = None           # (samples, slices, buffers ...) of render.lights.method: epipolar
+        self._ext = None           # the extension plan of render.border: extend (extend)
+
+    def threshold(self, k: int) -> float:
+        """Masking threshold of level k (Elek eq. 7, scaled): threshold * c * 2^(k-1)."""
+        c, _, thr = self.cfg.render.resolved()
+        return thr * c * 2.0 ** (k - 1)
+
+    def lut_floats(self) -> int:
+        return lut_offsets(len(self.sizes) - 1, len(load_table()["sigma_u"]))["end"]
+
+    def sep_params(self) -> np.ndarray:
+        s = self.cfg.render.separation
+        return np.array([s.luminance, s.luminance_width, s.depth, s.depth_width], np.float32)
+
+    def half_step(self) -> float:
+        """a of the (a, 1 - 2a, a) half-octave blur: variance 2a = c^2 level-k pixels
+        (at most 2/3: beyond, the middle weight would vanish)."""
+        c = self.cfg.render.resolved()[0]
+        return min(c * c / 2.0, 1.0 / 3.0)
+
+    def source_bufs(self, second: bool) -> tuple:
+        """(colour chain, half-octave scratch, prep chain) of the main or the separated
+        source collapse; the main one's scratch is the input buffer, free after preprocess."""
+        if second:
+            return self.chain2, self.half2, self.prep2
+        return self.chain, self.image, self.prep
+
+    def launch_pairs(self, t: Timings, region, pairs, kernels, w: int, h: int, args: tuple, chain, up: int) -> None:
+        """A w x h level through its two-pixel kernel (`pairs`, pairs.h) on `region`, the
+        per-pixel kernel around it (_launch_inner). The pair kernels read level `up` of
+        `chain` up-sampled along y to this level's rows, as colour planes (up_rows, made
+        here), and take the region's corner as arguments (pairs.h, Addressing)."""
+        if region is not None:
+            o, uw, uh, _ = (int(v) for v in self.lv[up])
+            t.add("composite", self.rt.launch2d(self.k_up_rows, uw, h, chain, np.int32(o), np.int32(uw), np.int32(uh),
+                                                np.int32(h), self.up_planes))
+        self.launch_inner(t, "composite", region, pairs, kernels, w, h, args, per=2, corner_args=True,
+                           extra=(self.up_planes,))
+
+    def launch_inner(self, t: Timings, stage: str, region, inner, kernels, w: int, h: int, args: tuple,
+                      per: int = 1, corner_args: bool = False, extra: tuple = ()) -> None:
+        """A w x h kernel through `inner` on `region` [x0, x1) x [y0, y1) (whole work-groups,
+        `per` pixels of a row per work-item; its corner as a global offset, or with
+        corner_args as two more arguments, x0 / per and y0) and the checked per-pixel kernel
+        (kernels[1]) on the four strips around it; without a region, the per-pixel kernels
+        alone (launch2d)."""
+        if region is None:
+            t.add(stage, self.rt.launch2d(kernels, w, h, *args))
+            return
+        (x0, x1, y0, y1), q = region, self.rt.queue
+        size = ((x1 - x0) // per, y1 - y0)
+        if corner_args:
+            t.add(stage, inner(q, size, self.rt.local2d, *args, *extra, np.int32(x0 // per), np.int32(y0)))
+        else:
+            t.add(stage, inner(q, size, self.rt.local2d, *args, global_offset=(x0 // per, y0)))
+        for gx, gy, ox, oy in ((w, y0, 0, 0), (w, h - y1, 0, y1), (x0, y1 - y0, 0, y0), (w - x1, y1 - y0, x1, y0)):
+            if gx > 0 and gy > 0:     # exact sizes: no pixel twice (the separated chain's pass adds)
+                t.add(stage, kernels[1](q, (gx, gy), None, *args, global_offset=(ox, oy)))
+
+    def download(self, buf, channels: int, t: Timings) -> np.ndarray:
+        arr = np.empty((self.h, self.w, channels) if channels > 1 else (self.h, self.w), np.float32)
+        t.add("download", self.rt.cl.enqueue_copy(self.rt.queue, arr, buf))
+        return arr
+
+
+_PLANS: dict = {}
+
+
+def get_plan(rt: Runtime, width: int, height: int, cfg: Config, aovs=()) -> Plan:
+    """Reuse buffers across images of one size and one compile-time configuration."""
+    key = (id(rt), width, height, tuple(sorted(defines(cfg).items())), cfg.render.levels,
+           plan_features(cfg, aovs),            # what its buffers are (BUFFERS)
+           cfg.camera.depth == "distance",      # its preprocess build (CAM_Z)
+           cfg.render.border, cfg.render.border_margin)   # its edge tables and extension plan
+    plan = _PLANS.get(key)
+    if plan is None:
+        # what a process holds stays what one frame needs: the plans of another size go (a
+        # batch of mixed sizes would keep a frame's buffers of each), and of one size at most
+        # two (a medium per frame that changes the build, e.g. fog and sea, alternating)
+        if len(_PLANS) >= 2 or any(k[1:3] != (width, height) for k in _PLANS):
+            _PLANS.clear()
+        plan = _PLANS[key] = Plan(rt, width, height, cfg, aovs)
+    plan.cfg = cfg
+    return plan
+
+

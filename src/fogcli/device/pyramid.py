@@ -1,0 +1,87 @@
+"""kernels/pyramid.cl: the pyramid's reduce (Elek eq. 5-7), and the source collapse's
+half-octave split and collapse of levels K-1 .. 1."""
+from __future__ import annotations
+
+import numpy as np
+
+from fogcli.device.plan import Timings
+from fogcli.physics.calibration import FILTERS
+
+
+def reduce_region(sw: int, sh: int, dw: int, dh: int, taps: int, margin: int, local: tuple) -> tuple | None:
+    """The destination pixels (x0, x1, y0, y1) of a reduce from a sw x sh level to dw x dh that
+    reduce_source_inner takes, on whole work-groups: every tap inside the source level and at
+    least `margin` pixels from its edges (apsf: where the conservation factors are 1)."""
+    out = []
+    for s, d, l in ((sw, dw, local[0]), (sh, dh, local[1])):
+        lo = -(-(margin + taps // 2 - 1) // 2)                  # 2 x - taps / 2 + 1 >= margin
+        hi = min(d - 1, (s - margin - taps + taps // 2 - 1) // 2)   # 2 x - taps / 2 + 1 + taps <= s - margin
+        n = (hi + 1 - lo) // l * l
+        if n <= 0:
+            return None
+        out += [lo, lo + n]
+    return tuple(out)
+
+
+def reduce(plan, t: Timings, masked: bool, second: bool = False) -> None:
+    eps = plan.cfg.render.resolved()[1]
+    q = plan.rt.queue
+    chain, _, prep = plan.source_bufs(second)
+    if plan.source:
+        taps = len(FILTERS[plan.cfg.render.kernel])
+        for k in range(1, len(plan.sizes)):
+            (so, sw, sh, _), (do, dw, dh, _) = plan.lv[k - 1], plan.lv[k]
+            args = (chain, prep, np.int32(so), np.int32(sw), np.int32(sh), np.int32(do), np.int32(dw),
+                    np.int32(dh), np.float32(plan.threshold(k + 1)), np.float32(eps), plan.lut, np.int32(k),
+                    plan.edge, np.int32(plan.edge_off[k]), plan.cons, np.int32(plan.cons_off[k]))
+            # on an 8-wide CPU without AVX-512 LLVM leaves the interior kernel scalar (its
+            # table reads would be gathers, which it does not emit there), and the
+            # per-pixel kernel is the faster scalar code (tools/avx2/run.sh)
+            region = reduce_region(int(sw), int(sh), int(dw), int(dh), taps, taps // 2 if plan.apsf else 0,
+                                   plan.rt.local2d) if plan.rt.lanes == 1 else None
+            plan.launch_inner(t, "pyramid", region, plan.k_reduce_inner, (plan.k_reduce_src,) * 2,
+                               int(dw), int(dh), args, corner_args=True)
+        return
+    spread = plan.spread2 if second else plan.spread
+    for k in range(1, len(plan.sizes)):
+        (so, sw, sh, _), (do, dw, dh, _) = plan.lv[k - 1], plan.lv[k]
+        t.add("pyramid", plan.k_reduce(
+            q, *plan.rt.nd(dw, dh), chain, spread,
+            np.int32(so), np.int32(sw), np.int32(sh), np.int32(do), np.int32(dw), np.int32(dh),
+            np.float32(plan.threshold(k)), np.float32(eps), np.int32(masked)))
+
+
+def split(plan, t: Timings, k: int, chain, out) -> None:
+    """Half-octave shares of level k of `chain` into `out` (level-0 sized scratch)."""
+    o, w, h, _ = (int(v) for v in plan.lv[k])
+    t.add("composite", plan.rt.launch2d(
+        plan.k_split, w, h, chain, np.int32(o), np.int32(h), out, np.float32(plan.threshold(k + 1)),
+        np.float32(plan.cfg.render.resolved()[1]), plan.lut, np.int32(k), np.int32(w), plan.edge,
+        np.int32(plan.edge_off[k])))
+
+
+def collapse(plan, t: Timings, second: bool = False, ext: bool = False) -> None:
+    """Source collapse of levels K-1 .. 1, in place over the colour chain (level 0 is
+    fused into composite_source). The input buffer, free after preprocess, is the
+    scratch for the half-octave shares. ext: the extension plan's light (`extend`, run
+    first) joins at its level."""
+    a = plan.half_step()
+    chain, half, prep = plan.source_bufs(second)
+    top = len(plan.sizes) - 1
+    if ext and plan._ext_level == top:
+        inject(plan, t)
+    for k in range(top - 1, 0, -1):
+        (o, w, h, _), (uo, uw, uh, _) = plan.lv[k], plan.lv[k + 1]
+        split(plan, t, k, chain, half)
+        args = (chain, np.int32(o), np.int32(w), np.int32(h), half, np.int32(uo), np.int32(uw), np.int32(uh),
+                np.float32(a), prep, plan.edge, np.int32(plan.edge_off[k]), plan.cons, np.int32(plan.cons_off[k + 1]))
+        plan.launch_pairs(t, plan._pairs[k], plan.k_collapse_pairs, plan.k_collapse, w, h, args, chain, k + 1)
+        if ext and k == plan._ext_level:
+            inject(plan, t)
+
+
+def inject(plan, t: Timings) -> None:
+    o, w, h, _ = (int(v) for v in plan.lv[plan._ext_level])
+    pw, ox, oy = plan._ext_geom
+    t.add("composite", plan.k_border_inject(plan.rt.queue, *plan.rt.nd(w, h), plan.chain, np.int32(o),
+                                            np.int32(w), np.int32(h), plan._ext.out, pw, ox, oy))

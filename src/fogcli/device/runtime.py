@@ -1,0 +1,319 @@
+"""The OpenCL runtime: device choice, one context and queue, programs built once.
+
+Device choice (first match wins): the explicit spec (``--device`` / ``FOGCLI_DEVICE``),
+else the first GPU or accelerator of any platform, else the first CPU device (PoCL from
+pip is the embedded default). A spec is ``P:D`` (platform and device index, as listed
+by ``fogcli devices``, needed when two platforms share a name), ``cpu``, ``gpu`` or a
+case-insensitive substring of the platform or device name.
+"""
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass
+from pathlib import Path
+
+from fogcli.errors import ProcessingError, UserError, interrupt_held
+
+KERNEL_DIR = Path(__file__).resolve().parent / "kernels"
+# Work-group size on a CPU: 64 x 4, against the 32 x 4 before it on an AMD EPYC (Zen 3, AVX2),
+# 2 MPx default pipeline (tools/ab_kernels.py, kernel_ms paired with a copy): 0.92x in 8
+# rounds (best 68.8 against 78.2 ms), 0.80x in 6 (0.74x compiled for Zen 1); 64 x 2, 128 x 2 and
+# 128 x 4 were 0.81-0.91x in 6. The gain is in the two-pixel kernels (composite_source_pairs 18.2
+# -> 14.2 ms, collapse_pairs 4.6 -> 3.2; composite_source on the wider strips around them
+# 1.8 -> 2.9). Other pipelines, 4 rounds: a point light 0.82x, with screen shadows 0.82x, sea
+# 0.88x, smoke-ball 0.87x, psf gaussian 0.81x. On an Intel Xeon (AVX-512), against 32 x 4 and
+# the kernels before this choice (ab_kernels.py fd3efff, 8 rounds, twice): best kernel_ms 0.83x
+# and 0.89x, paired 1.02x and 1.01x; 32 x 4, 128 x 4 and 64 x 8 alone there: within the noise.
+LOCAL_CPU = tuple(int(v) for v in os.environ.get("FOGCLI_LOCAL", "64,4").split(","))
+
+
+def cache_dir() -> str:
+    """fogcli's folder of the user's cache: PoCL's cache and the device binaries."""
+    base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
+    return os.path.join(base, "fogcli")
+
+
+def _user_cache_dir() -> Path:
+    return Path(cache_dir())
+
+
+def _prepare_environment() -> None:
+    # PoCL compiles kernels into a cache; by default under $HOME/.cache/pocl, but a
+    # read-only or shared HOME must not break us, so give it our own user cache dir.
+    cache = _user_cache_dir() / "pocl"
+    if "POCL_CACHE_DIR" not in os.environ:
+        try:
+            cache.mkdir(parents=True, exist_ok=True)
+            os.environ["POCL_CACHE_DIR"] = str(cache)
+        except OSError:
+            pass
+
+
+def _cl():
+    _prepare_environment()
+    return _import_pyopencl()
+
+
+def _import_pyopencl():
+    """pyopencl, imported lazily (`fogcli check` and `media` never touch OpenCL). A Ctrl-C
+    that lands while its extension creates its enums aborts the process (nanobind: a
+    'Critical nanobind error' and SIGABRT): the interrupt is held until the import is done."""
+    with interrupt_held():
+        import pyopencl
+
+    return pyopencl
+
+
+@dataclass(frozen=True)
+class DeviceInfo:
+    platform_index: int
+    device_index: int
+    platform: str
+    name: str
+    kind: str
+    version: str
+
+    @property
+    def spec(self) -> str:
+        return f"{self.platform_index}:{self.device_index}"
+
+    def label(self) -> str:
+        return f"{self.name} [{self.platform}, {self.spec}]"
+
+
+def list_devices() -> list[tuple[DeviceInfo, object]]:
+    cl = _cl()
+    try:
+        platforms = cl.get_platforms()
+    except Exception as exc:  # pyopencl raises LogicError with no ICD at all
+        raise ProcessingError(f"no OpenCL platform found ({exc}); install pocl-binary-distribution") from exc
+    out = []
+    for pi, p in enumerate(platforms):
+        try:
+            devices = p.get_devices()
+        except Exception:
+            continue
+        for di, d in enumerate(devices):
+            kind = cl.device_type.to_string(d.type).replace("ALL | ", "").lower()
+            out.append((DeviceInfo(pi, di, p.name.strip(), d.name.strip(), kind, p.version.strip()), d))
+    if not out:
+        raise ProcessingError("no OpenCL device available; install pocl-binary-distribution")
+    return out
+
+
+def choose(devices, spec: str | None, origin: str = "--device"):
+    if spec:
+        s = spec.strip().lower()
+        for info, dev in devices:
+            if s == info.spec or (s in ("cpu", "gpu", "accelerator") and s in info.kind):
+                return info, dev
+        for info, dev in devices:
+            if s in info.name.lower() or s in info.platform.lower():
+                return info, dev
+        known = ", ".join(i.spec + " " + i.name for i, _ in devices)
+        raise UserError(f"{origin} {spec!r}: no such OpenCL device (have: {known})")
+    for info, dev in devices:
+        if "gpu" in info.kind or "accelerator" in info.kind:
+            return info, dev
+    return devices[0]
+
+
+class _Kernels:
+    """Kernels of one program, each retrieved once (a retrieval is a new cl.Kernel). The
+    program is built when a kernel of it is first launched: a plan names every variant it
+    might launch, and a frame of the default pipeline launches six of its eight (a build
+    from the binary cache costs 5-15 ms of every process)."""
+
+    def __init__(self, cl, build):
+        self._cl, self._build, self._program, self._cache = cl, build, None, {}
+
+    def __getattr__(self, name):
+        if name.startswith("_"):
+            raise AttributeError(name)
+        k = self._cache.get(name)
+        if k is None:
+            k = self._cache[name] = _Kernel(self, name)
+        return k
+
+    def build(self) -> "_Kernels":
+        """The program now (the binary cache's tests; a launch does it by itself)."""
+        if self._program is None:
+            self._program = self._build()
+        return self
+
+    def kernel(self, name: str):
+        return self._cl.Kernel(self.build()._program, name)
+
+
+def _arg_dtype(arg):
+    """What pyopencl should pack an argument as: numpy scalars and structs (camera_t, ...)
+    by their dtype, anything else (buffers) as it is."""
+    import numpy as np
+
+    if isinstance(arg, np.generic) or (isinstance(arg, np.ndarray) and arg.dtype.kind == "V"):
+        return arg.dtype
+    return None
+
+
+class _Kernel:
+    """One kernel, retrieved (and its program built) at its first launch. Its scalar
+    argument types are declared from that launch's arguments: undeclared, pyopencl sets
+    each scalar through a generic path of ~9 us (PoCL, pyopencl 2026.1), which made an
+    enqueue of 18 arguments ~100 us and the ~140 launches of a 2 MPx frame ~14 ms of
+    host time, taken from the cores the kernels run on; declared, ~3 us
+    (tools/enqueue_cost.py)."""
+
+    __slots__ = ("_owner", "_name", "_k", "_typed")
+
+    def __init__(self, owner: _Kernels, name: str):
+        self._owner, self._name, self._k, self._typed = owner, name, None, False
+
+    def _get(self):
+        if self._k is None:
+            self._k = self._owner.kernel(self._name)
+        return self._k
+
+    def __call__(self, queue, global_size, local_size, *args, **kwargs):
+        k = self._get()
+        if not self._typed:
+            k.set_scalar_arg_dtypes([_arg_dtype(a) for a in args])
+            self._typed = True
+        return k(queue, global_size, local_size, *args, **kwargs)
+
+    def __getattr__(self, attr):
+        return getattr(self._get(), attr)
+
+
+class Runtime:
+    """One context, one profiling queue, and a cache of built programs."""
+
+    def __init__(self, spec: str | None = None):
+        cl = _cl()
+        self.cl = cl
+        env = os.environ.get("FOGCLI_DEVICE")
+        self.info, device = choose(list_devices(), spec or env, "--device" if spec or not env else "FOGCLI_DEVICE")
+        self.device = device
+        self.ctx = cl.Context([device])
+        self.queue = cl.CommandQueue(self.ctx, properties=cl.command_queue_properties.PROFILING_ENABLE)
+        self._programs: dict[tuple, object] = {}
+        self.pocl = "portable computing language" in device.platform.name.lower()
+        gpu = "gpu" in self.info.kind or "accelerator" in self.info.kind
+        self.local2d = (16, 8) if gpu else LOCAL_CPU
+        self.local1d = 128 if gpu else LOCAL_CPU[0] * LOCAL_CPU[1]
+        # kernels written on float8 for CPUs whose vectoriser would leave them scalar:
+        # 8-wide SIMD without AVX-512 (kernels/lanes.h, LANES)
+        self.lanes = 8 if not gpu and device.native_vector_width_float == 8 else 1
+
+    def nd(self, w: int, h: int | None = None):
+        """(global, local) sizes: global rounded up to whole work-groups. Left to itself
+        PoCL picks a local size that divides the global one, which for widths like 2667
+        is 1 or 3 and costs a factor 3-4 (kernels bound-check their ids)."""
+        if h is None:
+            lx = self.local1d
+            return (-(-int(w) // lx) * lx,), (lx,)
+        lx, ly = self.local2d
+        return (-(-int(w) // lx) * lx, -(-int(h) // ly) * ly), (lx, ly)
+
+    def launch2d(self, kernels, w: int, h: int, *args) -> list:
+        """Run a w x h kernel as (whole, checked): `whole`, built with -D WHOLE_GROUPS, on the
+        part that whole work-groups cover, without a bounds check; `checked` on the strips to
+        its right and below. Under a bounds check PoCL must mask every memory access of a
+        work-item, and masked RGBA and table reads vectorise on AVX-512 only
+        (tools/pocl_vectorisation.py). Returns the events."""
+        lx, ly = self.local2d
+        w0, h0 = w // lx * lx, h // ly * ly
+        q, evs = self.queue, []
+        if w0 and h0:
+            evs.append(kernels[0](q, (w0, h0), (lx, ly), *args))
+        if w0 < w:
+            evs.append(kernels[1](q, (lx, -(-h // ly) * ly), (lx, ly), *args, global_offset=(w0, 0)))
+        if h0 < h and w0:
+            evs.append(kernels[1](q, (w0, ly), (lx, ly), *args, global_offset=(0, h0)))
+        return evs
+
+    def launch1d(self, kernels, n: int, *args) -> list:
+        """launch2d for a kernel over n items: whole work-groups, then the rest checked."""
+        lx = self.local1d
+        n0 = n // lx * lx
+        evs = [kernels[0](self.queue, (n0,), (lx,), *args)] if n0 else []
+        if n0 < n:
+            evs.append(kernels[1](self.queue, (lx,), (lx,), *args, global_offset=(n0,)))
+        return evs
+
+    def program(self, name: str, **defines):
+        """Kernels of kernels/<name>.cl built with -D defines, once per process, and once
+        per machine through the binary cache (`binary_path`, `_build`)."""
+        key = (name,) + tuple(sorted(defines.items()))
+        prog = self._programs.get(key)
+        if prog is None:
+            src = (KERNEL_DIR / f"{name}.cl").read_text()
+            opts = ["-I", str(KERNEL_DIR)]
+            if self.pocl:      # kernels/common.h: clang builtins where PoCL's library calls are slow
+                opts += ["-D", "FOGCLI_POCL=1"]
+            for k, v in sorted(defines.items()):
+                opts += ["-D", f"{k}={v}"]
+            prog = _Kernels(self.cl, lambda name=name, src=src, opts=opts: self._build(name, src, opts))
+            self._programs[key] = prog
+        return prog
+
+    def binary_path(self, name: str, src: str, opts: list[str]) -> Path | None:
+        """Where the device binary of this source, these options, this device and driver
+        lives (None: the cache is off, FOGCLI_KERNEL_CACHE=0). The key hashes the program's
+        source, every header it can include, the options, the device, the driver, the
+        OpenCL platform and PoCL's settings (POCL_*), so an edit, an upgrade or another
+        target builds anew: PoCL's device version names the CPU it compiles for
+        (tools/avx2/run.sh makes it another)."""
+        if os.environ.get("FOGCLI_KERNEL_CACHE", "1") == "0":
+            return None
+        import hashlib
+
+        h = hashlib.sha256()
+        # the headers' folder by content, not by path: every install (a CI clone's fresh venv)
+        # would otherwise build every program anew
+        parts = [src, *(f.name + f.read_text() for f in sorted(KERNEL_DIR.glob("*.h"))),
+                 *("<kernels>" if o == str(KERNEL_DIR) else o for o in opts)]
+        d = self.device
+        parts += [d.name, d.vendor, d.version, d.driver_version, d.platform.name, d.platform.version,
+                  self.cl.VERSION_TEXT]
+        parts += [f"{k}={v}" for k, v in sorted(os.environ.items()) if k.startswith("POCL_") and k != "POCL_CACHE_DIR"]
+        for part in parts:
+            h.update(part.encode() + b"\0")
+        return _user_cache_dir() / "kernels" / f"{name}-{h.hexdigest()[:40]}.bin"
+
+    def _build(self, name: str, src: str, opts: list[str]):
+        """Build from the cached binary when there is one (a few ms against 50-150 ms from
+        source with a warm PoCL cache); a binary that does not load is rebuilt from source
+        and replaced. Written to a temporary file and renamed: concurrent processes never
+        see half a binary."""
+        cl = self.cl
+        path = self.binary_path(name, src, opts)
+        if path is not None and path.is_file():
+            try:
+                return cl.Program(self.ctx, [self.device], [path.read_bytes()]).build(options=opts)
+            except (cl.Error, OSError, ValueError):
+                pass   # stale or damaged: build from source below and write it again
+        try:
+            prog = cl.Program(self.ctx, src).build(options=opts)
+        except cl.RuntimeError as exc:
+            raise ProcessingError(f"kernel {name}.cl failed to build: {exc}") from exc
+        if path is not None:
+            try:
+                binary = prog.get_info(cl.program_info.BINARIES)[0]
+                path.parent.mkdir(parents=True, exist_ok=True)
+                tmp = path.with_suffix(f".{os.getpid()}.tmp")
+                tmp.write_bytes(binary)
+                os.replace(tmp, path)
+            except (cl.Error, OSError):
+                pass   # an unwritable cache only costs the next process a build
+        return prog
+
+
+_RUNTIMES: dict[str | None, Runtime] = {}
+
+
+def get_runtime(spec: str | None = None) -> Runtime:
+    """The process-wide runtime for a device spec (built lazily, once)."""
+    rt = _RUNTIMES.get(spec)
+    if rt is None:
+        rt = _RUNTIMES[spec] = Runtime(spec)
+    return rt

@@ -1,0 +1,192 @@
+"""One frame from files to file: what `fogcli apply` does and what every batch worker
+repeats. Reading, depth decoding and cleaning, the device run, the atomic write."""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from fogcli.io import depth as depth_mod
+from fogcli.io import images as inputs
+from fogcli.device import memory
+from fogcli.io import outputs
+from fogcli.config.model import Config
+from fogcli.errors import UserError
+from fogcli.config.presets import visibility_m
+from fogcli.device.plan import Timings
+from fogcli.device.run import finish, start, unmap
+from fogcli.frame.scene import depth_grid, for_image, median_depth
+
+
+@dataclass
+class Job:
+    input: str
+    output: str
+    depth: str | None = None          # a depth file; None: the input's own Z channel
+    layer: str | None = None
+    view: str | None = None
+    save_depth: str | None = None     # write the cleaned metric depth used here
+    drop_channels: bool = False       # EXR: write only what fogcli produces
+    protected: tuple = ()             # other files given as input (config, camera): never written
+    lamps: str | None = None          # write the lamps {type: auto} found, as a `lights:` config
+    cfg: Config | None = None         # this frame's own config (a jobs file's line); None: the batch's
+    label: str | None = None          # where the job came from (a jobs file's `file:line`), for messages
+
+
+@dataclass
+class Result:
+    io_ms: float = 0.0
+    pixels: int = 0
+    warnings: list = field(default_factory=list)
+
+
+def save_depth(path: Path, depth: np.ndarray) -> None:
+    """Metric depth as a float EXR channel Z (or NPY)."""
+    if path.suffix.lower() == ".npy":
+        outputs.atomic_write(path, lambda tmp: np.save(open(tmp, "wb"), depth))
+        return
+    if path.suffix.lower() not in (".exr", ".tif", ".tiff"):
+        raise UserError(f"--save-depth {path}: use .exr, .tif or .npy (metric float depth)")
+    outputs.write_plane(path, depth, "Z")
+
+
+@dataclass
+class Staged:
+    """A frame between the stages of run_job: read (load), computed (compute), written (store)."""
+    job: Job
+    frame: object = None
+    depth: np.ndarray | None = None
+    rgb: np.ndarray | None = None
+    alpha: np.ndarray | None = None
+    planes: dict = field(default_factory=dict)
+    lamps: list = field(default_factory=list)
+    res: Result = field(default_factory=Result)
+
+
+def run_job(job: Job, cfg: Config, aovs=(), device=None, timings: Timings | None = None) -> Result:
+    # one frame after the other on this thread: the result is written from the device's own
+    # buffer (mapped), which the next frame may then reuse
+    return store(compute(load(job, cfg, aovs), cfg, aovs, device, timings, mapped=True), cfg)
+
+
+def load(job: Job, cfg: Config, aovs=()) -> Staged:
+    """Every check that needs no pixels, then the image, its depth, and the depth cleaned.
+    No OpenCL: a batch runs this for the next frame on a thread while the device works."""
+    st = Staged(job)
+    res = st.res
+    src = Path(job.input)
+    out_path = Path(job.output)
+    given = (src, Path(job.depth) if job.depth else None, *map(Path, job.protected))
+    outputs.check_target(out_path, *given)
+    if job.save_depth:         # before any work: no output replaces an input or the other output
+        outputs.refuse_overwrite(Path(job.save_depth), "--save-depth", *given, what="an input file")
+        outputs.refuse_overwrite(Path(job.save_depth), "--save-depth", out_path, what="the output (-o)")
+    if job.lamps:
+        outputs.refuse_overwrite(Path(job.lamps), "--lamps", *given, out_path, what="an input or the output")
+        if Path(job.lamps).suffix.lower() not in (".json", ".yaml", ".yml"):
+            raise UserError(f"--lamps {job.lamps}: expected a .json or .yaml file name")
+        if not Path(job.lamps).parent.is_dir():
+            raise UserError(f"--lamps {job.lamps}: folder {Path(job.lamps).parent} does not exist")
+        if not any(x.type == "auto" for x in cfg.lights):
+            raise UserError("--lamps: no `{type: auto}` entry in lights:, so no lamps are looked for")
+    if aovs and out_path.suffix.lower() != ".exr":
+        raise UserError(f"--aov needs an .exr output, got {out_path.name}")
+
+    t0 = time.perf_counter()
+    frame = inputs.read_image(src, job.layer, job.view,
+                              admit=lambda *size: memory.admit(*size, cfg=cfg, aovs=aovs))
+    if job.depth:
+        raw, dsrc = inputs.read_depth(job.depth), job.depth
+    elif frame.depth is not None:
+        raw, dsrc = frame.depth, f"{src} (Z channel)"
+    else:
+        raise UserError(f"{src}: no depth channel (Z, *.Z or *depth); pass --depth FILE")
+    res.io_ms += (time.perf_counter() - t0) * 1e3
+    h, w = frame.shape
+    clean, rep = depth_mod.metric_depth(raw, frame.colour(), cfg.camera, str(dsrc), frame.alpha)
+    res.warnings += rep.notes or []
+    if rep.resampled_from:
+        res.warnings.append(f"{dsrc}: depth {rep.resampled_from[0]}x{rep.resampled_from[1]} upsampled "
+                            f"edge-aware to {w}x{h}")
+    if rep.holes:
+        res.warnings.append(f"{dsrc}: {rep.holes} invalid depth pixel(s) (no measurement: NaN, zero "
+                            "or negative) filled edge-aware from neighbours")
+    if job.save_depth:
+        save_depth(Path(job.save_depth), clean)
+    frame.depth = None           # the raw values are not read again (an EXR output copies Z from the file)
+    st.frame, st.depth = frame, clean
+    return st
+
+
+def compute(st: Staged, cfg: Config, aovs=(), device=None, timings: Timings | None = None,
+            mapped: bool = False) -> Staged:
+    """The device run (the only stage that touches OpenCL). The frame's colour is handed to
+    the device and dropped here (its memory goes to the device's buffers); mapped: the
+    result is the device's buffer until store() has written it (run.run)."""
+    notes: list = []
+    frame, src = st.frame, st.job.input
+    l_in = mean_luminance(frame.colour())
+    try:
+        frame_cfg, lamp_mask = for_image(frame.colour(), st.depth, cfg, report=notes, lamps=st.lamps)
+        started = start(frame.colour(), st.depth, frame_cfg, alpha=frame.alpha, aovs=aovs, device=device,
+                        timings=timings if timings is not None else Timings(), lamp_mask=lamp_mask)
+    except UserError as exc:        # the colour is checked as it is uploaded: name the file
+        raise UserError(str(exc).replace("colour: ", f"{src}: ", 1)) from None
+    # uploaded: not read again but for the median depth of a warning (of a grid, the same)
+    frame.rgb, grid, st.depth = None, np.array(depth_grid(st.depth)), None
+    st.rgb, st.alpha, st.planes = finish(started, mapped)
+    st.res.warnings += [f"{src}: {n}" for n in notes]
+    hidden = hidden_warning(l_in, st.rgb, cfg, grid)
+    if hidden:
+        st.res.warnings.append(f"{src}: {hidden}")
+    return st
+
+
+def store(st: Staged, cfg: Config) -> Result:
+    """The atomic write (and the lamps found). No OpenCL: a batch writes on a thread."""
+    t0 = time.perf_counter()
+    job = st.job
+    try:
+        outputs.write(Path(job.output), st.rgb, st.alpha, st.planes, st.frame, cfg.output.type,
+                      cfg.output.exposure, cfg.output.compression, job.drop_channels)
+    finally:
+        unmap(st.rgb)
+    if job.lamps:
+        write_lamps(Path(job.lamps), st.lamps)
+    st.res.io_ms += (time.perf_counter() - t0) * 1e3
+    st.res.pixels = st.rgb.shape[0] * st.rgb.shape[1]
+    return st.res
+
+
+def write_lamps(path: Path, lamps: list) -> None:
+    """The lamps found as a config file (JSON is YAML): `--config` it back, edit it, reuse it
+    for the frames of a sequence."""
+    import json
+
+    data = {"lights": [x.model_dump(mode="json") for x in lamps]}
+    outputs.atomic_write(path, lambda tmp: Path(tmp).write_text(json.dumps(data, indent=1) + "\n"))
+
+
+def mean_luminance(rgb) -> float:
+    """Mean luminance of a frame, from a grid of about 256 rows of it."""
+    lum = np.array([0.2126, 0.7152, 0.0722], np.float32)
+    step = max(1, rgb.shape[0] // 256)
+    return float((rgb[::step, ::step, :3] @ lum).mean())
+
+
+def hidden_warning(l_in: float, rgb_out, cfg: Config, depth) -> str | None:
+    """One line when the medium all but hides the frame (output mean luminance below 5 % of
+    the input's, l_in: mean_luminance of the input), with the numbers that say why and the
+    relative strength that would not."""
+    l_out = mean_luminance(rgb_out)
+    if not l_in > 0 or l_out >= 0.05 * l_in:
+        return None
+    try:
+        med = f"{median_depth(depth, cfg.camera.max_depth):.3g} m"
+    except UserError:
+        med = "sky only"
+    vis = cfg.medium.visibility if isinstance(cfg.medium.visibility, str) else f"{visibility_m(cfg.medium):.3g} m"
+    return (f"the medium hides the scene: mean luminance {l_out / l_in:.1%} of the input's (visibility {vis} "
+            f"against a median depth of {med}); for a strength relative to the scene, set medium.visibility: 200% (twice the median depth)")

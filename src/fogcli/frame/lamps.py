@@ -1,0 +1,140 @@
+"""Lamps of the image found on the host (`lights: [{type: auto}]`): bright cores with a
+depth become point lights of the config, and their pixels a mask whose scattered light the
+light model then carries instead."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from fogcli.config.model import Config
+
+
+def detect_lamps(rgb: np.ndarray, depth: np.ndarray, cfg: Config, spec) -> tuple[list, np.ndarray, list[str]]:
+    """Lamps of the image as point lights (camera frame): cores brighter than the threshold
+    with a depth; distance = the core's median ray length (a 2 px ring around it where the
+    core has no depth); direction = its luminance-weighted centroid; intensity = t^2 sum L
+    Omega_px over the core dilated 2 px (Omega_px = cos^3 / (f fy)); radius = t sqrt(n / pi) / f;
+    placed at t + radius, just behind the visible surface, so that it does not sit inside its
+    own pixels. A core spanning depths more than 20 % apart is split into lamps by depth (a near
+    lamp in front of a far one). Returns (lights, mask of the lamps' pixels, notes)."""
+    import cv2
+
+    from fogcli.config.model import PointLight
+
+    h, w = depth.shape
+    cam = cfg.camera.for_size(w, h)
+    f, fy = cam.focal(w), cam.focal_y(w)
+    cx, cy = cam.centre(w, h)
+    y = rgb @ np.array([0.2126, 0.7152, 0.0722], np.float32)
+    hdr = float(y.max()) > 1.5
+    thr = spec.threshold if spec.threshold != "auto" else (10.0 * float(np.percentile(y, 99)) if hdr else 0.98)
+    n, labels, stats, _ = cv2.connectedComponentsWithStats((y > thr).astype(np.uint8), connectivity=8)
+    jj, ii = np.mgrid[0:h, 0:w]
+    dx, dy = (ii + 0.5 - cx) / f, -(jj + 0.5 - cy) / fy
+    dlen = np.sqrt(dx * dx + dy * dy + 1.0)
+    ray = depth * (dlen if cam.depth == "z" else 1.0)
+    lights, notes = [], []
+    mask = np.zeros((h, w), bool)
+    kernel = np.ones((5, 5), np.uint8)
+    cores = []
+    for k in range(1, n):
+        if stats[k, cv2.CC_STAT_AREA] >= spec.min_pixels:
+            cores += _split_by_depth(labels == k, ray, cam.max_depth, spec.min_pixels)
+    claimed = np.logical_or.reduce(cores) if cores else np.zeros((h, w), bool)    # every core is its own
+    cores = sorted(cores, key=lambda c: _core_depth(c, ray, cam.max_depth))         # nearest first
+    omega = (1.0 / dlen) ** 3 / (f * fy)          # each pixel's solid angle
+    own, lent = _unmix(rgb, cores, omega)
+    for core, extra in zip(cores, lent):
+        t = ray[core & np.isfinite(ray) & (ray < cam.max_depth)]
+        if t.size == 0:         # the sensor has a hole there: a ring around the core
+            ring = (cv2.dilate(core.astype(np.uint8), kernel) > 0) & ~core
+            t = ray[ring & np.isfinite(ray) & (ray < cam.max_depth)]
+        if t.size == 0:
+            notes.append(f"a lamp at pixel ({int(ii[core].mean())}, {int(jj[core].mean())}) has no depth; left out")
+            continue
+        dist = float(np.median(t))
+        wgt = y[core]
+        px, py = float((ii[core] * wgt).sum() / wgt.sum()) + 0.5, float((jj[core] * wgt).sum() / wgt.sum()) + 0.5
+        d = np.array([(px - cx) / f, -(py - cy) / fy, -1.0])
+        d /= np.linalg.norm(d)
+        # the core and a 2 px ring; a ring pixel two lamps share goes to the nearer one
+        blob = ((cv2.dilate(core.astype(np.uint8), kernel) > 0) & ~claimed) | core
+        claimed |= blob
+        intensity = dist * dist * ((own[blob] * omega[blob][:, None]).sum(0) + extra)
+        radius = max(dist * math.sqrt(core.sum() / math.pi) / f, 1e-3)
+        pos = (dist + radius) * d
+        lights.append(PointLight(type="point", position=tuple(pos), intensity=tuple(float(v) for v in intensity),
+                                 radius=radius, frame="camera"))
+        mask |= blob
+        if not hdr and float(rgb[core].max()) >= 0.98:
+            notes.append(f"lamp at {dist:.3g} m is clipped in this display-referred image: its intensity "
+                         f"({float(intensity.mean()):.3g}) is a lower bound")
+    return lights, mask, notes
+
+
+def _unmix(rgb: np.ndarray, cores: list, omega: np.ndarray) -> tuple[np.ndarray, list]:
+    """A lamp in front of another: where their cores meet, pixels are mixtures (the near lamp's
+    anti-aliased edge over the far lamp) and carry one core's depth. Each pixel of a core next
+    to another is split along the line between the two lamps' own colours (the median of
+    their pixels away from other cores): (the radiance each pixel keeps for its own lamp, per
+    core the radiance x solid angle it gets from the other cores' pixels)."""
+    import cv2
+
+    own = rgb.astype(np.float64).copy()
+    lent = [np.zeros(3) for _ in cores]
+    if len(cores) < 2:
+        return own, lent
+    near = [cv2.dilate(c.astype(np.uint8), np.ones((3, 3), np.uint8)) > 0 for c in cores]
+    pure = []
+    for i, c in enumerate(cores):
+        inner = c & ~np.logical_or.reduce([near[k] for k in range(len(cores)) if k != i])
+        pure.append(np.median(rgb[inner if inner.any() else c], axis=0).astype(np.float64))
+    for j, c in enumerate(cores):           # core j's pixels next to core i hold some of lamp i
+        for i in range(len(cores)):
+            edge = c & near[i]
+            ab = pure[i] - pure[j]
+            if i == j or not edge.any() or ab @ ab <= 0:
+                continue
+            alpha = np.clip(((rgb[edge] - pure[j]) @ ab) / (ab @ ab), 0.0, 1.0)
+            part = np.minimum(alpha[:, None] * pure[i], own[edge])
+            own[edge] -= part
+            lent[i] += (part * omega[edge][:, None]).sum(0)
+    return own, lent
+
+
+def _core_depth(core: np.ndarray, ray: np.ndarray, max_depth: float) -> float:
+    t = ray[core & np.isfinite(ray) & (ray < max_depth)]
+    return float(np.median(t)) if t.size else math.inf
+
+
+def _split_by_depth(core: np.ndarray, ray: np.ndarray, max_depth: float, min_pixels: int) -> list[np.ndarray]:
+    """A bright core whose pixels lie at depths more than 20 % apart is several lamps, one
+    in front of the other along nearly the same direction: split at each such gap (sorted
+    ray lengths) into groups that have an inside. The other pixels (without depth, or an edge
+    ring at the background's depth) join the group they touch, the nearer one first."""
+    ok = core & np.isfinite(ray) & (ray < max_depth)
+    t = np.sort(ray[ok])
+    if t.size < 2 or t[-1] <= 1.2 * t[0]:
+        return [core]
+    cuts = t[1:][t[1:] > 1.2 * t[:-1]]
+    edges = np.concatenate([[0.0], cuts, [np.inf]])
+    groups = [ok & (ray >= a) & (ray < b) for a, b in zip(edges[:-1], edges[1:])]
+    # a lamp of its own has an inside; the anti-aliased edge of a lamp, whose pixels carry the
+    # background's depth, is a thin ring without one
+    import cv2
+
+    cross = np.array([[0, 1, 0], [1, 1, 1], [0, 1, 0]], np.uint8)
+    groups = [g for g in groups if g.sum() >= min_pixels and cv2.erode(g.astype(np.uint8), cross).any()] or [core]
+    rest = core & ~np.logical_or.reduce(groups)
+    ring = np.ones((3, 3), np.uint8)
+    while rest.any():       # the rest goes to the group it touches, the nearer one first
+        before = rest.sum()
+        for i, g in enumerate(groups):
+            grow = (cv2.dilate(g.astype(np.uint8), ring) > 0) & rest
+            groups[i] = g | grow
+            rest &= ~grow
+        if rest.sum() == before:        # not connected to any group (cannot happen in one core)
+            groups[0] = groups[0] | rest
+            break
+    return groups

@@ -1,0 +1,73 @@
+"""How far `render.border: extend` continues the frame's edge (issue 8): the default
+pyramid with border_margin 0 (the open border) to 3 frames on every path-traced scene that
+continues past the frame; relative L1 to the path tracer and scattered energy over its.
+The margin is chosen on the calibration scenes (ground, street, skyline); plaza is held out.
+Writes the block between the border-margin markers of docs/physics.md.
+
+    python tools/border_margin.py [--doc docs/physics.md]     # about 1 minute
+"""
+from __future__ import annotations
+
+import argparse
+import importlib.util
+import sys
+import warnings
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parent
+sys.path.insert(0, str(ROOT))
+_spec = importlib.util.spec_from_file_location("gt_bench", ROOT / "groundtruth.py")   # not the package
+G = importlib.util.module_from_spec(_spec)
+_spec.loader.exec_module(G)
+from docblock import markers, write_block  # noqa: E402
+
+from fogcli import apply  # noqa: E402
+from fogcli.api import make_config  # noqa: E402
+from metrics import rel_l1  # noqa: E402
+
+MARGINS = (0.0, 0.25, 0.5, 0.75, 1.5, 3.0)
+BEGIN, END = markers("border-margin")
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--doc", help="write the block into this markdown file (docs/physics.md)")
+    args = ap.parse_args()
+    warnings.simplefilter("ignore")
+    rows, means = [], {True: [], False: []}
+    for case in G.gt_load.cases():
+        m = case["meta"]
+        if not m["outside"]:
+            continue
+        direct, gt = G.blend(case), case["medium"]
+        gsc = float((gt - direct).sum())
+        cells, l1s = [], []
+        for f in MARGINS:
+            border = ["render.border=open"] if f == 0 else ["render.border=extend", f"render.border_margin={f}"]
+            img = apply(case["L"], case["depth"], make_config(None, sets=G.case_sets(m) + border))
+            l1s.append(rel_l1(img, gt))
+            cells.append(f"{l1s[-1]:.3f} / {float((img - direct).sum()) / gsc:.2f}")
+        means[bool(m["heldout"])].append(l1s)
+        rows.append(f"| {case['name']} | {'yes' if m['heldout'] else ''} | " + " | ".join(cells) + " |")
+        print(rows[-1], flush=True)
+    head = "| case | held out | " + " | ".join(f"margin {f:g}" for f in MARGINS) + " |"
+    lines = [BEGIN, f"Written by `python tools/border_margin.py --doc docs/physics.md` on {G._cpu()}. "
+             "Default pipeline, `render.border: extend` with each `border_margin` (0: `open`); each "
+             "cell: relative L1 to the path tracer / scattered energy over the path tracer's.\n",
+             head, "|---|---|" + "---|" * len(MARGINS), *rows]
+    for held, title in ((False, "mean, calibration scenes"), (True, "mean, held out")):
+        if means[held]:
+            mean = np.mean(means[held], axis=0)
+            lines.append(f"| {title} | | " + " | ".join(f"{v:.3f}" for v in mean) + " |")
+    lines.append(END)
+    block = "\n".join(lines)
+    print(block)
+    if args.doc:
+        write_block(Path(args.doc), BEGIN, END, block)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

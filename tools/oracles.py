@@ -1,0 +1,374 @@
+"""Small numpy oracles of every kernel: loops written for reading, not for speed."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+LUM = np.array([0.2126, 0.7152, 0.0722])
+
+
+def spread_w(s, sa, ss, g):
+    """Elek eq. 2 as printed (s > 0)."""
+    s = np.asarray(s, np.float64)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        inner = 2 * sa / (3 * s) + 4 / (s ** 3 * ss * (1 - g))
+        w = np.sqrt(0.5 / inner)
+    return np.where(s > 0, w, 0.0)
+
+
+def preprocess(img, depth, sa, ss, g, focal, scale=1.0, density=1.0, depth_scale=1.0,
+               max_depth=1000.0, z=True, paper=False, emission=(0, 0, 0), ambient=(0, 0, 0),
+               focal_y=None, centre=None):
+    h, w = depth.shape
+    cx, cy = centre if centre is not None else (w / 2, h / 2)
+    fy = focal_y or focal
+    sa, ss = np.asarray(sa, float), np.asarray(ss, float)
+    st = sa + ss
+    jj, ii = np.mgrid[0:h, 0:w] + 0.5
+    dist = depth.astype(np.float64) * depth_scale
+    if z:
+        dist = dist * np.sqrt(((ii - cx) / focal) ** 2 + ((jj - cy) / fy) ** 2 + 1)
+    dist = np.minimum(dist, max_depth)
+    P = density * dist
+    L = img[:, :, :3].astype(np.float64)
+    at = np.exp(-st * P[..., None]) * L
+    sc = np.exp(-sa * P[..., None]) * (1 - np.exp(-ss * P[..., None])) * L
+    W = spread_w(P, sa.mean(), ss.mean(), g)
+    if paper:
+        sigma = scale * W * w / 1280
+    else:
+        sigma = np.where(dist > 0, scale * W / np.maximum(dist, 1e-30) * focal, 0)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        em = np.where(st > 0, (1 - np.exp(-st * P[..., None])) / st, P[..., None]) * np.asarray(emission)
+        amb = np.where(st > 0, ss / st * (1 - np.exp(-st * P[..., None])), 0) * np.asarray(ambient)
+    return at, sc, sigma, em + amb, P
+
+
+def smoothstep(e0, e1, x):
+    t = np.clip((x - e0) / (e1 - e0), 0, 1)
+    return t * t * (3 - 2 * t)
+
+
+def reduce_level(src, spread, taps, thresh, eps, masked=True, source_weights=False):
+    """One pyramid level: src (h, w, 4) with W in [..., 3], spread (h, w). Elek eq. 8
+    weights W by the luminance of level k-1; source weights take the geometric mean
+    weighted by the masked luminance."""
+    h, w = spread.shape
+    n = len(taps)
+    dh, dw = (h + 1) // 2, (w + 1) // 2
+    out = np.zeros((dh, dw, 4))
+    sout = np.zeros((dh, dw))
+    for y in range(dh):
+        for x in range(dw):
+            c = np.zeros(3)
+            gsum = ssum = yw = ysum = wsum = 0.0
+            cnt = 0
+            for ty in range(n):
+                sy = 2 * y - n // 2 + 1 + ty
+                if not 0 <= sy < h:
+                    continue
+                for tx in range(n):
+                    sx = 2 * x - n // 2 + 1 + tx
+                    if not 0 <= sx < w:
+                        continue
+                    v = src[sy, sx]
+                    wg = taps[tx] * taps[ty]
+                    m = smoothstep(thresh, (1 + eps) * thresh, v[3]) if masked else 1.0
+                    c += wg * m * v[:3]
+                    gsum += wg
+                    ssum += wg * spread[sy, sx]
+                    lum = LUM @ (m * v[:3] if source_weights else v[:3])
+                    yw += lum * (math.log(max(v[3], 1e-6)) if source_weights else v[3])
+                    ysum += lum
+                    wsum += math.log(max(v[3], 1e-6)) if source_weights else v[3]
+                    cnt += 1
+            out[y, x, :3] = c / gsum
+            out[y, x, 3] = yw / ysum if ysum > 1e-30 else wsum / cnt
+            if source_weights:
+                out[y, x, 3] = math.exp(out[y, x, 3])   # geometric mean, weighted or not
+            sout[y, x] = ssum / gsum
+    return out, sout
+
+
+def _bspline(f):
+    return np.array([(1 - f) ** 3, 3 * f ** 3 - 6 * f ** 2 + 4, -3 * f ** 3 + 3 * f ** 2 + 3 * f + 1, f ** 3]) / 6
+
+
+def sample(img, x, y, cubic):
+    """Clamp-to-edge bilinear or cubic B-spline (16 taps) at index-space (x, y)."""
+    h, w = img.shape[:2]
+    cx = lambda i: min(max(i, 0), w - 1)  # noqa: E731
+    cy = lambda j: min(max(j, 0), h - 1)  # noqa: E731
+    if not cubic:
+        x = min(max(x, 0.0), w - 1.0)
+        y = min(max(y, 0.0), h - 1.0)
+        x0, y0 = int(math.floor(x)), int(math.floor(y))
+        fx, fy = x - x0, y - y0
+        a = img[y0, x0] * (1 - fx) + img[y0, cx(x0 + 1)] * fx
+        b = img[cy(y0 + 1), x0] * (1 - fx) + img[cy(y0 + 1), cx(x0 + 1)] * fx
+        return a * (1 - fy) + b * fy
+    ix, iy = math.floor(x), math.floor(y)
+    wx, wy = _bspline(x - ix), _bspline(y - iy)
+    acc = 0.0
+    for b in range(4):
+        for a in range(4):
+            acc = acc + wx[a] * wy[b] * img[cy(iy - 1 + b), cx(ix - 1 + a)]
+    return acc
+
+
+def keep(I, x, y, T, eps, a):
+    """What level k keeps at (x, y): below T / sqrt(2) as is, between T / sqrt(2) and T
+    blurred by (a, 1 - 2a, a) in both axes (clamp-to-edge), above T passed on."""
+    h, w = I.shape[:2]
+    th = T / math.sqrt(2)
+    g = {-1: a, 0: 1 - 2 * a, 1: a}
+    acc = np.zeros(3)
+    for dy in (-1, 0, 1):
+        for dx in (-1, 0, 1):
+            v = I[min(max(y + dy, 0), h - 1), min(max(x + dx, 0), w - 1)]
+            m = smoothstep(T, (1 + eps) * T, v[3])
+            mh = max(m, smoothstep(th, (1 + eps) * th, v[3]))
+            acc += g[dx] * g[dy] * (mh - m) * v[:3]
+            if dx == 0 and dy == 0:
+                acc += (1 - mh) * v[:3]
+    return acc
+
+
+def collapse(levels, taps_c, eps, cubic, thr=1.0, a=0.0):
+    """E_K = I^[K], E_k = keep_k(I^[k]) + up(E_{k+1}), over a list of (h, w, 4) levels."""
+    I = [lv.astype(np.float64) for lv in levels]
+    E = I[-1].copy()
+    for k in range(len(I) - 2, -1, -1):
+        T = thr * taps_c * 2.0 ** k
+        h, w = I[k].shape[:2]
+        Ek = np.zeros((h, w, 4))
+        for y in range(h):
+            for x in range(w):
+                up = sample(E, (x + 0.5) * 0.5 - 0.5, (y + 0.5) * 0.5 - 0.5, cubic)
+                Ek[y, x, :3] = keep(I[k], x, y, T, eps, a) + up[:3]
+        E = Ek
+    return E
+
+
+def reference(sc, sigma):
+    """Brute-force screen-space reference: Gaussian per source pixel, truncated at
+    ceil(4 sigma), normalised over the in-image pixels."""
+    h, w = sigma.shape
+    out = np.zeros((h, w, 3))
+    for j in range(h):
+        for i in range(w):
+            s = sigma[j, i]
+            if s <= 0:
+                out[j, i] += sc[j, i]
+                continue
+            R = int(math.ceil(4 * s))
+            xs = np.arange(max(0, i - R), min(w, i + R + 1))
+            ys = np.arange(max(0, j - R), min(h, j + R + 1))
+            gx = np.exp(-((xs - i) ** 2) / (2 * s * s))
+            gy = np.exp(-((ys - j) ** 2) / (2 * s * s))
+            k = np.outer(gy, gx)
+            out[ys[0]:ys[-1] + 1, xs[0]:xs[-1] + 1] += k[:, :, None] * sc[j, i] / k.sum()
+    return out
+
+
+# ----------------------------------------------------------------------------- apsf
+
+def lut_at(lut, base, lp):
+    """Linear lookup in the host's apsf table (fogcli.physics.apsf.build_lut) at log P."""
+    n = int(lut[2])
+    u = np.clip((lp - lut[0]) * lut[1], 0.0, n - 1.001)
+    i = np.floor(u).astype(np.int64)
+    f = u - i
+    return lut[base + i] * (1 - f) + lut[base + i + 1] * f
+
+
+def _updown(k, c, q, n):
+    return 4 + ((k * 3 + c) * 2 + q) * n
+
+
+def apsf_shares(lut, k, lp, rgb, q):
+    """Per channel, the share of rgb that level k passes on (q 0) or half-blurs (q 1)."""
+    n = int(lut[2])
+    return np.stack([lut_at(lut, _updown(k, c, q, n), lp) * rgb[..., c] for c in range(3)], axis=-1)
+
+
+def _src_share(n_src, n_dst, taps):
+    """Per source pixel along an axis: the share of its filter weights landing on the
+    n_dst outputs (1/2 away from the edges)."""
+    T = len(taps)
+    got = np.zeros(n_src)
+    for x in range(n_dst):
+        for t in range(T):
+            s = 2 * x - T // 2 + 1 + t
+            if 0 <= s < n_src:
+                got[s] += taps[t]
+    return got
+
+
+def apsf_reduce(prep, taps, open_border):
+    """One level of the apsf chain from the level below's prep (passed colour, log P): the
+    filtered colour, every source's taps scaled to hand on exactly its energy, and the log
+    P weighted by the luminance of what moves up."""
+    h, w = prep.shape[:2]
+    n = len(taps)
+    dh, dw = (h + 1) // 2, (w + 1) // 2
+    fx = 0.5 / _src_share(w, dw, taps)
+    fy = 0.5 / _src_share(h, dh, taps)
+    col = np.zeros((dh, dw, 3))
+    lp = np.zeros((dh, dw))
+    for y in range(dh):
+        for x in range(dw):
+            c = np.zeros(3)
+            gsum = yw = ysum = lsum = 0.0
+            cnt = 0
+            for ty in range(n):
+                sy = 2 * y - n // 2 + 1 + ty
+                if not 0 <= sy < h:
+                    continue
+                for tx in range(n):
+                    sx = 2 * x - n // 2 + 1 + tx
+                    if not 0 <= sx < w:
+                        continue
+                    v = prep[sy, sx]
+                    wg = taps[tx] * taps[ty] * fx[sx] * fy[sy]
+                    c += wg * v[:3]
+                    gsum += wg
+                    lum = LUM @ v[:3]
+                    yw += lum * v[3]
+                    ysum += lum
+                    lsum += v[3]
+                    cnt += 1
+            col[y, x] = c
+            lp[y, x] = yw / ysum if ysum > 1e-30 else lsum / cnt
+    return col, lp
+
+
+def _blur3(img, a):
+    h, w = img.shape[:2]
+    g = {-1: a, 0: 1 - 2 * a, 1: a}
+    out = np.zeros_like(img)
+    for dy in (-1, 0, 1):
+        for dx in (-1, 0, 1):
+            ys = np.clip(np.arange(h) + dy, 0, h - 1)
+            xs = np.clip(np.arange(w) + dx, 0, w - 1)
+            out += g[dx] * g[dy] * img[ys][:, xs]
+    return out
+
+
+def _frame_share(n, n0, scale, sigma):
+    """Share along one axis of a Gaussian centred on each of n level pixels (level-0 centre
+    scale (x + 0.5)) that lands in [0, n0]."""
+    if sigma <= 0:
+        return np.ones(n)
+    x0 = scale * (np.arange(n) + 0.5)
+    k = 1 / (math.sqrt(2) * sigma)
+    return np.array([0.5 * (math.erf((n0 - v) * k) + math.erf(v * k)) for v in x0])
+
+
+def apsf_collapse(sc, lp0, lut, levels, taps, cubic, a, open_border=False, slots=None):
+    """The whole apsf source collapse from level 0 (scattered colour, log P): every level
+    keeps its sharp and half-blurred shares and passes the rest up. The chain itself is
+    closed; with the open border each level's kept light is scaled by the frame share of
+    its slot's Gaussian (slots: the slot widths, apsf.slot_widths)."""
+    H0, W0 = sc.shape[:2]
+    cols, lps, preps = [sc.astype(np.float64)], [lp0.astype(np.float64)], []
+    for k in range(levels + 1):
+        p = apsf_shares(lut, k, lps[k], cols[k], 0)
+        preps.append(np.concatenate([p, lps[k][..., None]], axis=-1))
+        if k < levels:
+            c, lp = apsf_reduce(preps[k], taps, False)
+            cols.append(c)
+            lps.append(lp)
+
+    def share(k, half):
+        h, w = cols[k].shape[:2]
+        sg = slots[min(2 * k + half, len(slots) - 1)] if half == 0 or 2 * k + 1 < len(slots) else slots[2 * k]
+        return np.outer(_frame_share(h, H0, 2.0 ** k, sg), _frame_share(w, W0, 2.0 ** k, sg))[..., None]
+
+    E = cols[levels] - preps[levels][..., :3] if levels > 0 else cols[0]   # the top's `up`: lost
+    if open_border and levels > 0:
+        E = E * share(levels, 0)
+    for k in range(levels - 1, -1, -1):
+        half = apsf_shares(lut, k, lps[k], cols[k], 1)
+        if open_border:
+            hs = half * share(k, 1)
+            keep = _blur3(hs, a) + (cols[k] - preps[k][..., :3] - half) * share(k, 0)
+        else:
+            keep = _blur3(half, a) + cols[k] - preps[k][..., :3] - half
+        E = keep + _up2_conserving(E, keep.shape[0], keep.shape[1], cubic, open_border)
+    return E
+
+
+def _up2_conserving(E, h, w, cubic, open_border=False):
+    """Factor-2 up-sampling to (h, w): the B-spline (or tent) weights of an output centre,
+    clamp-to-edge (zero outside with the open border), and each input pixel's weights
+    scaled so that they sum to 2 per axis over the outputs (it hands on exactly its energy)."""
+    def weights(n_out, n_in):
+        M = np.zeros((n_out, n_in))
+        for y in range(n_out):
+            src = (y + 0.5) * 0.5 - 0.5
+            i0 = math.floor(src)
+            f = src - i0
+            ws = _bspline(f) if cubic else np.array([1 - f, f])
+            first = i0 - 1 if cubic else i0
+            for t, wt in enumerate(ws):
+                if open_border and not 0 <= first + t < n_in:
+                    continue   # open: zero outside
+                M[y, min(max(first + t, 0), n_in - 1)] += wt
+        return M * (2.0 / np.maximum(M.sum(axis=0), 1e-12))[None, :]
+    My, Mx = weights(h, E.shape[0]), weights(w, E.shape[1])
+    return np.einsum("yi,xj,ijc->yxc", My, Mx, E)
+
+
+def shadow_fraction(ray_len, f, light, directional=False, radius=0.05, thickness=1.0, sa=0.01, ss=0.1, g=0.85,
+                    n=128, steps=1000, reach=80.0, pixels=None):
+    """Lit share of each pixel's airlight integrand under the screen-space occluder model of
+    kernels/shadows.cl, by brute force: every cell's segment to the light (point: camera-frame
+    position; directional: unit direction towards it, for `reach` metres) marched in 3-D in
+    `steps` points, each point tested at its nearest pixel: blocked when z(q) + b < z(x) <
+    z(q) + thickness (depth along the view axis), b = min(max(0.05, 0.01 z(q)), thickness / 4),
+    and (points) the surface there is farther than max(0.05, 2 % of the light's distance,
+    2 radii) from the light. Camera at the origin looking down -z, principal point at the centre;
+    homogeneous medium. Cells: n uniform in phi (points, s = d1 + R tan phi) or in s
+    (directional), visibility at their middles. pixels: the (j, i) to do (default all)."""
+    h, w = ray_len.shape
+    cx, cy = w / 2, h / 2
+    L = np.asarray(light, float)
+    st = sa + ss
+    bl = max(0.05, 0.02 * np.linalg.norm(L), 2 * radius)
+    out = np.full((h, w), np.nan)
+    for j, i in pixels if pixels is not None else np.ndindex(h, w):
+        d = np.array([(i + 0.5 - cx) / f, -(j + 0.5 - cy) / f, -1.0])
+        d /= np.linalg.norm(d)
+        D = ray_len[j, i]
+        if directional:
+            s = (np.arange(n) + 0.5) * D / n
+            y = s[:, None] * d
+            ends = y + reach * L            # far enough to leave the scene's depths
+            wgt = np.exp(-st * s)
+        else:
+            d1 = d @ L
+            R = math.hypot(np.linalg.norm(L - d1 * d), radius)
+            phi = math.atan2(-d1, R) + (np.arange(n) + 0.5) * (math.atan2(D - d1, R) - math.atan2(-d1, R)) / n
+            s = d1 + R * np.tan(phi)
+            y = s[:, None] * d
+            ends = np.broadcast_to(L, y.shape)
+            wgt = (1 - g * g) / (1 + g * g + 2 * g * np.sin(phi)) ** 1.5 * np.exp(-st * s - st * R / np.cos(phi))
+        u = (np.arange(steps) + 0.5) / steps
+        x = y[:, None, :] + u[None, :, None] * (ends - y)[:, None, :]
+        zc = -x[..., 2]
+        front = zc > 1e-9
+        zs = np.where(front, zc, 1.0)
+        qx, qy = cx + f * x[..., 0] / zs, cy - f * x[..., 1] / zs
+        inside = front & (qx >= 0) & (qy >= 0) & (qx < w) & (qy < h)
+        qi, qj = np.clip(qx.astype(int), 0, w - 1), np.clip(qy.astype(int), 0, h - 1)
+        Dq = ray_len[qj, qi]
+        zq = Dq / np.sqrt(((qi + 0.5 - cx) / f) ** 2 + ((qj + 0.5 - cy) / f) ** 2 + 1.0)
+        b = np.minimum(np.maximum(0.05, 0.01 * zq), 0.25 * thickness)
+        blocked = inside & (zc > zq + b) & (zc < zq + thickness)
+        if not directional:
+            t = np.linalg.norm(x, axis=-1)
+            blocked &= np.linalg.norm(x / t[..., None] * Dq[..., None] - L, axis=-1) >= bl
+        out[j, i] = wgt[~blocked.any(axis=1)].sum() / wgt.sum()
+    return out
