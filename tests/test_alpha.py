@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 import fogcli
-from test_cli import read, run, write_img
-from test_density import _quadrature
+from helpers import read, run, write_img
+from oracles import optical_depth_quadrature as _quadrature
 
 H, W = 72, 96
 LUM = np.array([0.2126, 0.7152, 0.0722])

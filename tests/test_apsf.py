@@ -7,7 +7,8 @@ import numpy as np
 import pytest
 
 import oracles
-from conftest import plan_for
+from helpers import FOG, download, random_frame
+from helpers import plan_for
 from fogcli.physics import apsf
 from fogcli.device.plan import Timings
 from fogcli.device.run import read_chain
@@ -15,25 +16,6 @@ from fogcli.device.runtime import LOCAL_CPU
 from fogcli.device.composite import composite_source
 from fogcli.device.preprocess import preprocess, upload
 from fogcli.device.pyramid import collapse, reduce
-
-FOG = ("medium.absorption=[0.02, 0.05, 0.1]", "medium.scattering=[0.3, 0.2, 0.25]", "medium.asymmetry=0.8",
-       "camera.fov=70", "camera.depth=distance", "camera.max_depth=300")
-
-
-def _download(plan, buf, ch):
-    out = plan.download(buf, ch, Timings())
-    plan.rt.queue.finish()
-    return out
-
-
-def _frame(rng, w, h):
-    img = rng.uniform(0, 2, (h, w, 4)).astype(np.float32)
-    img[h // 3, w // 4, :3] = 400.0             # a lamp
-    img[h - 2, w - 3, :3] = [900.0, 300.0, 50.0]  # a warm lamp by the border
-    depth = np.exp(rng.uniform(np.log(0.5), np.log(250), (h, w))).astype(np.float32)
-    depth[: h // 5] = np.inf                    # sky
-    depth[h // 2, :] = 0.05                     # a near row: thin medium
-    return img, depth
 
 
 def _natural_spline(x, y, xq):
@@ -124,7 +106,7 @@ def test_fractions_rebuild_the_slot_weights(rng):
 def test_preprocess_apsf_matches_oracle(rt, rng):
     """Level 0 carries the thin-medium L_sc times the table's energy ratio, and log P."""
     w, h = 37, 23
-    img, depth = _frame(rng, w, h)
+    img, depth = random_frame(rng, w, h)
     plan, cfg = plan_for(rt, w, h, *FOG, "render.psf=apsf", "render.emission_profile=isotropic")
     t = Timings()
     upload(plan, img, depth, t)
@@ -151,7 +133,7 @@ def test_preprocess_apsf_matches_oracle(rt, rng):
 @pytest.mark.parametrize("size", [(45, 29), (3, 2), (1, 1)])
 def test_apsf_collapse_matches_oracle(rt, rng, interp, border, size):
     w, h = size
-    img, depth = _frame(rng, max(w, 4), max(h, 4))
+    img, depth = random_frame(rng, max(w, 4), max(h, 4))
     img, depth = img[:h, :w].copy(), depth[:h, :w].copy()
     depth[0, 0] = 12.0
     plan, cfg = plan_for(rt, w, h, *FOG, "render.psf=apsf", f"render.interpolation={interp}",
@@ -163,7 +145,7 @@ def test_apsf_collapse_matches_oracle(rt, rng, interp, border, size):
     reduce(plan, t, masked=True)
     collapse(plan, t)
     composite_source(plan, t)
-    got = _download(plan, plan.scat_aov, 4)[:, :, :3]
+    got = download(plan, plan.scat_aov, 4)[:, :, :3]
     from fogcli.physics.calibration import FILTERS
 
     want = oracles.apsf_collapse(level0[:, :, :3], level0[:, :, 3], plan.lut_host.astype(np.float64),
@@ -213,7 +195,7 @@ def test_apsf_reference_matches_brute_force(rt, rng, border):
     """extend: the open brute force of the frame padded with copies of its edge pixels
     (border_margin of the frame on each side), cropped."""
     w, h = 19, 13
-    img, depth = _frame(rng, w, h)
+    img, depth = random_frame(rng, w, h)
     plan, cfg = plan_for(rt, w, h, *FOG, "render.psf=apsf", "render.method=reference",
                          f"render.border={border}", "camera.fov=20", aovs=("scattered",))
     t = Timings()
@@ -224,7 +206,7 @@ def test_apsf_reference_matches_brute_force(rt, rng, border):
     from fogcli.device.reference import reference_into
 
     reference_into(plan, t)
-    got = _download(plan, plan.scat_aov, 4)[:, :, :3]
+    got = download(plan, plan.scat_aov, 4)[:, :, :3]
     sigmas = apsf.load_table()["sigma_u"] * cfg.camera.focal(w)
     lut = plan.lut_host.astype(np.float64)
     mx, my = border_margin(cfg, w, h)
@@ -370,7 +352,7 @@ def test_view_cosines_match_oracle(rt, rng, w, h, kind):
     tm = Timings()
     upload(plan, rng.uniform(0, 1, (h, w, 4)).astype(np.float32), depth, tm)
     preprocess(plan, tm)
-    got = _download(plan, plan.cosines, 1)
+    got = download(plan, plan.cosines, 1)
     np.testing.assert_allclose(got, _view_cosines(cfg, depth), atol=1e-4)
 
 

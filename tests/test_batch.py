@@ -3,7 +3,6 @@ without stopping the batch, atomic outputs, resume after SIGKILL, spawn workers 
 Dask LocalCluster writing the same pixels."""
 import json
 import os
-import signal
 import subprocess
 import sys
 import time
@@ -12,7 +11,7 @@ from pathlib import Path
 import numpy as np
 
 from hdr_scenes import scene
-from test_cli import read, write_img
+from helpers import kill_once_written, outputs_in, read, write_img
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -118,18 +117,11 @@ def test_killed_batch_resumes_with_skip_existing(tmp_path):
     err = open(tmp_path / "stderr.txt", "w")          # a file: the resource tracker outlives the batch
     p = subprocess.Popen([sys.executable, "-m", "fogcli", "batch", str(src), str(out), "--jobs", "2", "-q"],
                          stdout=subprocess.DEVNULL, stderr=err, env=env)
-    deadline = time.time() + 300
-    while time.time() < deadline and p.poll() is None:
-        if out.is_dir() and len([f for f in out.iterdir() if not f.name.startswith(".")]) >= 4:
-            break
-        time.sleep(0.01)
-    assert p.poll() is None, "the batch ended before it could be killed"
-    os.kill(p.pid, signal.SIGKILL)
-    p.wait()
+    kill_once_written(p, out, 4)
     time.sleep(1.0)                      # workers die with their parent (PR_SET_PDEATHSIG)
     err.close()
     assert "Warning" not in (tmp_path / "stderr.txt").read_text()    # no leaked-semaphore warning
-    written = [f.name for f in out.iterdir() if not f.name.startswith(".")]
+    written = outputs_in(out)
     assert 4 <= len(written) < 40
     for name in written:                 # whatever carries an output's name is whole
         assert read(out / name)[1].shape == (256, 384, 4)   # R, G, B and the copied Z

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 import oracles
-from conftest import plan_for
+from helpers import plan_for
 from fogcli import apply
 from fogcli.api import make_config
 from metrics import rel_l1
@@ -16,7 +16,7 @@ from fogcli.device.border import extend
 from fogcli.device.composite import composite_source
 from fogcli.device.preprocess import preprocess, upload
 from fogcli.device.pyramid import collapse, reduce
-from test_apsf import FOG, _download, _frame
+from helpers import FOG, download as _download, random_frame as _frame
 
 
 def test_border_kernels_match_oracle(rt, rng):

@@ -4,7 +4,7 @@ from types import SimpleNamespace
 
 import pytest
 
-from conftest import plan_for
+from helpers import plan_for
 from fogcli.errors import ProcessingError
 from fogcli.device.plan import ALIASES, BUFFERS, buffer_bytes, check_memory, plan_features, planned_bytes
 

@@ -4,52 +4,12 @@ import json
 import os
 import subprocess
 import sys
-from pathlib import Path
 
 import numpy as np
-import OpenImageIO as oiio
 import pytest
-from click.testing import CliRunner
 
-from fogcli.cli import main
+from helpers import SAMPLE, assert_one_line_error, read, run, write_img
 from fogcli.io.colour import linear_to_srgb
-
-ROOT = Path(__file__).resolve().parents[1]
-SAMPLE = ROOT / "samples" / "harbour.exr"
-
-
-def write_img(path, data, names, fmt="float", window=None, display=None, attrs=(), tile=None):
-    """data (h, w, c) or (h, w) -> an image file through OpenImageIO (format from the
-    extension); attrs: (name, value) or (name, TypeDesc, value) items. Also the fuzz
-    harness's writer (tools/fuzz.py)."""
-    data = np.ascontiguousarray(data, np.float32 if fmt in ("float", "half") else None)
-    if data.ndim == 2:
-        data = data[:, :, None]
-    h, w, c = data.shape
-    spec = oiio.ImageSpec(w, h, c, fmt)
-    spec.channelnames = tuple(names)
-    if "A" in names:
-        spec.alpha_channel = list(names).index("A")
-    if tile:
-        spec.tile_width, spec.tile_height = tile
-    if window:
-        spec.x, spec.y = window
-    if display:
-        spec.full_x, spec.full_y, spec.full_width, spec.full_height = display
-    for a in attrs:
-        spec.attribute(*a)
-    out = oiio.ImageOutput.create(str(path))
-    assert out is not None and out.open(str(path), spec), oiio.geterror()
-    assert out.write_image(data), out.geterror()
-    out.close()
-
-
-def read(path):
-    inp = oiio.ImageInput.open(str(path))
-    spec = inp.spec()
-    px = inp.read_image(0, 0, 0, spec.nchannels, "float")
-    inp.close()
-    return spec, np.asarray(px).reshape(spec.height, spec.width, spec.nchannels)
 
 
 @pytest.fixture
@@ -63,19 +23,6 @@ def rgbz(tmp_path):
     p = tmp_path / "in.exr"
     write_img(p, np.dstack([rgb, z]), ["R", "G", "B", "Z"])
     return p, rgb, z
-
-
-def run(*args):
-    r = CliRunner().invoke(main, [str(a) for a in args])
-    return r.exit_code, r.output, getattr(r, "stderr", r.output)
-
-
-def assert_one_line_error(code, out, needle):
-    assert code == 2, out
-    assert "Traceback" not in out
-    lines = [ln for ln in out.strip().splitlines() if ln.strip()]
-    assert len(lines) == 1, out
-    assert needle in lines[0], lines[0]
 
 
 def test_apply_exr_with_embedded_z_and_timings(rgbz, tmp_path):

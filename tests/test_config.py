@@ -174,9 +174,7 @@ def test_messages_sorted_by_line_and_unclosed_bracket_at_its_line(tmp_path):
 
 
 def test_docs_key_reference_is_generated_and_valid(tmp_path):
-    import sys
-
-    from test_cli import ROOT
+    from helpers import ROOT
 
     import make_config_doc
 
@@ -205,7 +203,7 @@ def test_docs_key_reference_is_generated_and_valid(tmp_path):
 
 
 def test_config_show_round_trips(tmp_path):
-    from test_cli import run
+    from helpers import run
 
     code, text, _ = run("config", "--show", "--medium", "sea", "--set", "camera.empty_depth=inf")
     assert code == 0, text

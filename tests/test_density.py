@@ -6,10 +6,8 @@ import numpy as np
 import pytest
 
 from fogcli import apply
+from oracles import optical_depth_quadrature
 from fogcli.api import make_config
-
-NODES, WEIGHTS = np.polynomial.legendre.leggauss(12)
-
 
 def _rot(yaw, pitch, roll):
     y, p, r = np.radians([yaw, pitch, roll])
@@ -17,44 +15,6 @@ def _rot(yaw, pitch, roll):
     rx = np.array([[1, 0, 0], [0, math.cos(p), -math.sin(p)], [0, math.sin(p), math.cos(p)]])
     rz = np.array([[math.cos(r), -math.sin(r), 0], [math.sin(r), math.cos(r), 0], [0, 0, 1]])
     return ry @ rx @ rz
-
-
-def _density(x, prims):
-    rho = np.zeros(x.shape[:-1])
-    for p in prims:
-        if p["type"] == "homogeneous":
-            rho += p["factor"]
-        elif p["type"] == "exponential":
-            n = np.array(p["direction"], float)
-            n /= np.linalg.norm(n)
-            rho += p["factor"] * np.exp(-p["falloff"] * ((x - np.array(p["offset"])) @ n))
-        else:
-            r2 = ((x - np.array(p["center"])) ** 2).sum(-1)
-            rho += p["factor"] * np.maximum(0.0, 1 - r2 / p["radius"] ** 2)
-    return rho
-
-
-def _quadrature(c, w, D, prims):
-    """Composite Gauss-Legendre on [0, D], split where the ray enters/leaves a sphere (the
-    printed quadratic, in float64) and into 256 equal pieces."""
-    cuts = {0.0, D}
-    for p in prims:
-        if p["type"] == "sphere":
-            co = c - np.array(p["center"])
-            B, C = w @ co, co @ co - p["radius"] ** 2
-            if B * B - C > 0:
-                for t in (-B - math.sqrt(B * B - C), -B + math.sqrt(B * B - C)):
-                    if 0 < t < D:
-                        cuts.add(t)
-    cuts = sorted(cuts)
-    total = 0.0
-    for a, b in zip(cuts[:-1], cuts[1:]):
-        edges = np.linspace(a, b, 257)
-        mid, half = (edges[:-1] + edges[1:]) / 2, (edges[1:] - edges[:-1]) / 2
-        t = (mid[:, None] + half[:, None] * NODES[None, :]).ravel()
-        wts = (half[:, None] * WEIGHTS[None, :]).ravel()
-        total += (wts * _density(c + t[:, None] * w, prims)).sum()
-    return total
 
 
 def _case(rng, depth_kind, inside_sphere=False):
@@ -83,7 +43,7 @@ def _case(rng, depth_kind, inside_sphere=False):
 
 @pytest.mark.parametrize("seed,depth_kind,inside", [(1, "z", False), (2, "distance", False), (3, "z", True),
                                                     (4, "distance", True), (5, "z", False)])
-def test_optical_depth_matches_quadrature(seed, depth_kind, inside):
+def test_optical_depth_matchesoptical_depth_quadrature(seed, depth_kind, inside):
     rng = np.random.default_rng(seed)
     w, h, fov, pos, R, depth, prims, sets = _case(rng, depth_kind, inside)
     cfg = make_config("fog", sets=sets)
@@ -96,7 +56,7 @@ def test_optical_depth_matches_quadrature(seed, depth_kind, inside):
             dc = np.array([(i + 0.5 - w / 2) / f, -(j + 0.5 - h / 2) / f, -1.0])
             D = float(depth[j, i]) * (np.linalg.norm(dc) if depth_kind == "z" else 1.0)
             D = min(D, 400.0)
-            want = _quadrature(pos, R @ (dc / np.linalg.norm(dc)), D, prims)
+            want = optical_depth_quadrature(pos, R @ (dc / np.linalg.norm(dc)), D, prims)
             err = abs(P[j, i] - want) / max(want, 1e-3)
             worst = max(worst, err)
     assert P.max() > 1.0 and (P[3:] > 0).all()

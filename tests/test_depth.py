@@ -178,7 +178,7 @@ def test_hole_fill_does_not_blend_two_surfaces():
     1 % and below 60 % of the plain average's."""
     import sys
 
-    from test_cli import ROOT
+    from helpers import ROOT
 
     sys.path.insert(0, str(ROOT / "tools"))
     from holefill import degrade, intermediate

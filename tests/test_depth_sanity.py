@@ -9,7 +9,7 @@ import OpenImageIO as oiio
 import fogcli
 from fogcli.config.model import Camera
 from fogcli.io.depth import decode
-from test_cli import ROOT, write_img
+from helpers import ROOT, write_img
 
 
 def _png16(path, mm):

@@ -2,7 +2,7 @@
 every document or image they point at exists."""
 import re
 
-from test_cli import ROOT
+from helpers import ROOT
 
 TEXTS = [ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md")), *sorted((ROOT / "src" / "fogcli").rglob("*.py")),
          *sorted((ROOT / "src" / "fogcli" / "device" / "kernels").glob("*"))]

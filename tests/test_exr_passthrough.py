@@ -5,7 +5,7 @@ import numpy as np
 import OpenImageIO as oiio
 import pytest
 
-from test_cli import run
+from helpers import run
 
 # a beachball-like single-part stereo file: 19 channels, the left view unprefixed
 NAMES = ["R", "G", "B", "A", "Z", "disparityL.x", "disparityL.y", "forward.u", "forward.v", "whitebarmask.mask",
@@ -171,7 +171,7 @@ def test_drop_channels_and_output_type(stereo, tmp_path):
 
 @pytest.mark.parametrize("names", [["A"], ["Z"], ["depth.Z"], ["A", "Z"]])
 def test_exr_without_colour_is_refused(tmp_path, names):
-    from test_cli import assert_one_line_error, write_img
+    from helpers import assert_one_line_error, write_img
 
     p = tmp_path / "nocolour.exr"
     write_img(p, np.full((8, 9, len(names)), 3.0), names)

@@ -4,8 +4,6 @@ layouts, pixel values, path kinds, depth files, YAML configs, --set values, --ca
 command lines, batch folders). Each runs `fogcli` in a subprocess and must meet the
 contract: exit 0 or a one-line exit 2 (3 for a batch with failed frames), no traceback or
 warning, no hang, nothing left behind, inputs unchanged, outputs readable."""
-import sys
-from pathlib import Path
 
 import pytest
 

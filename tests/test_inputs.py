@@ -8,7 +8,7 @@ from click.testing import CliRunner
 from fogcli.cli import main
 from fogcli.errors import UserError
 from fogcli.io.images import read_image
-from test_cli import read, write_img
+from helpers import read, write_img
 
 
 def run(*args):

@@ -3,7 +3,6 @@ number without stopping the rest, resume after SIGKILL, lines from standard inpu
 they come, CSV."""
 import json
 import os
-import signal
 import subprocess
 import sys
 import time
@@ -13,6 +12,7 @@ import numpy as np
 import OpenImageIO as oiio
 
 from hdr_scenes import scene
+from helpers import kill_once_written
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -136,15 +136,7 @@ def test_killed_jobs_file_resumes_with_skip_existing(tmp_path):
     p = subprocess.Popen([sys.executable, "-m", "fogcli", "batch", "--jobs-file", "jobs.jsonl", "-q"],
                          cwd=tmp_path, env=env(), stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     out = tmp_path / "out"
-    deadline = time.time() + 300
-    while time.time() < deadline and p.poll() is None:
-        if out.is_dir() and len([f for f in out.iterdir() if not f.name.startswith(".")]) >= 3:
-            break
-        time.sleep(0.01)
-    assert p.poll() is None, "the batch ended before it could be killed"
-    os.kill(p.pid, signal.SIGKILL)
-    p.wait()
-    written = [f.name for f in out.iterdir() if not f.name.startswith(".")]
+    written = kill_once_written(p, out, 3)
     assert 3 <= len(written) < 30
     for name in written:
         assert pixels(out / name).shape == (256, 384, 4)

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 import oracles
-from conftest import plan_for
+from helpers import plan_for
 from fogcli.device import plan as device_plan
 from fogcli.device import pyramid
 from fogcli.api import make_config
@@ -211,7 +211,6 @@ def test_pair_composite_matches_the_per_pixel_one(sets, monkeypatch):
     strips on all four sides."""
     import fogcli
     from fogcli.device import plan as device_plan
-    from fogcli.device import pyramid
 
     rng = np.random.default_rng(5)
     h, w = 97, 331

@@ -3,7 +3,6 @@ single-scattering integral (docs/lights.md), over random geometries: lights in f
 behind and beside the camera, on a pixel ray, spots, a directional light; g from 0 to 0.95;
 homogeneous, exponential and sphere media."""
 import math
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -136,7 +135,7 @@ def test_detected_lamp_position_and_intensity():
 
 def test_sample_lights_file_is_valid():
     from fogcli.config.presets import check_file
-    from test_cli import ROOT
+    from helpers import ROOT
 
     assert check_file(str(ROOT / "samples" / "harbour-lights.yaml")) == []
 
@@ -170,7 +169,7 @@ def test_lamps_found_are_written_as_a_config_that_reads_back(tmp_path):
     from click.testing import CliRunner
 
     from fogcli.cli import main
-    from test_cli import write_img
+    from helpers import write_img
 
     c = np.array([1.0, 1.5, -12.0])
     rgb, z, _ = lamp_frame(c=c)
@@ -189,7 +188,7 @@ def test_lamps_found_are_written_as_a_config_that_reads_back(tmp_path):
     r = run(main, ["apply", str(img), "--config", str(tmp_path / "lamps.json"), "--aov", "airlight",
                    "-o", str(tmp_path / "b.exr")])
     assert r.exit_code == 0, r.output
-    from test_cli import read
+    from helpers import read
 
     got = []
     for name in ("a.exr", "b.exr"):

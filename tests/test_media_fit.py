@@ -9,7 +9,7 @@ import fogcli
 from fogcli.config.presets import presets
 from fogcli.frame.scene import median_depth
 from hdr_scenes import room
-from test_cli import SAMPLE, run
+from helpers import SAMPLE, run
 
 LUM = np.array([0.2126, 0.7152, 0.0722], np.float32)
 

@@ -1,8 +1,6 @@
 """Screen-space shadows (kernels/shadows.cl, render.lights.shadows: screen) against a brute-force
 numpy march of the same occluder model, and against exact geometric shadows of a facade quad."""
 import math
-import sys
-from pathlib import Path
 
 import numpy as np
 

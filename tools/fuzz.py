@@ -58,7 +58,7 @@ RSS_KILL_MB = 10240            # a runaway case is killed (and flagged) above th
 H, W = 24, 32                  # the default frame: tiny, 4:3
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
-from test_cli import write_img  # noqa: E402  (the test suite's OpenImageIO writer)
+from helpers import write_img  # noqa: E402  (the test suite's OpenImageIO writer)
 
 # ============================================================================ files
 

@@ -31,7 +31,8 @@ def quadrature(cases=24):
     sphere, three sky rows clamped at max_depth."""
     import math
 
-    from test_density import _case, _quadrature
+    from oracles import optical_depth_quadrature as _quadrature
+    from test_density import _case
     worst, pixels = 0.0, 0
     for c in range(cases):
         rng = np.random.default_rng(500 + c)

@@ -34,7 +34,7 @@ BEGIN, END = markers(f"batch-throughput-{cpu_kind()}")
 
 def make_frames(folder: Path, n: int, w: int, h: int) -> None:
     from hdr_scenes import scene
-    from test_cli import write_img
+    from helpers import write_img
 
     for i in range(n):
         rgb, z, _ = scene(w, h, seed=900 + i)

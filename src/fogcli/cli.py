@@ -176,7 +176,7 @@ def batch(input_dir, output_dir, jobs_file, depth_pattern, medium, config_file, 
           drop_channels, device, fmt, recursive, jobs, skip_existing, scheduler, report, save_depth, quiet):
     """Apply a medium to every image of INPUT_DIR, writing OUTPUT_DIR/<stem>.<format>; or to
     every line of --jobs-file. Exit 0 when all were written (or skipped), 3 when some failed."""
-    from fogcli.batch.runners import describe_failure
+    from fogcli.batch.progress import describe_failure
 
     given = [Path(p) for p in (config_file, camera_file, medium) if p and Path(p).is_file()]
     if jobs_file is not None:
@@ -274,7 +274,7 @@ def config_cmd(files, show, medium, camera_file, sets):
     order) < --camera < --set, validated, with the image-independent auto values resolved."""
     import yaml
 
-    from fogcli.config.model import resolved_data
+    from fogcli.config.validate import resolved_data
     from fogcli.config.presets import assemble
 
     class Dumper(yaml.SafeDumper):

@@ -6,6 +6,7 @@ from pathlib import Path
 
 from fogcli.config import model as C
 from fogcli.config import yaml_source as S
+from fogcli.config.validate import build, problems_of
 from fogcli.errors import UserError
 
 PRESET_DIR = Path(__file__).resolve().parent / "media"
@@ -54,7 +55,7 @@ def assemble(medium: str | None = None, config_file: str | list | None = None,
         data = S.merge(data, {"camera": dict(camera_section)})
     for item in sets:
         data = S.merge(data, S.parse_set(item, locs))
-    return C.build(data, locs)
+    return build(data, locs)
 
 
 def check_file(path: str) -> list[str]:
@@ -64,7 +65,7 @@ def check_file(path: str) -> list[str]:
         data = S.load_yaml(path, locs)
     except UserError as exc:
         return [str(exc)]
-    _, problems = C.problems_of(data, locs)
+    _, problems = problems_of(data, locs)
     return problems
 
 

@@ -211,7 +211,6 @@ class Plan:
 
     def __init__(self, rt: Runtime, width: int, height: int, cfg: Config, aovs=()):
         self.rt, self.w, self.h, self.cfg = rt, width, height, cfg
-        cl = rt.cl
         self.aovs = tuple(aovs)
         self.features = f = plan_features(cfg, aovs)
         # L_em + L_amb ride in `direct` unless an AOV needs them (or P) on their own
@@ -219,10 +218,25 @@ class Plan:
         self.sizes = level_sizes(width, height, cfg.render.levels)
         offs = np.cumsum([0] + [w * h for w, h in self.sizes])
         self.lv = np.array([[o, w, h, 0] for o, (w, h) in zip(offs[:-1], self.sizes)], np.int32)
-        total = int(offs[-1])
+        self.apsf = uses_apsf(cfg)
+        self._allocate(int(offs[-1]))
+        self._build_kernels(defines(cfg))
+        self._al_tables = None     # (key, device buffer) of airlight_table.tables
+        self._noise = None         # (the noise_t array's bytes, its device copy, count): noise_args
+        self._light_tmp = None     # (t_dir, t_sc): the airlight of the second and later lights
+        self._tfm = None           # (floats, coefficients, spans): a light's transmittance function map
+        self._noise_samples = None  # (count, A_dir, A_sc) at the samples of render.noise_stride
+        self._p_samples = None     # (count, buffer): the noise's optical depth at the same samples
+        self._epi = None           # (samples, slices, buffers ...) of render.lights.method: epipolar
+        self._ext = None           # the extension plan of render.border: extend (extend)
+
+    def _allocate(self, total: int) -> None:
+        """The declared buffers (BUFFERS; `total` pixels in all levels), after the device's
+        memory was checked, and the tables of the tabulated point spread."""
+        rt, cfg, width, height, f = self.rt, self.cfg, self.w, self.h, self.features
+        cl = rt.cl
         n = width * height
         mf = cl.mem_flags
-        self.apsf = uses_apsf(cfg)
         sizes = buffer_bytes(n, total, f, height)
         check_memory(rt, width, height, sizes, planned_bytes(n, total, f, cfg, height))
         try:
@@ -250,7 +264,10 @@ class Plan:
                 self.edge = cl.Buffer(rt.ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=tab)
         except cl.Error as exc:
             raise ProcessingError(f"cannot allocate device buffers for {width}x{height}: {exc}") from exc
-        d = defines(cfg)
+
+    def _build_kernels(self, d: dict) -> None:
+        """The kernels of this plan's options, built once per process (runtime.program)."""
+        rt, cfg = self.rt, self.cfg
         pre = dict(d, PRE_SOURCE=int(self.source), PRE_SEP=int(self.sep), PRE_SPLIT_MEDIUM=int(self.split_medium),
                    PRE_TRANSMITTANCE=int("transmittance" in self.aovs),
                    PRE_SPREAD=int(not (self.apsf and self.source) or bool(self.aovs)),
@@ -289,14 +306,6 @@ class Plan:
             self.k_lights = rt.program("lights", **d, **DEFINES, LANES=self.lanes)
         else:
             self.k_lights = None
-        self._al_tables = None     # (key, device buffer) of airlight_table.tables
-        self._noise = None         # (the noise_t array's bytes, its device copy, count): noise_args
-        self._light_tmp = None     # (t_dir, t_sc): the airlight of the second and later lights
-        self._tfm = None           # (floats, coefficients, spans): a light's transmittance function map
-        self._noise_samples = None  # (count, A_dir, A_sc) at the samples of render.noise_stride
-        self._p_samples = None     # (count, buffer): the noise's optical depth at the same samples
-        self._epi = None           # (samples, slices, buffers ...) of render.lights.method: epipolar
-        self._ext = None           # the extension plan of render.border: extend (extend)
 
     def threshold(self, k: int) -> float:
         """Masking threshold of level k (Elek eq. 7, scaled): threshold * c * 2^(k-1)."""

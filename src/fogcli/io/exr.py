@@ -52,6 +52,56 @@ def _out_type(in_type: str, override: str) -> str:
     return override if override in ("half", "float") and in_type in _FLOATS else in_type
 
 
+def _part_plan(oiio, i: int, spec, frame, rgb, alpha, aovs: dict, out_type: str, compression: str):
+    """Part i's output spec and (channels, the type it is read in, channel -> (frame or
+    plane, its channel) that fogcli replaces, the AOV planes added after them)."""
+    names = list(spec.channelnames)
+    in_fmts = [_fmt(t) for t in spec.channelformats] if len(spec.channelformats) else [_fmt(spec.format)] * len(names)
+    o = oiio.ImageSpec(spec)
+    for a in _ENCODING:
+        o.erase_attribute(a)
+    o.tile_width = o.tile_height = o.tile_depth = 0
+    replace: dict[int, tuple] = {}      # channel -> (frame or plane, its channel)
+    extra_names, extra_planes = [], []
+    if i == frame.part:
+        for c, name in enumerate(frame.rgb_names):
+            replace.setdefault(names.index(name), (rgb, c))
+        if frame.alpha_name is not None and alpha is not None:
+            replace[names.index(frame.alpha_name)] = (alpha, 0)
+        for name, plane in aovs.items():
+            full = frame.view_prefix + name
+            if full in names:
+                raise UserError(f"{frame.path}: has a channel {full}; --aov {name.split('.')[0]} would replace it")
+            extra_names.append(full)
+            extra_planes.append(plane)
+    # output.type applies to what fogcli writes; copied channels keep their type exactly
+    fmts = ([_out_type(f, out_type) if c in replace else f for c, f in enumerate(in_fmts)]
+            + [out_type if out_type in ("half", "float") else "float"] * len(extra_names))
+    o.nchannels = len(names) + len(extra_names)
+    o.channelnames = tuple(names + extra_names)
+    o.channelformats = tuple(oiio.TypeDesc(f) for f in fmts)
+    o.attribute("compression", compression if compression != "auto" else
+                str(spec.getattribute("compression") or "zip"))
+    o.attribute("Software", "fogcli")
+    read_fmt = "float" if all(f in _FLOATS for f in in_fmts) and not any(f == "double" for f in in_fmts) else "double"
+    return o, (len(names), read_fmt, replace, extra_planes)
+
+
+def _kept_columns(frame, i: int, spec, nch: int, read_fmt: str, replace: dict):
+    """(the channels the frame kept of part i, or None to read them again; the column of the
+    strips each channel of the part is in: of the kept ones, only those not replaced)."""
+    kept = frame.pixels if i == frame.part and read_fmt == "float" else None
+    if kept is not None and kept.shape != (spec.height, spec.width, len(frame.kept_channels)):
+        kept = None
+    if kept is not None:
+        col = {c: k for k, c in enumerate(frame.kept_channels)}
+        if any(c not in replace and c not in col for c in range(nch)):
+            kept = None
+    if kept is None:
+        col = {c: c for c in range(nch)}
+    return kept, col
+
+
 def write_passthrough(path: Path, tmp: str, frame, rgb: np.ndarray, alpha: np.ndarray | None,
                       aovs: dict, out_type: str, compression: str) -> None:
     """Write `tmp` (renamed to `path` by the caller): the input EXR with the processed
@@ -69,36 +119,9 @@ def write_passthrough(path: Path, tmp: str, frame, rgb: np.ndarray, alpha: np.nd
             i += 1
         outs, plans = [], []
         for i, spec in enumerate(specs):
-            names = list(spec.channelnames)
-            in_fmts = [_fmt(t) for t in spec.channelformats] if len(spec.channelformats) else [_fmt(spec.format)] * len(names)
-            o = oiio.ImageSpec(spec)
-            for a in _ENCODING:
-                o.erase_attribute(a)
-            o.tile_width = o.tile_height = o.tile_depth = 0
-            replace: dict[int, tuple] = {}      # channel -> (frame or plane, its channel)
-            extra_names, extra_planes = [], []
-            if i == frame.part:
-                for c, name in enumerate(frame.rgb_names):
-                    replace.setdefault(names.index(name), (rgb, c))
-                if frame.alpha_name is not None and alpha is not None:
-                    replace[names.index(frame.alpha_name)] = (alpha, 0)
-                for name, plane in aovs.items():
-                    full = frame.view_prefix + name
-                    if full in names:
-                        raise UserError(f"{frame.path}: has a channel {full}; --aov {name.split('.')[0]} would replace it")
-                    extra_names.append(full)
-                    extra_planes.append(plane)
-            # output.type applies to what fogcli writes; copied channels keep their type exactly
-            fmts = [_out_type(f, out_type) if c in replace else f for c, f in enumerate(in_fmts)] + [out_type if out_type in ("half", "float") else "float"] * len(extra_names)
-            o.nchannels = len(names) + len(extra_names)
-            o.channelnames = tuple(names + extra_names)
-            o.channelformats = tuple(oiio.TypeDesc(f) for f in fmts)
-            o.attribute("compression", compression if compression != "auto" else
-                        str(spec.getattribute("compression") or "zip"))
-            o.attribute("Software", "fogcli")
+            o, plan = _part_plan(oiio, i, spec, frame, rgb, alpha, aovs, out_type, compression)
             outs.append(o)
-            read_fmt = "float" if all(f in _FLOATS for f in in_fmts) and not any(f == "double" for f in in_fmts) else "double"
-            plans.append((len(names), read_fmt, replace, extra_planes))
+            plans.append(plan)
         out = oiio.ImageOutput.create(tmp)
         if out is None:
             raise ProcessingError(f"{path}: cannot write ({oiio.geterror().strip() or 'no EXR writer'})")
@@ -110,16 +133,7 @@ def write_passthrough(path: Path, tmp: str, frame, rgb: np.ndarray, alpha: np.nd
                 ok = ok and out.open(tmp, o, "AppendSubimage")
             if not ok:
                 break
-            kept = frame.pixels if i == frame.part and read_fmt == "float" else None
-            if kept is not None and kept.shape != (spec.height, spec.width, len(frame.kept_channels)):
-                kept = None
-            # the column of the strips each channel of the part is in (kept: only those not replaced)
-            if kept is not None:
-                col = {c: k for k, c in enumerate(frame.kept_channels)}
-                if any(c not in replace and c not in col for c in range(nch)):
-                    kept = None
-            if kept is None:
-                col = {c: c for c in range(nch)}
+            kept, col = _kept_columns(frame, i, spec, nch, read_fmt, replace)
             # all half: handed over as half (converted faster here than by the writer)
             as_half = all(str(f) == "half" for f in o.channelformats)
             for y0, y1, px in _strip_reader(inp, i, spec, nch, read_fmt, kept):

@@ -283,6 +283,64 @@ def _decoding(fn):
     return wrapper
 
 
+def _colour_part(inp, parts: list, path: Path, layer: str | None, view: str | None):
+    """Of a multi-part file: (the parts of the chosen view, those named --layer, the part
+    the colour is read from: the one named --layer, else the first with R, G, B, else the
+    first)."""
+    chosen = [p for p in parts if not view or p[3] in ("", view)]
+    if view and len(parts) > 1 and not any(p[3] == view for p in parts):
+        have = sorted({p[3] for p in parts if p[3]})
+        if have:
+            inp.close()
+            raise UserError(f"{path}: --view {view}: no such view (have: {', '.join(have)})")
+    by_name = [p for p in chosen if layer and p[2] == layer]
+    with_rgb = [p for p in chosen if _colour_channels(list(p[1].channelnames))[0]]
+    return chosen, by_name, (by_name or with_rgb or chosen)[0]    # a depth-only part may come first
+
+
+def _channel_layer(inp, parts: list, path: Path, layer: str, cols: list, orig: list, sel_names: list):
+    """--layer naming a channel layer (Blender ViewLayer.Combined, Nuke diffuse): its R, G,
+    B, A and the depth, as (columns, the file's names, the names without the layer)."""
+    pre = [n for n in {n.rsplit(".", 1)[0] for n in sel_names if "." in n}
+           if n == layer or n.endswith("." + layer)]
+    if not pre:
+        layers = sorted({n.rsplit(".", 1)[0] for n in sel_names if "." in n} | {p[2] for p in parts if p[2]})
+        inp.close()
+        raise UserError(f"{path}: --layer {layer}: no such layer (have: {', '.join(layers) or 'none'})")
+    lay = [i for i, n in enumerate(sel_names) if n.rsplit(".", 1)[0] == pre[0]]
+    depth_cols = [i for i, n in enumerate(sel_names) if _is_depth_name(n)]
+    pick = lay + [i for i in depth_cols if i not in lay]
+    return ([cols[i] for i in pick], [orig[i] for i in pick],
+            [sel_names[i].rsplit(".", 1)[-1] if i in lay else sel_names[i] for i in pick])
+
+
+def _depth_part(inp, path: Path, chosen: list, sub: int, spec):
+    """The depth of a part of its own (Nuke and others write the depth layer so), or None."""
+    for i, ps, _, pv in chosen:
+        if i == sub or (ps.width, ps.height, ps.x, ps.y) != (spec.width, spec.height, spec.x, spec.y):
+            continue
+        cand = [k for k, n in enumerate(ps.channelnames) if _is_depth_name(n)]
+        if cand:
+            return pixels.plane(_read_pixels(inp, path, "float", i), cand[0])
+    return None
+
+
+def _grey(path: Path, names: list, sel_names: list, depth_idx) -> tuple[list, int | None]:
+    """No R, G, B: (colour channels, alpha) of a grey channel (Y, L, an unnamed one), never
+    alpha, depth, or a component of a vector pass."""
+    colour = [i for i, n in enumerate(sel_names)
+              if i != depth_idx and not _is_depth_name(n) and not _is_alpha_name(n)]
+    if not colour:
+        raise UserError(f"{path}: no colour channels (have: {', '.join(names)}); expected R, G, B "
+                        "(or a layer's R, G, B, or one grey channel)")
+    rgb_idx = colour[:3] if len(colour) >= 3 else [colour[0]] * 3
+    a_idx = next((i for i, n in enumerate(sel_names) if _is_alpha_name(n)), None)
+    if a_idx is None and len(sel_names) in (2, 4) and depth_idx is None and len(colour) == len(sel_names):
+        a_idx = len(sel_names) - 1      # grey + alpha, RGBA, by position when unnamed
+        rgb_idx = [i if i != a_idx else rgb_idx[0] for i in rgb_idx]
+    return rgb_idx, a_idx
+
+
 @_decoding
 def read_image(path: str | Path, layer: str | None = None, view: str | None = None, admit=None) -> Frame:
     """admit: called with the path, width, height, channels and bytes a sample from the
@@ -300,17 +358,7 @@ def read_image(path: str | Path, layer: str | None = None, view: str | None = No
     if (layer or view) and not is_exr:
         inp.close()
         raise UserError(f"{path}: --layer / --view apply to EXR files")
-    # multi-part: the part named --layer (else the first) of the chosen view
-    chosen = [p for p in parts if not view or p[3] in ("", view)]
-    if view and len(parts) > 1 and not any(p[3] == view for p in parts):
-        have = sorted({p[3] for p in parts if p[3]})
-        if have:
-            inp.close()
-            raise UserError(f"{path}: --view {view}: no such view (have: {', '.join(have)})")
-    by_name = [p for p in chosen if layer and p[2] == layer]
-    with_rgb = [p for p in chosen if _colour_channels(list(p[1].channelnames))[0]]
-    colour_part = (by_name or with_rgb or chosen)[0]    # a depth-only part may come first
-    sub, spec = colour_part[0], colour_part[1]
+    chosen, by_name, (sub, spec, _, _) = _colour_part(inp, parts, path, layer, view)
     formats = [str(t) for t in spec.channelformats] if len(spec.channelformats) else [str(spec.format)] * spec.nchannels
     # an all-half part is read as it is stored (half the bytes; only what is used is widened)
     whole = _read_pixels(inp, path, "half" if set(formats) == {"half"} else "float", sub)
@@ -322,19 +370,7 @@ def read_image(path: str | Path, layer: str | None = None, view: str | None = No
     cols = list(keep)                     # the columns of `whole` that the selected channels are
     orig = [names[i] for i in keep]       # the file's names of the selected channels
     if layer and not by_name:
-        # a channel layer (Blender ViewLayer.Combined, Nuke diffuse): its R, G, B, A
-        pre = [n for n in {n.rsplit(".", 1)[0] for n in sel_names if "." in n}
-               if n == layer or n.endswith("." + layer)]
-        if not pre:
-            layers = sorted({n.rsplit(".", 1)[0] for n in sel_names if "." in n} | {p[2] for p in parts if p[2]})
-            inp.close()
-            raise UserError(f"{path}: --layer {layer}: no such layer (have: {', '.join(layers) or 'none'})")
-        lay = [i for i, n in enumerate(sel_names) if n.rsplit(".", 1)[0] == pre[0]]
-        depth_cols = [i for i, n in enumerate(sel_names) if _is_depth_name(n)]
-        pick = lay + [i for i in depth_cols if i not in lay]
-        cols = [cols[i] for i in pick]
-        orig = [orig[i] for i in pick]
-        sel_names = [sel_names[i].rsplit(".", 1)[-1] if i in lay else sel_names[i] for i in pick]
+        cols, orig, sel_names = _channel_layer(inp, parts, path, layer, cols, orig, sel_names)
     attributes = [(a.name, a.type, a.value) for a in spec.extra_attribs]
     fmt_name = str(spec.format)
 
@@ -342,28 +378,10 @@ def read_image(path: str | Path, layer: str | None = None, view: str | None = No
     depth_idx = next((i for i, n in enumerate(sel_names) if _is_depth_name(n) and i not in rgb_idx), None)
     depth = pixels.plane(whole, cols[depth_idx]) if depth_idx is not None else None
     if depth is None and len(parts) > 1:
-        # Nuke and others write the depth layer as a part of its own
-        for i, ps, _, pv in chosen:
-            if i == sub or (ps.width, ps.height, ps.x, ps.y) != (spec.width, spec.height, spec.x, spec.y):
-                continue
-            cand = [k for k, n in enumerate(ps.channelnames) if _is_depth_name(n)]
-            if cand:
-                depth = pixels.plane(_read_pixels(inp, path, "float", i), cand[0])
-                break
+        depth = _depth_part(inp, path, chosen, sub, spec)
     inp.close()
     if not rgb_idx:
-        # no R, G, B: a grey channel (Y, L, an unnamed one), never alpha, depth, or a
-        # component of a vector pass
-        colour = [i for i, n in enumerate(sel_names)
-                  if i != depth_idx and not _is_depth_name(n) and not _is_alpha_name(n)]
-        if not colour:
-            raise UserError(f"{path}: no colour channels (have: {', '.join(names)}); expected R, G, B "
-                            "(or a layer's R, G, B, or one grey channel)")
-        rgb_idx = colour[:3] if len(colour) >= 3 else [colour[0]] * 3
-        a_idx = next((i for i, n in enumerate(sel_names) if _is_alpha_name(n)), None)
-        if a_idx is None and len(sel_names) in (2, 4) and depth_idx is None and len(colour) == len(sel_names):
-            a_idx = len(sel_names) - 1      # grey + alpha, RGBA, by position when unnamed
-            rgb_idx = [i if i != a_idx else rgb_idx[0] for i in rgb_idx]
+        rgb_idx, a_idx = _grey(path, names, sel_names, depth_idx)
     rgb_cols = tuple(cols[i] for i in rgb_idx)
     if _is_linear(spec, fmt_name):
         rgb = None          # made when asked for (Frame.rgb), or read once by the upload

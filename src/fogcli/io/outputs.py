@@ -163,75 +163,58 @@ def write(path: Path, rgb: np.ndarray, alpha: np.ndarray | None, aovs: dict, fra
     EXR output keeps everything fogcli does not produce (exr.write_passthrough) unless
     drop_channels. out_type auto: the input colour's pixel type where it was half or float
     (EXR), else float; compression auto: the input EXR's, else zip."""
-    import OpenImageIO as oiio
-
     ext = path.suffix.lower()
-    h, w = rgb.shape[:2]
     if ext == ".exr" and frame.is_exr and not drop_channels:
         from fogcli.io.exr import write_passthrough
 
         atomic_write(path, lambda tmp: write_passthrough(path, tmp, frame, rgb, alpha, aovs, out_type, compression))
-        return
-    if ext in LINEAR_EXT:
-        planes = [rgb[:, :, 0], rgb[:, :, 1], rgb[:, :, 2]]
-        names = ["R", "G", "B"]
-        if alpha is not None and ext == ".exr":     # Radiance HDR holds RGB only
-            planes.append(alpha)
-            names.append("A")
-        if ext == ".exr":
-            for name, plane in aovs.items():
-                planes.append(plane)
-                names.append(name)
-        data = np.ascontiguousarray(np.stack(planes, axis=2), dtype=np.float32)
-        if out_type == "auto":
-            out_type = frame.pixel_type if frame.is_exr and frame.pixel_type in ("half", "float") else "float"
-        fmt = out_type if ext == ".exr" else "float"
-        spec = oiio.ImageSpec(w, h, data.shape[2], fmt)
-        spec.channelnames = tuple(names)
-        if "A" in names:
-            spec.alpha_channel = 3
-        if ext == ".exr":
-            spec.x, spec.y = frame.window
-            fx, fy, fw, fh = frame.display
-            spec.full_x, spec.full_y = fx, fy
-            spec.full_width, spec.full_height = (fw or w), (fh or h)
-            if frame.is_exr:
-                for name, typ, value in frame.attributes:
-                    if not name.startswith(_DROP) and name not in ("multiView", "view", "name"):
-                        try:
-                            spec.attribute(name, typ, value)
-                        except Exception:
-                            pass
-            if compression == "auto":
-                compression = next((str(v) for n, _, v in frame.attributes if n == "compression"), "zip") \
-                    if frame.is_exr else "zip"
-            spec.attribute("compression", compression)
-        spec.attribute("Software", "fogcli")
+    elif ext in LINEAR_EXT:
+        _write_linear(path, rgb, alpha, aovs, frame, out_type, compression)
     else:
-        disp = linear_to_srgb(rgb * np.float32(2.0 ** exposure))
-        planes = [disp]
-        if alpha is not None and ext not in (".jpg", ".jpeg"):
-            planes.append(np.clip(alpha, 0, 1)[:, :, None])
-        data = np.concatenate(planes, axis=2)
-        fmt = "uint16" if ext in (".tif", ".tiff") else "uint8"
-        spec = oiio.ImageSpec(w, h, data.shape[2], fmt)
-        if data.shape[2] == 4:
-            spec.channelnames = ("R", "G", "B", "A")
-            spec.alpha_channel = 3
-        # encoded in memory (OpenCV) and written by Python: a full disk is an error here,
-        # where OpenImageIO's PNG writer reported success with a truncated file and libjpeg
-        # exited the process
-        import cv2
+        _write_display(path, rgb, alpha, exposure)
 
-        top = 65535 if fmt == "uint16" else 255
-        q = np.clip(np.rint(data * top), 0, top).astype(np.uint16 if fmt == "uint16" else np.uint8)
-        q = np.ascontiguousarray(q[:, :, [2, 1, 0, 3][: q.shape[2]]])     # OpenCV is BGR(A)
-        params = [cv2.IMWRITE_JPEG_QUALITY, 95] if ext in (".jpg", ".jpeg") else []
-        ok, buf = cv2.imencode(".tiff" if ext == ".tif" else ext, q, params)
-        if not ok:
-            raise ProcessingError(f"{path}: cannot encode {ext}")
-        atomic_write(path, lambda tmp: _write_bytes(tmp, buf))
-        return
+
+def _write_linear(path: Path, rgb: np.ndarray, alpha: np.ndarray | None, aovs: dict, frame, out_type: str,
+                  compression: str) -> None:
+    """EXR (with alpha and AOVs, the input EXR's window and attributes) or Radiance HDR."""
+    import OpenImageIO as oiio
+
+    ext = path.suffix.lower()
+    h, w = rgb.shape[:2]
+    planes = [rgb[:, :, 0], rgb[:, :, 1], rgb[:, :, 2]]
+    names = ["R", "G", "B"]
+    if alpha is not None and ext == ".exr":     # Radiance HDR holds RGB only
+        planes.append(alpha)
+        names.append("A")
+    if ext == ".exr":
+        for name, plane in aovs.items():
+            planes.append(plane)
+            names.append(name)
+    data = np.ascontiguousarray(np.stack(planes, axis=2), dtype=np.float32)
+    if out_type == "auto":
+        out_type = frame.pixel_type if frame.is_exr and frame.pixel_type in ("half", "float") else "float"
+    fmt = out_type if ext == ".exr" else "float"
+    spec = oiio.ImageSpec(w, h, data.shape[2], fmt)
+    spec.channelnames = tuple(names)
+    if "A" in names:
+        spec.alpha_channel = 3
+    if ext == ".exr":
+        spec.x, spec.y = frame.window
+        fx, fy, fw, fh = frame.display
+        spec.full_x, spec.full_y = fx, fy
+        spec.full_width, spec.full_height = (fw or w), (fh or h)
+        if frame.is_exr:
+            for name, typ, value in frame.attributes:
+                if not name.startswith(_DROP) and name not in ("multiView", "view", "name"):
+                    try:
+                        spec.attribute(name, typ, value)
+                    except Exception:
+                        pass
+        if compression == "auto":
+            compression = next((str(v) for n, _, v in frame.attributes if n == "compression"), "zip") \
+                if frame.is_exr else "zip"
+        spec.attribute("compression", compression)
+    spec.attribute("Software", "fogcli")
 
     def _write(tmp):
         out = oiio.ImageOutput.create(tmp)
@@ -244,3 +227,25 @@ def write(path: Path, rgb: np.ndarray, alpha: np.ndarray | None, aovs: dict, fra
             raise ProcessingError(f"{path}: cannot write ({err.strip() or 'write failed'})")
 
     atomic_write(path, _write)
+
+
+def _write_display(path: Path, rgb: np.ndarray, alpha: np.ndarray | None, exposure: float) -> None:
+    """PNG, TIFF (16 bit) or JPEG, sRGB-encoded after the exposure. Encoded in memory (OpenCV)
+    and written by Python: a full disk is an error here, where OpenImageIO's PNG writer
+    reported success with a truncated file and libjpeg exited the process."""
+    import cv2
+
+    ext = path.suffix.lower()
+    disp = linear_to_srgb(rgb * np.float32(2.0 ** exposure))
+    planes = [disp]
+    if alpha is not None and ext not in (".jpg", ".jpeg"):
+        planes.append(np.clip(alpha, 0, 1)[:, :, None])
+    data = np.concatenate(planes, axis=2)
+    top = 65535 if ext in (".tif", ".tiff") else 255
+    q = np.clip(np.rint(data * top), 0, top).astype(np.uint16 if top == 65535 else np.uint8)
+    q = np.ascontiguousarray(q[:, :, [2, 1, 0, 3][: q.shape[2]]])     # OpenCV is BGR(A)
+    params = [cv2.IMWRITE_JPEG_QUALITY, 95] if ext in (".jpg", ".jpeg") else []
+    ok, buf = cv2.imencode(".tiff" if ext == ".tif" else ext, q, params)
+    if not ok:
+        raise ProcessingError(f"{path}: cannot encode {ext}")
+    atomic_write(path, lambda tmp: _write_bytes(tmp, buf))
