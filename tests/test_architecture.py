@@ -131,3 +131,59 @@ def test_no_module_over_500_lines_and_no_function_over_80(tmp_path):
     pkg = planted(tmp_path, "errors.py", "def _planted():\n" + "    x = 1\n" * MAX_FUNCTION)
     assert oversized(pkg / "fogcli") == ["errors.py:" + str(len((SRC / "errors.py").read_text().splitlines()) + 3)
                                          + " _planted: 81 lines"]
+
+
+# What a runtime needs besides its modules: the kernels, the presets, the shipped tables.
+DATA = ("fogcli/device/kernels/*.cl", "fogcli/device/kernels/*.h", "fogcli/config/media/*.yaml",
+        "fogcli/physics/data/*.npz")
+REACHED = textwrap.dedent("""
+    import grimp
+
+    g = grimp.build_graph("fogcli", cache_dir=None)
+    roots = ("fogcli", "fogcli.__main__", "fogcli.cli", "fogcli.api")
+    print(sorted(set(roots).union(*(g.find_upstream_modules(r) for r in roots))))
+""")
+
+
+def wheel_problems(files: list[str], reached: set[str]) -> list[str]:
+    """Files of the wheel that the runtime does not import and that are not its data."""
+    import fnmatch
+
+    out = []
+    for f in files:
+        if f.startswith("fogcli-") and ".dist-info/" in f:
+            continue
+        if f.endswith(".py"):
+            mod = f[:-3].replace("/", ".").removesuffix(".__init__")
+            package = f.endswith("/__init__.py") and any(m.startswith(mod + ".") for m in reached)
+            if mod not in reached and not package:
+                out.append(f"{f}: not imported by the runtime")
+        elif not any(fnmatch.fnmatch(f, d) for d in DATA):
+            out.append(f"{f}: neither a module nor the runtime's data")
+    return out
+
+
+def test_the_wheel_holds_the_runtime_and_its_data_only(tmp_path):
+    import zipfile
+
+    tree = tmp_path / "tree"       # built from a copy: the build writes into its source folder
+    tree.mkdir()
+    shutil.copytree(ROOT / "src", tree / "src", ignore=shutil.ignore_patterns("__pycache__", "*.egg-info"))
+    for f in ("pyproject.toml", "README.md"):
+        shutil.copy(ROOT / f, tree / f)
+    r = subprocess.run([sys.executable, "-m", "pip", "wheel", "-q", "--no-deps", "-w", str(tmp_path / "wheel"),
+                        str(tree)], capture_output=True, text=True, timeout=600)
+    assert r.returncode == 0, r.stderr
+    (wheel,) = (tmp_path / "wheel").glob("fogcli-*.whl")
+    files = zipfile.ZipFile(wheel).namelist()
+    r = subprocess.run([sys.executable, "-c", REACHED], capture_output=True, text=True, cwd=ROOT, timeout=300)
+    assert r.returncode == 0, r.stderr
+    reached = set(ast.literal_eval(r.stdout.strip()))
+    assert wheel_problems(files, reached) == []
+    modules = {f for f in files if f.endswith(".py")}
+    assert {"fogcli/device/plan.py", "fogcli/physics/apsf.py", "fogcli/config/media/fog.yaml",
+            "fogcli/physics/data/apsf.npz", "fogcli/device/kernels/pyramid.cl"} <= set(files)
+    assert not [f for f in modules if f.split("/")[-1] in ("apsf_mc.py", "hdr_scenes.py", "metrics.py")]
+    # a module nothing imports, and a file that is not the runtime's data, are found
+    assert wheel_problems(files + ["fogcli/physics/orphan.py", "fogcli/notes.txt"], reached) == [
+        "fogcli/physics/orphan.py: not imported by the runtime", "fogcli/notes.txt: neither a module nor the runtime's data"]

@@ -1,6 +1,6 @@
 """The `noise` density primitive and the lights through it (issue 11): the marched optical
 depth of the camera leg, the transmittance function maps of the light leg and the airlight
-kernel for noise media, each against fogcli/noise.py's float64 numpy (the same noise
+kernel for noise media, each against tools/light_oracles.py's float64 numpy (the same noise
 formulas, marched finer)."""
 import math
 

@@ -322,7 +322,7 @@ def main() -> int:
              "| airlight A (the `airlight` AOV) | " + " | ".join(f"{e:.1e}" for e in errs.values()) + " |",
              "| its twice-scattered part | " + " | ".join(f"{e:.1e}" for e in errs_sc.values()) + " |", "",
              "Point lights in homogeneous media do not use the nodes: their airlight comes from tables",
-             "(`fogcli/airlight_table.py`), directional lights in homogeneous media from a closed form.",
+             "(`fogcli/physics/airlight_table.py`), directional lights in homogeneous media from a closed form.",
              "`tests/test_lights.py` also holds the table kernel against the quadrature kernel over whole",
              "frames: airlight within 1e-3, the twice-scattered part (a difference of two table values)",
              "within 3e-3.", "",

@@ -1,6 +1,6 @@
 """The config model: every key declared once, with its type, range, default and doc (the
 docs' key reference is generated from it: tools/make_config_doc.py). Built once from the
-merged sources (config_source.py) into a frozen object; `auto` values that do not depend on
+merged sources (yaml_source.py) into a frozen object; `auto` values that do not depend on
 the image are resolved then. Problems are reported as ``file:line: key: problem``, sorted
 by file and line."""
 from __future__ import annotations

@@ -186,7 +186,7 @@ def airlight(plan, t: Timings) -> None:
 
 
 def airlight_tables(plan):
-    """(the medium's airlight tables on the device (fogcli/airlight_table.py), kept while
+    """(the medium's airlight tables on the device (physics/airlight_table.py), kept while
     g and the channels' sa / st stay the same: r = 1, then one table per distinct r;
     each channel's r = sa / st; each channel's table)."""
     m = plan.cfg.medium

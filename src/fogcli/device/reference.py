@@ -4,7 +4,7 @@ psf gaussian: binned in sigma. Bins form a geometric ladder s0 * RATIO^b; a pixe
 is split between the two bins around its sigma (linear in log sigma).
 tests/test_reference.py holds the binned form to within 1 % relative L1 of the
 brute-force definition (`brute_force`).
-psf apsf: the table's kernel is already a sum of Gaussians (apsf.py); one separable pass
+psf apsf: the table's kernel is already a sum of Gaussians (physics/apsf.py); one separable pass
 per Gaussian, each pixel weighted by its own share of it: exact to the table."""
 from __future__ import annotations
 

@@ -415,7 +415,7 @@ inline float3 keep_px(float3 rgb, float3 passed, __global const float4 *half_img
 #endif
 }
 
-/* render.psf: apsf. The host's table in log P (apsf.py, build_lut): a header (log P of the
+/* render.psf: apsf. The host's table in log P (physics/apsf.py, build_lut): a header (log P of the
  * first sample, samples per unit log P, APSF_NP, number of levels), then per level and
  * channel the shares passed up and kept half-blurred, the energy ratio per channel, and
  * the weight of each tabulated Gaussian per channel (reference). */

@@ -133,7 +133,7 @@ __kernel void airlight(__global const float *depth, __global float4 *a_dir, __gl
 }
 
 /* ---- point and directional lights in a homogeneous medium: tables, not quadrature ----
- * fogcli/airlight_table.py: with s = d1 + R sinh(x) the airlight is
+ * fogcli/physics/airlight_table.py: with s = d1 + R sinh(x) the airlight is
  * ss I / R exp(-a d1) int_{x0}^{x1} h(x) exp(-beta E_r(x)) dx, h = p_g(-tanh x) / cosh x,
  * E_r = r sinh x + cosh x, beta = sigma R, r = a / sigma; the tables hold the integral's
  * cumulative sums from the left (F) and the right (C) on (ln beta, x), as logarithms with

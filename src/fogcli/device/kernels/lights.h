@@ -1,5 +1,5 @@
 /* What the light kernels share (lights.cl: the airlight; shadows.cl: its visibility): the
- * medium and light structs (fogcli/lights.py: medium_struct, light_struct), the phase
+ * medium and light structs (device/structs.py: lmedium_struct; device/lights.py: light_struct), the phase
  * function, density and optical depth of the analytic primitives, and the integrand of the
  * airlight at one point of a ray. */
 #ifndef FOGCLI_LIGHTS_H

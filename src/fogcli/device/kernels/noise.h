@@ -1,7 +1,7 @@
 /* The `noise` density primitive (docs/media.md, Noise): fractal value noise inside a box or
  * a sphere, its optical depth along a ray by marching (it has no closed form), and the
  * transmittance function maps (Delalandre et al. 2011) that carry the light leg's optical
- * depth. fogcli/noise.py holds the same formulas in float64 (the tests' oracle), so any
+ * depth. tools/light_oracles.py holds the same formulas in float64 (the tests' oracle), so any
  * change here is a change there. Builtins are avoided in the noise itself (floor by casts):
  * the density is evaluated hundreds of times per pixel. */
 #ifndef FOGCLI_NOISE_H

@@ -1,7 +1,7 @@
 /* Two horizontally adjacent pixels per work-item, for the part of a level away from its
  * edges: the source collapse (collapse_pairs, pyramid.cl) and its last step fused with the
  * final sum (composite_source_pairs, composite.cl); the host launches them there on whole
- * work-groups and the per-pixel kernels on the frame around it (pipeline.pair_region). Per
+ * work-groups and the per-pixel kernels on the frame around it (device/plan.py: pair_region). Per
  * pixel, those read level k+1 at x >> 1 and the half image at clamped neighbours: gathers,
  * and float4 values, which keep PoCL from vectorising them (they ran scalar: ~35 ms at 2 MPx
  * for composite_source). Here the two pixels of a pair read level k+1 at the same UP_NT + 1

@@ -68,7 +68,7 @@ __kernel void view_cosines(__global const float *depth, __global float *cosv, co
 }
 
 /* view_cosines' interior (every pixel whose four neighbours are inside the image), on whole
- * work-groups of the rectangle Plan.preprocess gives (Plan._launch_inner): no clamped reads,
+ * work-groups of the rectangle preprocess.py gives (Plan.launch_inner): no clamped reads,
  * so the loads are linear in the work-item and PoCL vectorises it (view_cosines' clamped
  * neighbour reads are gathers). */
 __kernel void view_cosines_inner(__global const float *depth, __global float *cosv, const int width,

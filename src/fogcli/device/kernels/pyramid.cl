@@ -328,7 +328,7 @@ __kernel void prep_level0(__global const float4 *chain, __global float4 *prep, c
 
 #ifdef PSF_APSF
 /* render.border: extend. Level 0 of the padded frame's chain at 1/scale resolution (the
- * extension plan, pipeline.Plan.extend; scale = 2^L, its pixels those of level L here): the sources past the frame's edge, each pixel past
+ * extension plan, device/border.py: extend; scale = 2^L, its pixels those of level L here): the sources past the frame's edge, each pixel past
  * it a copy of the nearest edge pixel of the full-resolution level 0, out to `margin`
  * pixels; inside the frame nothing (the main chain has it). A cell's colour is the mean
  * over its scale x scale pixels, its log P weighted by their luminance, like a reduce.

@@ -192,7 +192,7 @@ ALWAYS_INLINE void shares_homogeneous(const lmedium_t *m, const light_t *L, floa
     float kT0 = -hf * m->sa.x, kT1 = -hf * m->sa.y, kT2 = -hf * m->sa.z;
     /* spot: the cosine to its axis at s is (q0 + s q1) / |x - light|, lc = camera - light */
     float q0 = dot(lc, L->axis.xyz), q1 = dot(w, L->axis.xyz);
-    float sw = spot ? 1.0f / (L->cos_inner - L->cos_outer) : 0.0f;     /* lights.py: inner > outer */
+    float sw = spot ? 1.0f / (L->cos_inner - L->cos_outer) : 0.0f;     /* device/lights.py: inner > outer */
     float8 ph = a0 + lane * da, sn = native_sin(ph), cs = native_cos(ph);
     float rc = native_cos(8.0f * da), rs = native_sin(8.0f * da);
     float8 tA0 = 0.0f, tA1 = 0.0f, tA2 = 0.0f, tT0 = 0.0f, tT1 = 0.0f, tT2 = 0.0f;
