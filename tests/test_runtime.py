@@ -132,13 +132,13 @@ def test_launch2d_covers_every_pixel_once(rt, w, h):
     """launch2d: the whole-groups kernel (no bounds check) stays inside the image, the
     checked one fills the strips, and no pixel is done twice."""
     cl = rt.cl
-    opts = ["-I", str(runtime.KERNEL_DIR)] + [f"-D{k}={v}" for k, v in D4.items()]
-    whole = cl.Kernel(cl.Program(rt.ctx, COUNT).build(options=opts + ["-DWHOLE_GROUPS=1"]), "count")
-    checked = cl.Kernel(cl.Program(rt.ctx, COUNT).build(options=opts), "count")
+    opts = ["-I", str(runtime.KERNEL_DIR), "-cl-kernel-arg-info"] + [f"-D{k}={v}" for k, v in D4.items()]
+    whole = runtime._Kernels(cl, lambda: cl.Program(rt.ctx, COUNT).build(options=opts + ["-DWHOLE_GROUPS=1"])).count
+    checked = runtime._Kernels(cl, lambda: cl.Program(rt.ctx, COUNT).build(options=opts)).count
     guard = 4096                    # a whole-groups launch past the image would count here
     buf = cl.Buffer(rt.ctx, cl.mem_flags.READ_WRITE | cl.mem_flags.COPY_HOST_PTR,
                     hostbuf=np.zeros(w * h + guard, np.int32))
-    for ev in rt.launch2d((whole, checked), w, h, buf, np.int32(w), np.int32(h)):
+    for ev in rt.launch2d((whole, checked), w, h, c=buf, w=np.int32(w), h=np.int32(h)):
         ev.wait()
     out = np.empty(w * h + guard, np.int32)
     cl.enqueue_copy(rt.queue, out, buf)
@@ -160,7 +160,7 @@ def test_scalar_arguments_are_declared_at_the_first_launch(rt, rng):
     for count, thresh, eps in ((np.int32(n), np.float32(1.0), np.float32(0.5)), (n, 1.0, 0.5)):
         out = np.zeros_like(chain)
         cl.enqueue_copy(q, dst, out)
-        k(q, (n,), None, src, dst, count, thresh, eps)
+        k(q, (n,), None, chain=src, prep=dst, n=count, thresh1=thresh, eps=eps)
         cl.enqueue_copy(q, out, dst)
         got.append(out)
     want = np.zeros_like(chain)
@@ -171,3 +171,19 @@ def test_scalar_arguments_are_declared_at_the_first_launch(rt, rng):
     assert [runtime._arg_dtype(a) for a in (src, np.int32(1), np.float32(1), np.zeros((), [("a", "f4")]),
                                             np.zeros(4, np.float32), 3)] == [
         None, np.dtype(np.int32), np.dtype(np.float32), np.dtype([("a", "f4")]), None, None]
+
+
+def test_kernels_are_launched_by_parameter_name_checked_against_the_device(rt):
+    """A launch names each argument; the names are the kernel's own (OpenCL argument info),
+    so a misspelt, missing or extra one is refused, naming it, before anything is enqueued."""
+    k = rt.program("pyramid", **D4).prep_level0
+    assert k.params == ("chain", "prep", "n", "thresh1", "eps")
+    buf = rt.cl.Buffer(rt.ctx, rt.cl.mem_flags.READ_WRITE, 64)
+    good = dict(chain=buf, prep=buf, n=np.int32(0), thresh1=np.float32(1), eps=np.float32(0.5))
+    with pytest.raises(TypeError, match="prep_level0: missing eps; no parameter epsilon"):
+        k(rt.queue, (1,), None, **{("epsilon" if a == "eps" else a): v for a, v in good.items()})
+    with pytest.raises(TypeError, match="prep_level0: missing thresh1$"):
+        k(rt.queue, (1,), None, **{a: v for a, v in good.items() if a != "thresh1"})
+    with pytest.raises(TypeError):
+        k(rt.queue, (1,), None, buf, buf, np.int32(0), np.float32(1), np.float32(0.5))   # positional: refused
+    k(rt.queue, (1,), None, **good).wait()

@@ -40,9 +40,10 @@ def extend(plan, t: Timings) -> bool:
     ext.cfg = cfg
     upload_lut(ext, t)
     q, i32 = plan.rt.queue, np.int32
-    t.add("pyramid", ext.k_border_src(q, *plan.rt.nd(pw, ph), plan.chain, i32(plan.w), i32(plan.h), ext.chain,
-                                      ext.prep, i32(pw), i32(ph), i32(ox), i32(oy), i32(mx), i32(my), i32(s),
-                                      ext.lut))
+    t.add("pyramid",
+          ext.k_border_src(q, *plan.rt.nd(pw, ph), chain0=plan.chain, w=i32(plan.w), h=i32(plan.h), chain=ext.chain,
+                           prep=ext.prep, pw=i32(pw), ph=i32(ph), ox=i32(ox), oy=i32(oy), mx=i32(mx), my=i32(my),
+                           scale=i32(s), lut=ext.lut))
     reduce(ext, t, masked=True)
     collapse(ext, t)
     composite_source(ext, t)

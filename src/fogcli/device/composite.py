@@ -13,29 +13,32 @@ def composite_source(plan, t: Timings, second: bool = False) -> None:
     chain, half, prep = plan.source_bufs(second)
     if top > 0:
         split(plan, t, 0, chain, half)
-    args = (plan.direct, plan.medium, chain, half, plan.lv_buf, np.int32(top),
-            np.float32(plan.cfg.render.resolved()[0]), np.float32(plan.half_step()), plan.out, plan.level_aov,
-            plan.scat_aov, prep, plan.spread, plan.edge, plan.cons, np.int32(plan.cons_off[1]))
+    args = dict(direct=plan.direct, medium_term=plan.medium, chain=chain, half_img=half, lv=plan.lv_buf,
+                kmax=np.int32(top), c=np.float32(plan.cfg.render.resolved()[0]), a=np.float32(plan.half_step()),
+                out=plan.out, level_aov=plan.level_aov, scattered_aov=plan.scat_aov, prep=prep, spread0=plan.spread,
+                edge=plan.edge, cons=plan.cons, cons_up=np.int32(plan.cons_off[1]))
     plan.launch_pairs(t, plan._pairs[0], plan.k_comp_pairs[second], plan.k_comp_src[second], plan.w, plan.h,
                        args, chain, 1)
 
 
 def composite(plan, t: Timings, depth_blur: bool) -> None:
     c, _, _ = plan.cfg.render.resolved()
-    t.add("composite", plan.k_comp(
-        plan.rt.queue, *plan.rt.nd(plan.w, plan.h), plan.direct, plan.medium, plan.chain,
-        plan.spread, plan.lv_buf, np.int32(len(plan.sizes) - 1), np.float32(c),
-        np.int32(depth_blur), np.int32(plan.split_medium), plan.out, np.int32(bool(plan.aovs)),
-        plan.level_aov, plan.scat_aov))
+    t.add("composite",
+          plan.k_comp(plan.rt.queue, *plan.rt.nd(plan.w, plan.h), direct=plan.direct, medium_term=plan.medium,
+                      chain=plan.chain, spread_chain=plan.spread, lv=plan.lv_buf, kmax=np.int32(len(plan.sizes) - 1),
+                      c=np.float32(c), depth_blur=np.int32(depth_blur), add_medium=np.int32(plan.split_medium),
+                      out=plan.out, want_aov=np.int32(bool(plan.aovs)), level_aov=plan.level_aov,
+                      scattered_aov=plan.scat_aov))
 
 
 def composite_separated(plan, t: Timings) -> None:
     """Iser eq. 4.26-4.28 on the receiver fetch: level k_ssc = separation.level * K."""
     kmax = len(plan.sizes) - 1
-    t.add("composite", plan.k_comp_sep(
-        plan.rt.queue, *plan.rt.nd(plan.w, plan.h), plan.chain2, plan.lv_buf, np.int32(kmax),
-        np.float32(plan.cfg.render.resolved()[0]), np.float32(plan.cfg.render.separation.level * kmax),
-        plan.out, np.int32(bool(plan.aovs)), plan.scat_aov))
+    t.add("composite",
+          plan.k_comp_sep(plan.rt.queue, *plan.rt.nd(plan.w, plan.h), chain2=plan.chain2, lv=plan.lv_buf,
+                          kmax=np.int32(kmax), c=np.float32(plan.cfg.render.resolved()[0]),
+                          k_ssc=np.float32(plan.cfg.render.separation.level * kmax), out=plan.out,
+                          want_aov=np.int32(bool(plan.aovs)), scattered_aov=plan.scat_aov))
 
 
 def map_out(plan, t: Timings) -> np.ndarray:

@@ -62,7 +62,8 @@ def gain(cfg: Config, light) -> np.ndarray:
     pos, _ = placed(cfg, light)
     cam = np.array(cfg.camera.position, np.float64)
     dist = float(np.linalg.norm(pos - cam))
-    P = float(optical_depth(cam[None], ((pos - cam) / max(dist, 1e-12))[None], np.array([dist]), cfg)[0]) if dist > 0 else 0.0
+    P = float(optical_depth(cam[None], ((pos - cam) / max(dist, 1e-12))[None], np.array([dist]),
+                            cfg)[0]) if dist > 0 else 0.0
     tab = _gain_table()
     out = np.ones(3)
     for c, (sa, ss) in enumerate(zip(m.absorption, m.scattering)):
@@ -115,7 +116,8 @@ def optical_depth(p: np.ndarray, u: np.ndarray, L: np.ndarray, cfg: Config, skip
             sq = np.sqrt(np.maximum(s2, 0.0))
             u1, u2 = np.maximum(B, -sq), np.minimum(L + B, sq)
             du = u2 - u1
-            P = P + np.where((s2 > 0) & (du > 0), d.factor / d.radius ** 2 * du * (s2 - (u2 * u2 + u1 * u2 + u1 * u1) / 3), 0.0)
+            P = P + np.where((s2 > 0) & (du > 0),
+                             d.factor / d.radius ** 2 * du * (s2 - (u2 * u2 + u1 * u2 + u1 * u1) / 3), 0.0)
     return P
 
 
@@ -142,47 +144,40 @@ def airlight(plan, t: Timings) -> None:
     if len(lights) > 1 and plan._light_tmp is None:     # the second light on: summed after
         plan._light_tmp = (cl.Buffer(plan.rt.ctx, mf.READ_WRITE, 16 * n), cl.Buffer(plan.rt.ctx, mf.READ_WRITE, 16 * n))
     size = plan.rt.nd(plan.w, plan.h)
+    frame = dict(depth=plan.depth, width=np.int32(plan.w), height=np.int32(plan.h), cam=cam)
     for k, light in enumerate(lights):
-        dst = (plan.a_dir, plan.a_sc) if k == 0 else plan._light_tmp
+        a_dir, a_sc = (plan.a_dir, plan.a_sc) if k == 0 else plan._light_tmp
+        dst = dict(a_dir=a_dir, a_sc=a_sc)
         ls = light_struct(plan.cfg, light)
         if pk and light.type == "point":        # Pradhan & Kumar's closed form
-            ev = plan.k_lights.airlight_pk(q, *size, plan.depth, *dst, np.int32(plan.w), np.int32(plan.h), cam, lm, ls)
+            ev = plan.k_lights.airlight_pk(q, *size, **frame, **dst, m=lm, L=ls)
         elif noise_args(plan) is not None:     # the light leg from a map, the camera leg marched
             ev = airlight_noise(plan, t, dst, cam, lm, device_quad()[0], ls, light)
         elif homogeneous and light.type == "point":    # tables instead of quadrature
-            tab, grey, per_channel, common = table_args(plan, ls)
-            tsize = plan.rt.nd(-(-plan.w // plan.lanes), plan.h)
-            if grey:        # ln(ss I) per channel as its largest and exp(each - largest)
-                lk = [float(x) for x in common[2:5]]
-                lkm = max(lk)
-                scale = [np.float32(math.exp(x - lkm)) for x in lk]
-                ev = plan.k_lights.airlight_table_grey(q, *tsize, plan.depth, *dst, np.int32(plan.w),
-                                                       np.int32(plan.h), cam, tab, *common[:2], *per_channel[0],
-                                                       np.float32(lkm), *scale, *common[5:])
-            else:
-                ev = plan.k_lights.airlight_table(q, *tsize, plan.depth, *dst, np.int32(plan.w), np.int32(plan.h),
-                                                  cam, tab, *common[:2], *[x for c in per_channel for x in c],
-                                                  *common[2:])
+            tab, grey, uniforms = table_args(plan, ls)
+            kernel = plan.k_lights.airlight_table_grey if grey else plan.k_lights.airlight_table
+            ev = kernel(q, *plan.rt.nd(-(-plan.w // plan.lanes), plan.h), **frame, **dst, tab=tab, **uniforms)
         elif homogeneous and light.type == "directional":     # closed form
-            ev = plan.k_lights.airlight_sun(q, *size, plan.depth, *dst, np.int32(plan.w), np.int32(plan.h), cam, lm, ls)
+            ev = plan.k_lights.airlight_sun(q, *size, **frame, **dst, m=lm, L=ls)
         else:
-            ev = plan.k_lights.airlight(q, *size, plan.depth, *dst, np.int32(plan.w), np.int32(plan.h), cam, lm,
-                                        *device_quad(), ls)
+            prims, gl = device_quad()
+            ev = plan.k_lights.airlight(q, *size, **frame, **dst, m=lm, prims=prims, gl=gl, L=ls)
         t.add("lights", ev)
         if plan.cfg.render.lights.shadows == "screen":      # built once per process (runtime.program)
             k_shadows = plan.rt.program("shadows", **defines(plan.cfg), SH_BINS=SH_BINS, LANES=plan.lanes)
             sh = plan.cfg.render.lights
-            sh_args = (cam, lm, device_quad()[0], ls, np.float32(sh.thickness), np.int32(sh.offscreen == "shadowed"))
+            shade = dict(cam=cam, m=lm, prims=device_quad()[0], L=ls, thickness=np.float32(sh.thickness),
+                         offscreen_shadowed=np.int32(sh.offscreen == "shadowed"))
             if sh.method == "march":
-                t.add("shadows", k_shadows.shadow_march(q, *size, plan.depth, *dst, np.int32(plan.w),
-                                                        np.int32(plan.h), *sh_args))
+                t.add("shadows", k_shadows.shadow_march(q, *size, depth=plan.depth, width=np.int32(plan.w),
+                                                        height=np.int32(plan.h), **dst, **shade))
             else:
-                epipolar(plan, t, k_shadows, dst, sh_args, light)
+                epipolar(plan, t, k_shadows, dst, shade, light)
         if k > 0:
-            t.add("lights", plan.k_lights.add_light(q, *plan.rt.nd(n), plan.a_dir, dst[0], plan.a_sc, dst[1],
-                                                    np.int32(n)))
+            t.add("lights", plan.k_lights.add_light(q, *plan.rt.nd(n), a_dir=plan.a_dir, t_dir=a_dir, a_sc=plan.a_sc,
+                                                    t_sc=a_sc, n=np.int32(n)))
     t.add("lights", plan.k_lights.airlight_to_chain(
-        q, *plan.rt.nd(n), plan.a_sc, plan.chain, plan.prep, plan.lut, np.int32(n)))
+        q, *plan.rt.nd(n), a_sc=plan.a_sc, chain0=plan.chain, prep0=plan.prep, lut=plan.lut, n=np.int32(n)))
 
 
 def airlight_tables(plan):
@@ -204,10 +199,12 @@ def airlight_tables(plan):
 
 
 def table_args(plan, ls):
-    """The airlight tables on the device and the uniform values of airlight_table(_grey)
-    as scalars (a float4 argument's lanes worked on the same way get paired by LLVM and
-    stop PoCL's vectoriser): (tables, grey, per channel (st, ln st, sa, r, xm, em, table
-    offset), (g, hf, ln(ss I) x 3, gain x 3, camera-to-light x 3, radius^2))."""
+    """The airlight tables on the device, whether the medium is grey, and the uniform values
+    of airlight_table (or airlight_table_grey) by parameter name, as scalars (a float4
+    argument's lanes worked on the same way get paired by LLVM and stop PoCL's vectoriser):
+    g, hf; per channel c st, ln st, sa, r, xm, em and the table's offset (st<c> ... off<c>;
+    grey: one set, st ... off); ln(ss I) (lk<c>; grey: the largest, lkm, and exp(each -
+    largest), k<c>), the gain (gn<c>), camera-to-light (vx, vy, vz) and radius^2 (rad2)."""
     tab, rs, kind = airlight_tables(plan)
     m = plan.cfg.medium
     hf = m.homogeneous
@@ -217,24 +214,32 @@ def table_args(plan, ls):
         r = rs[c]
         xm, em = (-math.atanh(r), math.sqrt(1.0 - r * r)) if r < 1.0 else (-1e30, 0.0)
         st = hf * (m.absorption[c] + m.scattering[c])
-        per.append((f(st), f(math.log(st)) if st > 0 else f(-1e30), f(hf * m.absorption[c]), f(r), f(xm), f(em),
-                    np.int32(kind[c] * 2 * NB * NX)))
+        per.append(dict(st=f(st), lst=f(math.log(st)) if st > 0 else f(-1e30), sa=f(hf * m.absorption[c]), r=f(r),
+                        xm=f(xm), em=f(em), off=np.int32(kind[c] * 2 * NB * NX)))
     k = [hf * m.scattering[c] * float(ls["intensity"][c]) for c in range(3)]
     v = np.array(ls["pos"][:3], np.float64) - np.array(plan.cfg.camera.position, np.float64)
-    common = ([f(m.asymmetry), f(hf)] + [f(math.log(x)) if x > 0 else f(-1e30) for x in k]
-              + [f(x) for x in ls["gain"][:3]] + [f(x) for x in v] + [f(float(ls["radius"]) ** 2)])
+    out = dict(g=f(m.asymmetry), hf=f(hf), **{f"gn{c}": f(x) for c, x in enumerate(ls["gain"][:3])},
+               vx=f(v[0]), vy=f(v[1]), vz=f(v[2]), rad2=f(float(ls["radius"]) ** 2))
+    lk = [f(math.log(x)) if x > 0 else f(-1e30) for x in k]
     grey = len(set(m.absorption)) == 1 and len(set(m.scattering)) == 1
-    return tab, grey, per, common
+    if grey:        # ln(ss I) per channel as its largest and exp(each - largest)
+        lkm = max(float(x) for x in lk)
+        out.update(per[0], lkm=np.float32(lkm), **{f"k{c}": np.float32(math.exp(float(x) - lkm)) for c, x in enumerate(lk)})
+    else:
+        out.update({f"{name}{c}": value for c, p in enumerate(per) for name, value in p.items()},
+                   **{f"lk{c}": x for c, x in enumerate(lk)})
+    return tab, grey, out
 
 
 def clear_sources(plan, t: Timings, mask: np.ndarray) -> None:
     cl, n = plan.rt.cl, plan.w * plan.h
     buf = cl.Buffer(plan.rt.ctx, cl.mem_flags.READ_ONLY | cl.mem_flags.COPY_HOST_PTR,
                     hostbuf=np.ascontiguousarray(mask, np.uint8))
-    t.add("lights", plan.k_lights.clear_sources(plan.rt.queue, *plan.rt.nd(n), plan.chain, plan.prep, buf,
-                                                 np.int32(n)))
+    t.add("lights",
+          plan.k_lights.clear_sources(plan.rt.queue, *plan.rt.nd(n), chain0=plan.chain, prep0=plan.prep, mask=buf,
+                                      n=np.int32(n)))
 
 
 def add_airlight(plan, t: Timings) -> None:
     n = plan.w * plan.h
-    t.add("lights", plan.k_lights.add_airlight(plan.rt.queue, *plan.rt.nd(n), plan.out, plan.a_dir, np.int32(n)))
+    t.add("lights", plan.k_lights.add_airlight(plan.rt.queue, *plan.rt.nd(n), out=plan.out, a_dir=plan.a_dir, n=np.int32(n)))

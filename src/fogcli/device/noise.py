@@ -118,13 +118,14 @@ def probe_map(cfg: Config, light, points: np.ndarray, device=None) -> np.ndarray
     count = np.int32(len(primitives(cfg)))
     coef = cl.Buffer(rt.ctx, mf.READ_WRITE, 4 * r.tfm_size ** 2 * (r.coefficients + 2))
     span = cl.Buffer(rt.ctx, mf.READ_WRITE, 16 * r.tfm_size ** 2)
-    k.tfm_build(q, *rt.nd(r.tfm_size, r.tfm_size), coef, span, tm, nz, count)
+    k.tfm_build(q, *rt.nd(r.tfm_size, r.tfm_size), coef=coef, span=span, tm=tm, nz=nz, count=count)
     pts = np.zeros((len(points), 4), np.float32)
     pts[:, :3] = points
     xb = cl.Buffer(rt.ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=pts)
     out = np.empty(len(points), np.float32)
     ob = cl.Buffer(rt.ctx, mf.WRITE_ONLY, max(out.nbytes, 4))
-    k.tfm_probe(q, *rt.nd(len(points)), xb, ob, np.int32(len(points)), tm, coef, span, nz, count)
+    k.tfm_probe(q, *rt.nd(len(points)), x=xb, tau=ob, n=np.int32(len(points)), tm=tm, coef=coef, span=span, nz=nz,
+                count=count)
     cl.enqueue_copy(q, out, ob)
     return out
 
@@ -132,16 +133,16 @@ def probe_map(cfg: Config, light, points: np.ndarray, device=None) -> np.ndarray
 # -- on a plan (kernels/density.cl p_noise, tfm.cl)
 
 def noise_args(plan):
-    """(device noise_t array, count) of the noise primitives of the current cfg (a plan
-    outlives its cfg: get_plan), or None without noise."""
+    """The noise primitives of the current cfg (a plan outlives its cfg: get_plan) as the
+    kernels' nz (a device noise_t array) and count, or None without noise."""
     if not primitives(plan.cfg):
         return None
     ns = structs(plan.cfg)
     if plan._noise is None or plan._noise[0] != ns.tobytes():
         mf = plan.rt.cl.mem_flags
-        plan._noise = (ns.tobytes(), plan.rt.cl.Buffer(plan.rt.ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=ns),
-                       np.int32(len(primitives(plan.cfg))))
-    return plan._noise[1:]
+        plan._noise = (ns.tobytes(), dict(nz=plan.rt.cl.Buffer(plan.rt.ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=ns),
+                                          count=np.int32(len(primitives(plan.cfg)))))
+    return plan._noise[1]
 
 
 def noise_grid(plan) -> tuple[int, int, int]:
@@ -173,19 +174,18 @@ def airlight_noise(plan, t: Timings, dst, cam, lm, prims, ls, light):
     _, coef, span = plan._tfm
     k = plan.rt.program("tfm", **defines(plan.cfg))
     noise = noise_args(plan)
-    t.add("tfm", k.tfm_build(q, *plan.rt.nd(r.tfm_size, r.tfm_size), coef, span, tm, *noise))
-    args = (cam, lm, prims, ls, *noise, tm, coef, span, np.int32(r.nodes))
+    t.add("tfm", k.tfm_build(q, *plan.rt.nd(r.tfm_size, r.tfm_size), coef=coef, span=span, tm=tm, **noise))
     st, cw, ch = noise_grid(plan)
+    args = dict(depth=plan.depth, width=np.int32(plan.w), height=np.int32(plan.h), cam=cam, m=lm, prims=prims, L=ls,
+                **noise, tm=tm, coef=coef, span=span, sub=np.int32(r.nodes), stride=np.int32(st), cw=np.int32(cw),
+                ch=np.int32(ch))
     if st == 1:
-        return k.airlight_noise(q, *plan.rt.nd(cw, ch), plan.depth, *dst, np.int32(plan.w), np.int32(plan.h), *args,
-                                np.int32(st), np.int32(cw), np.int32(ch))
+        return k.airlight_noise(q, *plan.rt.nd(cw, ch), **dst, **args)
     if plan._noise_samples is None or plan._noise_samples[0] != cw * ch:
         mf = cl.mem_flags
         plan._noise_samples = (cw * ch, *(cl.Buffer(plan.rt.ctx, mf.READ_WRITE, 16 * cw * ch) for _ in range(2)))
     s_dir, s_sc = plan._noise_samples[1:]
-    t.add("lights", k.airlight_noise(q, *plan.rt.nd(cw, ch), plan.depth, s_dir, s_sc, np.int32(plan.w),
-                                     np.int32(plan.h), *args, np.int32(st), np.int32(cw), np.int32(ch)))
+    t.add("lights", k.airlight_noise(q, *plan.rt.nd(cw, ch), a_dir=s_dir, a_sc=s_sc, **args))
     lx, ly = light_image(plan.cfg, light, plan.w, plan.h)
-    return k.airlight_fill(q, *plan.rt.nd(plan.w, plan.h), plan.depth, *dst, s_dir, s_sc, np.int32(plan.w),
-                           np.int32(plan.h), *args, np.int32(st), np.int32(cw), np.int32(ch), np.float32(lx),
-                           np.float32(ly))
+    return k.airlight_fill(q, *plan.rt.nd(plan.w, plan.h), **dst, s_dir=s_dir, s_sc=s_sc, **args, lx=np.float32(lx),
+                           ly=np.float32(ly))

@@ -332,37 +332,39 @@ class Plan:
             return self.chain2, self.half2, self.prep2
         return self.chain, self.image, self.prep
 
-    def launch_pairs(self, t: Timings, region, pairs, kernels, w: int, h: int, args: tuple, chain, up: int) -> None:
+    def launch_pairs(self, t: Timings, region, pairs, kernels, w: int, h: int, args: dict, chain, up: int) -> None:
         """A w x h level through its two-pixel kernel (`pairs`, pairs.h) on `region`, the
         per-pixel kernel around it (_launch_inner). The pair kernels read level `up` of
         `chain` up-sampled along y to this level's rows, as colour planes (up_rows, made
         here), and take the region's corner as arguments (pairs.h, Addressing)."""
         if region is not None:
             o, uw, uh, _ = (int(v) for v in self.lv[up])
-            t.add("composite", self.rt.launch2d(self.k_up_rows, uw, h, chain, np.int32(o), np.int32(uw), np.int32(uh),
-                                                np.int32(h), self.up_planes))
+            t.add("composite",
+                  self.rt.launch2d(self.k_up_rows, uw, h, chain=chain, off=np.int32(o), uw=np.int32(uw),
+                                   uh=np.int32(uh), h=np.int32(h), planes=self.up_planes))
         self.launch_inner(t, "composite", region, pairs, kernels, w, h, args, per=2, corner_args=True,
-                           extra=(self.up_planes,))
+                          extra={"up_planes": self.up_planes})
 
-    def launch_inner(self, t: Timings, stage: str, region, inner, kernels, w: int, h: int, args: tuple,
-                      per: int = 1, corner_args: bool = False, extra: tuple = ()) -> None:
+    def launch_inner(self, t: Timings, stage: str, region, inner, kernels, w: int, h: int, args: dict,
+                     per: int = 1, corner_args: bool = False, extra: dict | None = None) -> None:
         """A w x h kernel through `inner` on `region` [x0, x1) x [y0, y1) (whole work-groups,
         `per` pixels of a row per work-item; its corner as a global offset, or with
         corner_args as two more arguments, x0 / per and y0) and the checked per-pixel kernel
         (kernels[1]) on the four strips around it; without a region, the per-pixel kernels
         alone (launch2d)."""
         if region is None:
-            t.add(stage, self.rt.launch2d(kernels, w, h, *args))
+            t.add(stage, self.rt.launch2d(kernels, w, h, **args))
             return
         (x0, x1, y0, y1), q = region, self.rt.queue
         size = ((x1 - x0) // per, y1 - y0)
         if corner_args:
-            t.add(stage, inner(q, size, self.rt.local2d, *args, *extra, np.int32(x0 // per), np.int32(y0)))
+            t.add(stage, inner(q, size, self.rt.local2d, **args, **(extra or {}), px0=np.int32(x0 // per),
+                               py0=np.int32(y0)))
         else:
-            t.add(stage, inner(q, size, self.rt.local2d, *args, global_offset=(x0 // per, y0)))
+            t.add(stage, inner(q, size, self.rt.local2d, **args, global_offset=(x0 // per, y0)))
         for gx, gy, ox, oy in ((w, y0, 0, 0), (w, h - y1, 0, y1), (x0, y1 - y0, 0, y0), (w - x1, y1 - y0, x1, y0)):
             if gx > 0 and gy > 0:     # exact sizes: no pixel twice (the separated chain's pass adds)
-                t.add(stage, kernels[1](q, (gx, gy), None, *args, global_offset=(ox, oy)))
+                t.add(stage, kernels[1](q, (gx, gy), None, **args, global_offset=(ox, oy)))
 
     def download(self, buf, channels: int, t: Timings) -> np.ndarray:
         arr = np.empty((self.h, self.w, channels) if channels > 1 else (self.h, self.w), np.float32)

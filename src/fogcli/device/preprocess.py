@@ -49,18 +49,18 @@ def optical_depth(plan, t: Timings, depth=None, out=None) -> None:
     cam = camera_struct(plan.cfg, plan.w, plan.h)
     launches = primitive_launches(plan.cfg)
     noise = noise_args(plan)
+    frame = dict(depth=plan.depth if depth is None else depth, width=np.int32(plan.w), height=np.int32(plan.h), cam=cam)
     if noise is not None:          # the samples of render.noise_stride first, then every pixel
         st, cw, ch = noise_grid(plan)
+        grid = dict(stride=np.int32(st), cw=np.int32(cw), ch=np.int32(ch))
         samples = p_samples(plan, cw * ch)
-        t.add("preprocess", plan.k_density.p_noise_samples(
-            plan.rt.queue, *plan.rt.nd(cw, ch), plan.depth if depth is None else depth, samples, np.int32(plan.w),
-            np.int32(plan.h), cam, *noise, np.int32(st), np.int32(cw), np.int32(ch)))
-        launches.append(("p_noise", (*noise, samples, np.int32(st), np.int32(cw), np.int32(ch))))
+        t.add("preprocess", plan.k_density.p_noise_samples(plan.rt.queue, *plan.rt.nd(cw, ch), **frame, S=samples,
+                                                           **noise, **grid))
+        launches.append(("p_noise", dict(**noise, S=samples, **grid)))
     for k, (name, args) in enumerate(launches):
         t.add("preprocess", getattr(plan.k_density, name)(
-            plan.rt.queue, *plan.rt.nd(plan.w, plan.h), plan.depth if depth is None else depth,
-            plan.spread if out is None else out, np.int32(plan.w), np.int32(plan.h), cam, *args,
-            np.int32(k > 0)))
+            plan.rt.queue, *plan.rt.nd(plan.w, plan.h), **frame, P=plan.spread if out is None else out, **args,
+            accumulate=np.int32(k > 0)))
 
 
 def coverage(plan, t: Timings, empty_depth: float) -> None:
@@ -75,9 +75,10 @@ def coverage(plan, t: Timings, empty_depth: float) -> None:
         p_empty = cl.Buffer(plan.rt.ctx, mf.READ_WRITE, 4 * n)
         cl.enqueue_fill_buffer(q, d_empty, np.float32(empty_depth), 0, 4 * n)
         optical_depth(plan, t, d_empty, p_empty)
-    t.add("preprocess", plan.k_pre_prog.coverage(
-        q, *plan.rt.nd(plan.w, plan.h), plan.direct, p_empty, ms["has_p"], np.int32(plan.w),
-        np.int32(plan.h), ms, np.float32(min(empty_depth, 3e38)), plan.lut))
+    t.add("preprocess",
+          plan.k_pre_prog.coverage(q, *plan.rt.nd(plan.w, plan.h), direct=plan.direct, P_empty=p_empty,
+                                   has_p=ms["has_p"], width=np.int32(plan.w), height=np.int32(plan.h), m=ms,
+                                   empty_depth=np.float32(min(empty_depth, 3e38)), lut=plan.lut))
 
 
 def upload_lut(plan, t: Timings, table: dict | None = None) -> np.ndarray | None:
@@ -107,10 +108,12 @@ def preprocess(plan, t: Timings) -> None:
         nx, ny = (plan.w - 2) // lx * lx, (plan.h - 2) // ly * ly
         plan.launch_inner(t, "preprocess", (1, 1 + nx, 1, 1 + ny) if nx > 0 and ny > 0 else None,
                            whole.view_cosines_inner, (whole.view_cosines, checked.view_cosines), plan.w, plan.h,
-                           (plan.depth, plan.cosines, np.int32(plan.w), np.int32(plan.h),
-                            camera_struct(plan.cfg, plan.w, plan.h)))
-    t.add("preprocess", plan.rt.launch2d(
-        (whole.preprocess, checked.preprocess), plan.w, plan.h, plan.image, plan.depth, plan.direct,
-        plan.chain, plan.spread, plan.medium, plan.trans, np.int32(plan.w), np.int32(plan.h),
-        medium_struct(plan.cfg, plan.w, plan.h), plan.prep, np.float32(plan.threshold(1)), np.float32(eps),
-        plan.chain2, plan.prep2, plan.sep_params(), plan.lut, plan.cosines))
+                          dict(depth=plan.depth, cosv=plan.cosines, width=np.int32(plan.w), height=np.int32(plan.h),
+                               cam=camera_struct(plan.cfg, plan.w, plan.h)))
+    t.add("preprocess",
+          plan.rt.launch2d((whole.preprocess, checked.preprocess), plan.w, plan.h, image=plan.image, depth=plan.depth,
+                           direct=plan.direct, scat0=plan.chain, spread0=plan.spread, medium_term=plan.medium,
+                           transmittance=plan.trans, width=np.int32(plan.w), height=np.int32(plan.h),
+                           m=medium_struct(plan.cfg, plan.w, plan.h), prep0=plan.prep,
+                           thresh1=np.float32(plan.threshold(1)), eps=np.float32(eps), sep_chain0=plan.chain2,
+                           sep_prep0=plan.prep2, sep_par=plan.sep_params(), lut=plan.lut, cosines=plan.cosines))

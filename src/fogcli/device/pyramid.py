@@ -31,9 +31,11 @@ def reduce(plan, t: Timings, masked: bool, second: bool = False) -> None:
         taps = len(FILTERS[plan.cfg.render.kernel])
         for k in range(1, len(plan.sizes)):
             (so, sw, sh, _), (do, dw, dh, _) = plan.lv[k - 1], plan.lv[k]
-            args = (chain, prep, np.int32(so), np.int32(sw), np.int32(sh), np.int32(do), np.int32(dw),
-                    np.int32(dh), np.float32(plan.threshold(k + 1)), np.float32(eps), plan.lut, np.int32(k),
-                    plan.edge, np.int32(plan.edge_off[k]), plan.cons, np.int32(plan.cons_off[k]))
+            args = dict(chain=chain, prep=prep, src_off=np.int32(so), sw=np.int32(sw), sh=np.int32(sh),
+                        dst_off=np.int32(do), dw=np.int32(dw), dh=np.int32(dh),
+                        thresh_next=np.float32(plan.threshold(k + 1)), eps=np.float32(eps), lut=plan.lut,
+                        level=np.int32(k), edge=plan.edge, edge_off=np.int32(plan.edge_off[k]), cons=plan.cons,
+                        cons_off=np.int32(plan.cons_off[k]))
             # on an 8-wide CPU without AVX-512 LLVM leaves the interior kernel scalar (its
             # table reads would be gathers, which it does not emit there), and the
             # per-pixel kernel is the faster scalar code (tools/avx2/run.sh)
@@ -45,19 +47,19 @@ def reduce(plan, t: Timings, masked: bool, second: bool = False) -> None:
     spread = plan.spread2 if second else plan.spread
     for k in range(1, len(plan.sizes)):
         (so, sw, sh, _), (do, dw, dh, _) = plan.lv[k - 1], plan.lv[k]
-        t.add("pyramid", plan.k_reduce(
-            q, *plan.rt.nd(dw, dh), chain, spread,
-            np.int32(so), np.int32(sw), np.int32(sh), np.int32(do), np.int32(dw), np.int32(dh),
-            np.float32(plan.threshold(k)), np.float32(eps), np.int32(masked)))
+        t.add("pyramid",
+              plan.k_reduce(q, *plan.rt.nd(dw, dh), chain=chain, spread_chain=spread, src_off=np.int32(so),
+                            sw=np.int32(sw), sh=np.int32(sh), dst_off=np.int32(do), dw=np.int32(dw), dh=np.int32(dh),
+                            thresh=np.float32(plan.threshold(k)), eps=np.float32(eps), masked=np.int32(masked)))
 
 
 def split(plan, t: Timings, k: int, chain, out) -> None:
     """Half-octave shares of level k of `chain` into `out` (level-0 sized scratch)."""
     o, w, h, _ = (int(v) for v in plan.lv[k])
     t.add("composite", plan.rt.launch2d(
-        plan.k_split, w, h, chain, np.int32(o), np.int32(h), out, np.float32(plan.threshold(k + 1)),
-        np.float32(plan.cfg.render.resolved()[1]), plan.lut, np.int32(k), np.int32(w), plan.edge,
-        np.int32(plan.edge_off[k])))
+        plan.k_split, w, h, chain=chain, off=np.int32(o), h=np.int32(h), half_img=out,
+        thresh=np.float32(plan.threshold(k + 1)), eps=np.float32(plan.cfg.render.resolved()[1]), lut=plan.lut,
+        level=np.int32(k), w=np.int32(w), edge=plan.edge, edge_off=np.int32(plan.edge_off[k])))
 
 
 def collapse(plan, t: Timings, second: bool = False, ext: bool = False) -> None:
@@ -73,8 +75,9 @@ def collapse(plan, t: Timings, second: bool = False, ext: bool = False) -> None:
     for k in range(top - 1, 0, -1):
         (o, w, h, _), (uo, uw, uh, _) = plan.lv[k], plan.lv[k + 1]
         split(plan, t, k, chain, half)
-        args = (chain, np.int32(o), np.int32(w), np.int32(h), half, np.int32(uo), np.int32(uw), np.int32(uh),
-                np.float32(a), prep, plan.edge, np.int32(plan.edge_off[k]), plan.cons, np.int32(plan.cons_off[k + 1]))
+        args = dict(chain=chain, off=np.int32(o), w=np.int32(w), h=np.int32(h), half_img=half, up_off=np.int32(uo),
+                    uw=np.int32(uw), uh=np.int32(uh), a=np.float32(a), prep=prep, edge=plan.edge,
+                    edge_off=np.int32(plan.edge_off[k]), cons=plan.cons, cons_up=np.int32(plan.cons_off[k + 1]))
         plan.launch_pairs(t, plan._pairs[k], plan.k_collapse_pairs, plan.k_collapse, w, h, args, chain, k + 1)
         if ext and k == plan._ext_level:
             inject(plan, t)
@@ -83,5 +86,6 @@ def collapse(plan, t: Timings, second: bool = False, ext: bool = False) -> None:
 def inject(plan, t: Timings) -> None:
     o, w, h, _ = (int(v) for v in plan.lv[plan._ext_level])
     pw, ox, oy = plan._ext_geom
-    t.add("composite", plan.k_border_inject(plan.rt.queue, *plan.rt.nd(w, h), plan.chain, np.int32(o),
-                                            np.int32(w), np.int32(h), plan._ext.out, pw, ox, oy))
+    t.add("composite",
+          plan.k_border_inject(plan.rt.queue, *plan.rt.nd(w, h), chain=plan.chain, off=np.int32(o), w=np.int32(w),
+                               h=np.int32(h), ext=plan._ext.out, pw=pw, ox=ox, oy=oy))

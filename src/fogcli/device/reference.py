@@ -48,11 +48,13 @@ class _Blur:
         """Taps and the 1-D normalisations of a Gaussian of `sigma`; returns its reach."""
         p, rt, t = self.plan, self.plan.rt, self.t
         R = int(math.ceil(4.0 * sigma))
-        t.add("reference", self.prog.ref_taps(self.q, *rt.nd(R + 1), self.taps, np.float32(sigma), np.int32(R)))
-        t.add("reference", self.prog.ref_norm1d(self.q, *rt.nd(p.w), self.taps, np.int32(R), np.int32(p.w),
-                                                self.nx, self.open))
-        t.add("reference", self.prog.ref_norm1d(self.q, *rt.nd(p.h), self.taps, np.int32(R), np.int32(p.h),
-                                                self.ny, self.open))
+        t.add("reference", self.prog.ref_taps(self.q, *rt.nd(R + 1), taps=self.taps, sigma=np.float32(sigma), R=np.int32(R)))
+        t.add("reference",
+              self.prog.ref_norm1d(self.q, *rt.nd(p.w), taps=self.taps, R=np.int32(R), n=np.int32(p.w), norm=self.nx,
+                                   open_border=self.open))
+        t.add("reference",
+              self.prog.ref_norm1d(self.q, *rt.nd(p.h), taps=self.taps, R=np.int32(R), n=np.int32(p.h), norm=self.ny,
+                                   open_border=self.open))
         return R
 
     def blur_add(self, R: int) -> None:
@@ -61,10 +63,12 @@ class _Blur:
         mx, my = self.margin
         R = np.int32(min(R, max(p.w + mx, p.h + my)))
         w, h = np.int32(p.w), np.int32(p.h)
-        t.add("reference", self.prog.ref_rows(self.q, *rt.nd(p.w, p.h), self.src, w, h, self.taps, R,
-                                              np.int32(mx), self.tmp))
-        t.add("reference", self.prog.ref_cols_acc(self.q, *rt.nd(p.w, p.h), self.tmp, w, h, self.taps, R,
-                                                  np.int32(my), self.acc))
+        t.add("reference",
+              self.prog.ref_rows(self.q, *rt.nd(p.w, p.h), src=self.src, width=w, height=h, taps=self.taps, R=R,
+                                 margin=np.int32(mx), dst=self.tmp))
+        t.add("reference",
+              self.prog.ref_cols_acc(self.q, *rt.nd(p.w, p.h), src=self.tmp, width=w, height=h, taps=self.taps, R=R,
+                                     margin=np.int32(my), acc_img=self.acc))
 
 
 def reference_into(plan, t) -> None:
@@ -79,21 +83,27 @@ def reference_into(plan, t) -> None:
             if shape[j].max() <= 0.0:
                 continue   # no pixel of this medium has light in this Gaussian
             R = blur.norms(float(sj) if sj >= S0 else 1e-3)   # sharper than S0: a delta
-            t.add("reference", blur.prog.ref_apsf_source(q, *rt.nd(w, h), plan.chain, plan.lut, np.int32(w),
-                                                         np.int32(h), np.int32(j), blur.nx, blur.ny, blur.src))
+            t.add("reference",
+                  blur.prog.ref_apsf_source(q, *rt.nd(w, h), scat0=plan.chain, lut=plan.lut, width=np.int32(w),
+                                            height=np.int32(h), j=np.int32(j), norm_x=blur.nx, norm_y=blur.ny,
+                                            src=blur.src))
             blur.blur_add(R)
     else:
         sigma = plan.download(plan.spread, 1, t)   # glue: which bins exist decides the work
         blur = _Blur(plan, t, float(sigma.max()))
         for b in _bins_needed(sigma):
             R = blur.norms(S0 * RATIO ** b)
-            t.add("reference", blur.prog.ref_bin_source(q, *rt.nd(w, h), plan.chain, plan.spread, np.int32(w),
-                                                        np.int32(h), np.float32(S0), np.float32(math.log(RATIO)),
-                                                        np.int32(b), blur.nx, blur.ny, blur.src))
+            t.add("reference",
+                  blur.prog.ref_bin_source(q, *rt.nd(w, h), scat0=plan.chain, spread0=plan.spread, width=np.int32(w),
+                                           height=np.int32(h), s0=np.float32(S0),
+                                           log_ratio=np.float32(math.log(RATIO)), b=np.int32(b), norm_x=blur.nx,
+                                           norm_y=blur.ny, src=blur.src))
             blur.blur_add(R)
-    t.add("reference", blur.prog.ref_finish(q, *rt.nd(n), plan.direct, plan.medium, blur.acc, np.int32(n),
-                                            np.int32(plan.split_medium), plan.out,
-                                            np.int32(bool(plan.aovs)), plan.level_aov, plan.scat_aov))
+    t.add("reference",
+          blur.prog.ref_finish(q, *rt.nd(n), direct=plan.direct, medium_term=plan.medium, acc_img=blur.acc,
+                               n=np.int32(n), add_medium=np.int32(plan.split_medium), out=plan.out,
+                               want_aov=np.int32(bool(plan.aovs)), level_aov=plan.level_aov,
+                               scattered_aov=plan.scat_aov))
 
 
 def brute_force(plan, t) -> np.ndarray:
@@ -103,9 +113,12 @@ def brute_force(plan, t) -> np.ndarray:
     prog = rt.program("reference", **_defines(plan))
     norm = cl.Buffer(rt.ctx, cl.mem_flags.READ_WRITE, 4 * n)
     out = cl.Buffer(rt.ctx, cl.mem_flags.READ_WRITE, 16 * n)
-    t.add("reference", prog.ref_brute_norm(q, *rt.nd(w, h), plan.spread, np.int32(w), np.int32(h), norm,
-                                           np.int32(open_border(plan.cfg))))
-    t.add("reference", prog.ref_brute(q, *rt.nd(w, h), plan.chain, plan.spread, norm, np.int32(w), np.int32(h), out))
+    t.add("reference",
+          prog.ref_brute_norm(q, *rt.nd(w, h), spread0=plan.spread, width=np.int32(w), height=np.int32(h), norm=norm,
+                              open_border=np.int32(open_border(plan.cfg))))
+    t.add("reference",
+          prog.ref_brute(q, *rt.nd(w, h), scat0=plan.chain, spread0=plan.spread, norm=norm, width=np.int32(w),
+                         height=np.int32(h), out=out))
     return plan.download(out, 4, t)[:, :, :3]
 
 

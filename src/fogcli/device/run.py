@@ -141,6 +141,6 @@ def write_level0(plan: Plan, scat: np.ndarray, spread: np.ndarray) -> None:
         if plan.apsf:
             raise NotImplementedError("write_level0 drives the Gaussian chain only")
         eps = plan.cfg.render.resolved()[1]
-        plan.k_prep0(q, *plan.rt.nd(plan.w * plan.h), plan.chain, plan.prep, np.int32(plan.w * plan.h),
-                     np.float32(plan.threshold(1)), np.float32(eps))
+        plan.k_prep0(q, *plan.rt.nd(plan.w * plan.h), chain=plan.chain, prep=plan.prep, n=np.int32(plan.w * plan.h),
+                     thresh1=np.float32(plan.threshold(1)), eps=np.float32(eps))
     q.finish()

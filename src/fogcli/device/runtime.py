@@ -156,29 +156,49 @@ def _arg_dtype(arg):
 
 
 class _Kernel:
-    """One kernel, retrieved (and its program built) at its first launch. Its scalar
-    argument types are declared from that launch's arguments: undeclared, pyopencl sets
-    each scalar through a generic path of ~9 us (PoCL, pyopencl 2026.1), which made an
-    enqueue of 18 arguments ~100 us and the ~140 launches of a 2 MPx frame ~14 ms of
-    host time, taken from the cores the kernels run on; declared, ~3 us
+    """One kernel, retrieved (and its program built) at its first launch, launched with its
+    arguments by name: checked against the kernel's own parameter list (OpenCL's argument
+    info, -cl-kernel-arg-info) and put in its order, so that a renamed, added or dropped
+    parameter fails at the launch with its name instead of shifting every argument after
+    it. Its scalar argument types are declared from the first launch's arguments:
+    undeclared, pyopencl sets each scalar through a generic path of ~9 us (PoCL, pyopencl
+    2026.1), which made an enqueue of 18 arguments ~100 us and the ~140 launches of a 2 MPx
+    frame ~14 ms of host time, taken from the cores the kernels run on; declared, ~3 us
     (tools/enqueue_cost.py)."""
 
-    __slots__ = ("_owner", "_name", "_k", "_typed")
+    __slots__ = ("_owner", "_name", "_k", "_typed", "_params")
 
     def __init__(self, owner: _Kernels, name: str):
-        self._owner, self._name, self._k, self._typed = owner, name, None, False
+        self._owner, self._name, self._k, self._typed, self._params = owner, name, None, False, None
 
     def _get(self):
         if self._k is None:
             self._k = self._owner.kernel(self._name)
         return self._k
 
-    def __call__(self, queue, global_size, local_size, *args, **kwargs):
+    @property
+    def params(self) -> tuple[str, ...]:
+        """The kernel's parameter names, in order, as the device reports them."""
+        if self._params is None:
+            k, cl = self._get(), self._owner._cl
+            n = k.get_info(cl.kernel_info.NUM_ARGS)
+            self._params = tuple(k.get_arg_info(i, cl.kernel_arg_info.NAME) for i in range(n))
+        return self._params
+
+    def __call__(self, queue, global_size, local_size, /, *, global_offset=None, **named):
+        params = self.params
+        if named.keys() != set(params):
+            missing = [p for p in params if p not in named]
+            extra = sorted(set(named) - set(params))
+            said = ([f"missing {', '.join(missing)}"] if missing else []) + \
+                ([f"no parameter {', '.join(extra)}"] if extra else [])
+            raise TypeError(f"kernel {self._name}: " + "; ".join(said))
+        args = [named[p] for p in params]
         k = self._get()
         if not self._typed:
             k.set_scalar_arg_dtypes([_arg_dtype(a) for a in args])
             self._typed = True
-        return k(queue, global_size, local_size, *args, **kwargs)
+        return k(queue, global_size, local_size, *args, global_offset=global_offset)
 
     def __getattr__(self, attr):
         return getattr(self._get(), attr)
@@ -214,7 +234,7 @@ class Runtime:
         lx, ly = self.local2d
         return (-(-int(w) // lx) * lx, -(-int(h) // ly) * ly), (lx, ly)
 
-    def launch2d(self, kernels, w: int, h: int, *args) -> list:
+    def launch2d(self, kernels, w: int, h: int, /, **args) -> list:
         """Run a w x h kernel as (whole, checked): `whole`, built with -D WHOLE_GROUPS, on the
         part that whole work-groups cover, without a bounds check; `checked` on the strips to
         its right and below. Under a bounds check PoCL must mask every memory access of a
@@ -224,20 +244,20 @@ class Runtime:
         w0, h0 = w // lx * lx, h // ly * ly
         q, evs = self.queue, []
         if w0 and h0:
-            evs.append(kernels[0](q, (w0, h0), (lx, ly), *args))
+            evs.append(kernels[0](q, (w0, h0), (lx, ly), **args))
         if w0 < w:
-            evs.append(kernels[1](q, (lx, -(-h // ly) * ly), (lx, ly), *args, global_offset=(w0, 0)))
+            evs.append(kernels[1](q, (lx, -(-h // ly) * ly), (lx, ly), global_offset=(w0, 0), **args))
         if h0 < h and w0:
-            evs.append(kernels[1](q, (w0, ly), (lx, ly), *args, global_offset=(0, h0)))
+            evs.append(kernels[1](q, (w0, ly), (lx, ly), global_offset=(0, h0), **args))
         return evs
 
-    def launch1d(self, kernels, n: int, *args) -> list:
+    def launch1d(self, kernels, n: int, /, **args) -> list:
         """launch2d for a kernel over n items: whole work-groups, then the rest checked."""
         lx = self.local1d
         n0 = n // lx * lx
-        evs = [kernels[0](self.queue, (n0,), (lx,), *args)] if n0 else []
+        evs = [kernels[0](self.queue, (n0,), (lx,), **args)] if n0 else []
         if n0 < n:
-            evs.append(kernels[1](self.queue, (lx,), (lx,), *args, global_offset=(n0,)))
+            evs.append(kernels[1](self.queue, (lx,), (lx,), global_offset=(n0,), **args))
         return evs
 
     def program(self, name: str, **defines):
@@ -247,7 +267,8 @@ class Runtime:
         prog = self._programs.get(key)
         if prog is None:
             src = (KERNEL_DIR / f"{name}.cl").read_text()
-            opts = ["-I", str(KERNEL_DIR)]
+            # argument info: kernels are launched by parameter name (_Kernel)
+            opts = ["-I", str(KERNEL_DIR), "-cl-kernel-arg-info"]
             if self.pocl:      # kernels/common.h: clang builtins where PoCL's library calls are slow
                 opts += ["-D", "FOGCLI_POCL=1"]
             for k, v in sorted(defines.items()):

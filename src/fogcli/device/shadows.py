@@ -62,12 +62,14 @@ def epipolar_layout(cfg: Config, light, width: int, height: int, slices: int, st
     return float(e[0]), float(e[1]), a0, da, r0, rb, h1, float(step), m1, nm, ns, full, front
 
 
-def epipolar(plan, t: Timings, k, dst, sh_args, light) -> None:
+def epipolar(plan, t: Timings, k, dst: dict, shade: dict, light) -> None:
     """render.lights.method: epipolar (kernels/shadows.cl): each slice through the light's
     image walked once into a 1D shadow map with min/max trees (epi_maps), the shares at
     samples on the slices read from them (epi_samples), then every pixel from its four
     samples (epi_unwarp), or marched (epi_march: the pixels epi_unwarp flagged).
-    plan.epi_marched[0]: how many pixels were marched themselves (tools/shadows.py)."""
+    plan.epi_marched[0]: how many pixels were marched themselves (tools/shadows.py). dst:
+    the airlight's buffers (a_dir, a_sc); shade: the shadow kernels' light and medium
+    arguments (lights.airlight)."""
     cl, q = plan.rt.cl, plan.rt.queue
     sh = plan.cfg.render.lights
     ex, ey, a0, da, r0, rb, h1, h2, m1, nm, ns, full, front = epipolar_layout(plan.cfg, light, plan.w, plan.h,
@@ -81,15 +83,17 @@ def epipolar(plan, t: Timings, k, dst, sh_args, light) -> None:
     sh_a, sh_t, maps, ranges, counter = plan._epi[2:]
     plan.epi_marched = np.zeros(1, np.int32)
     cl.enqueue_fill_buffer(q, counter, np.int32(0), 0, 4)
-    lay = (*(np.float32(x) for x in (ex, ey, a0, da, r0, rb, h1, h2)), np.int32(m1), np.int32(nm), np.int32(ns))
-    cam_, _, _, ls, thick, _ = sh_args
+    f = np.float32
+    slices = dict(ex=f(ex), ey=f(ey), a0=f(a0), da=f(da), ns=np.int32(ns))
+    lay = dict(slices, r0=f(r0), rb=f(rb), h1=f(h1), h2=f(h2), m1=np.int32(m1), nm=np.int32(nm))
+    frame = dict(depth=plan.depth, width=np.int32(plan.w), height=np.int32(plan.h))
     inside = front and full         # the lines reach the light's image inside the frame
-    t.add("shadows", k.epi_maps(q, *plan.rt.nd(ns), plan.depth, maps, ranges, np.int32(plan.w), np.int32(plan.h),
-                                cam_, ls, thick, *lay[:4], np.int32(ns), np.int32(not inside)))
-    t.add("shadows", k.epi_samples(q, *plan.rt.nd(nm, ns), plan.depth, sh_a, sh_t, np.int32(plan.w),
-                                   np.int32(plan.h), *sh_args, *lay, maps, ranges))
-    t.add("shadows", k.epi_unwarp(q, *plan.rt.nd(-(-plan.w // plan.lanes), plan.h), plan.depth, *dst, sh_a, sh_t, np.int32(plan.w),
-                                  np.int32(plan.h), cam_, *lay, np.int32(full), plan.epi_flags))
-    t.add("shadows", k.epi_march(q, *plan.rt.nd(plan.w, plan.h), plan.depth, *dst, np.int32(plan.w),
-                                 np.int32(plan.h), *sh_args, plan.epi_flags, counter))
+    t.add("shadows", k.epi_maps(q, *plan.rt.nd(ns), **frame, maps=maps, ranges=ranges, cam=shade["cam"], L=shade["L"],
+                                thickness=shade["thickness"], **slices, off=np.int32(not inside)))
+    t.add("shadows", k.epi_samples(q, *plan.rt.nd(nm, ns), **frame, sh_a=sh_a, sh_t=sh_t, **shade, **lay, maps=maps,
+                                   ranges=ranges))
+    t.add("shadows", k.epi_unwarp(q, *plan.rt.nd(-(-plan.w // plan.lanes), plan.h), **frame, **dst, sh_a=sh_a,
+                                  sh_t=sh_t, cam=shade["cam"], **lay, full_circle=np.int32(full), march=plan.epi_flags))
+    t.add("shadows", k.epi_march(q, *plan.rt.nd(plan.w, plan.h), **frame, **dst, **shade, march=plan.epi_flags,
+                                 marched=counter))
     cl.enqueue_copy(q, plan.epi_marched, counter, is_blocking=False)     # read with the download

@@ -89,8 +89,8 @@ def medium_struct(cfg: Config, width: int, height: int) -> np.ndarray:
     return s
 
 
-def primitive_launches(cfg: Config) -> list[tuple[str, tuple]]:
-    """(kernel, its primitive arguments) per non-homogeneous density primitive. For an
+def primitive_launches(cfg: Config) -> list[tuple[str, dict]]:
+    """(kernel, its primitive arguments by name) per non-homogeneous density primitive. For an
     exponential, factor * exp(-b <c - o, n>) (c the camera position) is the same for every
     pixel and is computed here in float64."""
     out = []
@@ -100,11 +100,11 @@ def primitive_launches(cfg: Config) -> list[tuple[str, tuple]]:
             n = np.array(d.direction, np.float64)
             n /= np.linalg.norm(n)
             pre = d.factor * math.exp(min(-d.falloff * float((cam - np.array(d.offset)) @ n), 87.0))
-            out.append(("p_exponential", (np.float32(pre), np.float32(d.falloff),
-                                          np.array([*n, 0.0], np.float32))))
+            out.append(("p_exponential", dict(pre=np.float32(pre), b=np.float32(d.falloff),
+                                              n=np.array([*n, 0.0], np.float32))))
         elif d.type == "sphere":
-            out.append(("p_sphere", (np.float32(d.factor), np.float32(d.radius),
-                                     np.array([*d.center, 0.0], np.float32))))
+            out.append(("p_sphere", dict(factor=np.float32(d.factor), radius=np.float32(d.radius),
+                                         centre=np.array([*d.center, 0.0], np.float32))))
     return out
 
 
@@ -120,7 +120,8 @@ def lmedium_struct(cfg: Config) -> tuple[np.ndarray, np.ndarray]:
     for d in m.density:
         if d.type == "exponential":
             n = np.array(d.direction, np.float64)
-            prims += [[float(PRIM_TYPES["exponential"]), d.factor, d.falloff, 0.0], [*(n / np.linalg.norm(n)), 0.0], [*d.offset, 0.0]]
+            prims += [[float(PRIM_TYPES["exponential"]), d.factor, d.falloff, 0.0], [*(n / np.linalg.norm(n)), 0.0],
+                      [*d.offset, 0.0]]
         elif d.type == "sphere":
             prims += [[float(PRIM_TYPES["sphere"]), d.factor, d.radius, 0.0], [*d.center, 0.0], [0.0] * 4]
     s["nprims"] = len(prims) // 3
