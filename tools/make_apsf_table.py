@@ -385,13 +385,18 @@ def write_doc(ctx: dict, doc: str | None) -> None:
     L("")
     L("| g | tau range | energy median | p90 | max | shape L1 median | p90 | max |")
     L("|---|---|---|---|---|---|---|---|")
-    for g in noise_g:
-        de, dl = noise[g]
-        for lo, hi in ((0, 1.0), (1.0, 5.0), (5.0, 31)):
-            sel = (TAU >= lo) & (TAU < hi)
-            L(f"| {g:g} | [{lo:g}, {hi:g}) | {pct(de[:, sel], 50):.3f} | {pct(de[:, sel], 90):.3f} | "
-              f"{pct(de[:, sel], 100):.3f} | {pct(dl[:, sel], 50):.3f} | {pct(dl[:, sel], 90):.3f} | "
-              f"{pct(dl[:, sel], 100):.3f} |")
+
+    def noise_rows(albedos):
+        """The table's rows: per g and tau range, the Monte Carlo noise at the albedos chosen."""
+        for g in noise_g:
+            de, dl = (x[albedos] for x in noise[g])
+            for lo, hi in ((0, 1.0), (1.0, 5.0), (5.0, 31)):
+                sel = (TAU >= lo) & (TAU < hi)
+                L(f"| {g:g} | [{lo:g}, {hi:g}) | {pct(de[:, sel], 50):.3f} | {pct(de[:, sel], 90):.3f} | "
+                  f"{pct(de[:, sel], 100):.3f} | {pct(dl[:, sel], 50):.3f} | {pct(dl[:, sel], 90):.3f} | "
+                  f"{pct(dl[:, sel], 100):.3f} |")
+
+    noise_rows(slice(None))
     L("")
     e_low = stack["energy"][:, ALBEDO < 0.3][..., TAU >= 5]
     L(f"At tau >= 5 and albedo < 0.3 the scattered light is at most {np.max(e_low):.1g} of the source's "
@@ -403,14 +408,7 @@ def write_doc(ctx: dict, doc: str | None) -> None:
     L("| g | tau range | energy median | p90 | max | shape L1 median | p90 | max |")
     L("|---|---|---|---|---|---|---|---|")
     hia = ALBEDO >= 0.9
-    for g in noise_g:
-        de, dl = noise[g]
-        de, dl = de[hia], dl[hia]
-        for lo, hi in ((0, 1.0), (1.0, 5.0), (5.0, 31)):
-            sel = (TAU >= lo) & (TAU < hi)
-            L(f"| {g:g} | [{lo:g}, {hi:g}) | {pct(de[:, sel], 50):.3f} | {pct(de[:, sel], 90):.3f} | "
-              f"{pct(de[:, sel], 100):.3f} | {pct(dl[:, sel], 50):.3f} | {pct(dl[:, sel], 90):.3f} | "
-              f"{pct(dl[:, sel], 100):.3f} |")
+    noise_rows(hia)
     L("")
     nb = ctx.get("noise_before")
     if nb:

@@ -50,6 +50,19 @@ def smoothstep(e0, e1, x):
     return t * t * (3 - 2 * t)
 
 
+def _window(y: int, x: int, n: int, h: int, w: int):
+    """(ty, sy, tx, sx): the taps of an n-tap filter of a 2x reduction at destination (y, x)
+    and their source pixels inside an h x w level."""
+    for ty in range(n):
+        sy = 2 * y - n // 2 + 1 + ty
+        if not 0 <= sy < h:
+            continue
+        for tx in range(n):
+            sx = 2 * x - n // 2 + 1 + tx
+            if 0 <= sx < w:
+                yield ty, sy, tx, sx
+
+
 def reduce_level(src, spread, taps, thresh, eps, masked=True, source_weights=False):
     """One pyramid level: src (h, w, 4) with W in [..., 3], spread (h, w). Elek eq. 8
     weights W by the luminance of level k-1; source weights take the geometric mean
@@ -64,25 +77,18 @@ def reduce_level(src, spread, taps, thresh, eps, masked=True, source_weights=Fal
             c = np.zeros(3)
             gsum = ssum = yw = ysum = wsum = 0.0
             cnt = 0
-            for ty in range(n):
-                sy = 2 * y - n // 2 + 1 + ty
-                if not 0 <= sy < h:
-                    continue
-                for tx in range(n):
-                    sx = 2 * x - n // 2 + 1 + tx
-                    if not 0 <= sx < w:
-                        continue
-                    v = src[sy, sx]
-                    wg = taps[tx] * taps[ty]
-                    m = smoothstep(thresh, (1 + eps) * thresh, v[3]) if masked else 1.0
-                    c += wg * m * v[:3]
-                    gsum += wg
-                    ssum += wg * spread[sy, sx]
-                    lum = LUM @ (m * v[:3] if source_weights else v[:3])
-                    yw += lum * (math.log(max(v[3], 1e-6)) if source_weights else v[3])
-                    ysum += lum
-                    wsum += math.log(max(v[3], 1e-6)) if source_weights else v[3]
-                    cnt += 1
+            for ty, sy, tx, sx in _window(y, x, n, h, w):
+                v = src[sy, sx]
+                wg = taps[tx] * taps[ty]
+                m = smoothstep(thresh, (1 + eps) * thresh, v[3]) if masked else 1.0
+                c += wg * m * v[:3]
+                gsum += wg
+                ssum += wg * spread[sy, sx]
+                lum = LUM @ (m * v[:3] if source_weights else v[:3])
+                yw += lum * (math.log(max(v[3], 1e-6)) if source_weights else v[3])
+                ysum += lum
+                wsum += math.log(max(v[3], 1e-6)) if source_weights else v[3]
+                cnt += 1
             out[y, x, :3] = c / gsum
             out[y, x, 3] = yw / ysum if ysum > 1e-30 else wsum / cnt
             if source_weights:
@@ -222,23 +228,16 @@ def apsf_reduce(prep, taps, open_border):
             c = np.zeros(3)
             gsum = yw = ysum = lsum = 0.0
             cnt = 0
-            for ty in range(n):
-                sy = 2 * y - n // 2 + 1 + ty
-                if not 0 <= sy < h:
-                    continue
-                for tx in range(n):
-                    sx = 2 * x - n // 2 + 1 + tx
-                    if not 0 <= sx < w:
-                        continue
-                    v = prep[sy, sx]
-                    wg = taps[tx] * taps[ty] * fx[sx] * fy[sy]
-                    c += wg * v[:3]
-                    gsum += wg
-                    lum = LUM @ v[:3]
-                    yw += lum * v[3]
-                    ysum += lum
-                    lsum += v[3]
-                    cnt += 1
+            for ty, sy, tx, sx in _window(y, x, n, h, w):
+                v = prep[sy, sx]
+                wg = taps[tx] * taps[ty] * fx[sx] * fy[sy]
+                c += wg * v[:3]
+                gsum += wg
+                lum = LUM @ v[:3]
+                yw += lum * v[3]
+                ysum += lum
+                lsum += v[3]
+                cnt += 1
             col[y, x] = c
             lp[y, x] = yw / ysum if ysum > 1e-30 else lsum / cnt
     return col, lp

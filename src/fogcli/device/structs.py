@@ -89,22 +89,34 @@ def medium_struct(cfg: Config, width: int, height: int) -> np.ndarray:
     return s
 
 
-def primitive_launches(cfg: Config) -> list[tuple[str, dict]]:
-    """(kernel, its primitive arguments by name) per non-homogeneous density primitive. For an
-    exponential, factor * exp(-b <c - o, n>) (c the camera position) is the same for every
-    pixel and is computed here in float64."""
+def density_primitives(cfg: Config) -> list[tuple[str, float, float, np.ndarray, np.ndarray]]:
+    """The non-homogeneous density primitives, encoded once for both kernel families:
+    (type, factor, falloff or radius, unit direction or centre, offset: zeros for a sphere),
+    in float64. The density kernels take them as arguments (primitive_launches), the light
+    kernels as an array (lmedium_struct)."""
     out = []
-    cam = np.array(cfg.camera.position, np.float64)
     for d in cfg.medium.density:
         if d.type == "exponential":
             n = np.array(d.direction, np.float64)
-            n /= np.linalg.norm(n)
-            pre = d.factor * math.exp(min(-d.falloff * float((cam - np.array(d.offset)) @ n), 87.0))
-            out.append(("p_exponential", dict(pre=np.float32(pre), b=np.float32(d.falloff),
-                                              n=np.array([*n, 0.0], np.float32))))
+            out.append(("exponential", d.factor, d.falloff, n / np.linalg.norm(n), np.array(d.offset, np.float64)))
         elif d.type == "sphere":
-            out.append(("p_sphere", dict(factor=np.float32(d.factor), radius=np.float32(d.radius),
-                                         centre=np.array([*d.center, 0.0], np.float32))))
+            out.append(("sphere", d.factor, d.radius, np.array(d.center, np.float64), np.zeros(3)))
+    return out
+
+
+def primitive_launches(cfg: Config) -> list[tuple[str, dict]]:
+    """(kernel, its primitive arguments by name) per density primitive. For an exponential,
+    factor * exp(-b <c - o, n>) (c the camera position) is the same for every pixel and is
+    computed here in float64."""
+    out = []
+    cam = np.array(cfg.camera.position, np.float64)
+    for kind, factor, b, v, offset in density_primitives(cfg):
+        if kind == "exponential":
+            pre = factor * math.exp(min(-b * float((cam - offset) @ v), 87.0))
+            out.append(("p_exponential", dict(pre=np.float32(pre), b=np.float32(b), n=np.array([*v, 0.0], np.float32))))
+        else:
+            out.append(("p_sphere", dict(factor=np.float32(factor), radius=np.float32(b),
+                                         centre=np.array([*v, 0.0], np.float32))))
     return out
 
 
@@ -117,12 +129,7 @@ def lmedium_struct(cfg: Config) -> tuple[np.ndarray, np.ndarray]:
     s["homogeneous"] = m.homogeneous
     s["nodes"] = cfg.render.lights.nodes
     prims = []
-    for d in m.density:
-        if d.type == "exponential":
-            n = np.array(d.direction, np.float64)
-            prims += [[float(PRIM_TYPES["exponential"]), d.factor, d.falloff, 0.0], [*(n / np.linalg.norm(n)), 0.0],
-                      [*d.offset, 0.0]]
-        elif d.type == "sphere":
-            prims += [[float(PRIM_TYPES["sphere"]), d.factor, d.radius, 0.0], [*d.center, 0.0], [0.0] * 4]
+    for kind, factor, b, v, offset in density_primitives(cfg):
+        prims += [[float(PRIM_TYPES[kind]), factor, b, 0.0], [*v, 0.0], [*offset, 0.0]]
     s["nprims"] = len(prims) // 3
     return s, np.array(prims or [[0.0] * 4] * 3, np.float32)

@@ -474,6 +474,27 @@ inline void lambert_at(__global const float *lut, int nlev, int li, float lf, fl
 }
 #endif
 
+/* The share of the thin-medium form's scattered energy each channel keeps at the log-P
+ * sample (li, lf) of lut_pos: the table's energy ratio (lower where long multiply scattered
+ * paths absorb more), times the Lambertian weight at view cosine cosv with
+ * emission_profile: lambertian (VIEW_COS reads the cosine only then). */
+inline void apsf_energy(__global const float *lut, int nlev, int li, float lf, float cosv,
+                        float *e0, float *e1, float *e2)
+{
+#ifdef EMISSION_LAMBERT
+    lambert_at(lut, nlev, li, lf, cosv, e0, e1, e2);
+#else
+    *e0 = lut_get(lut, lut_ratio(nlev, 0), li, lf);
+    *e1 = lut_get(lut, lut_ratio(nlev, 1), li, lf);
+    *e2 = lut_get(lut, lut_ratio(nlev, 2), li, lf);
+#endif
+}
+#ifdef EMISSION_LAMBERT
+#define VIEW_COS(cosines, idx) ((cosines)[idx])
+#else
+#define VIEW_COS(cosines, idx) 1.0f
+#endif
+
 /* prep of level k for apsf: each channel's share passed on to level k+1, and log P */
 inline void store_prep_apsf(__global float4 *buf, int idx, float r, float g, float b, float lp,
                             __global const float *lut, int k)

@@ -10,11 +10,7 @@ __kernel void p_exponential(__global const float *depth, __global float *P,
                             const int width, const int height, const camera_t cam,
                             const float pre, const float b, const float4 n, const int accumulate)
 {
-    int i = get_global_id(0), j = get_global_id(1);
-    if (i >= width || j >= height) return;
-    int idx = j * width + i;
-    float wx, wy, wz;
-    float D = pixel_ray(&cam, i, j, depth[idx], &wx, &wy, &wz);
+    PIXEL_RAY
     float p = exponential_p(pre, b, wx * n.x + wy * n.y + wz * n.z, D);
     P[idx] = accumulate ? P[idx] + p : p;
 }
@@ -24,11 +20,7 @@ __kernel void p_sphere(__global const float *depth, __global float *P,
                        const float factor, const float radius, const float4 centre,
                        const int accumulate)
 {
-    int i = get_global_id(0), j = get_global_id(1);
-    if (i >= width || j >= height) return;
-    int idx = j * width + i;
-    float wx, wy, wz;
-    float D = pixel_ray(&cam, i, j, depth[idx], &wx, &wy, &wz);
+    PIXEL_RAY
     float p = sphere_p(factor, radius, cam.pos.x - centre.x, cam.pos.y - centre.y,
                        cam.pos.z - centre.z, wx, wy, wz, D);
     P[idx] = accumulate ? P[idx] + p : p;
@@ -58,11 +50,7 @@ __kernel void p_noise(__global const float *depth, __global float *P,
                       __global const noise_t *nz, const int count, __global const float *S, const int stride,
                       const int cw, const int ch, const int accumulate)
 {
-    int i = get_global_id(0), j = get_global_id(1);
-    if (i >= width || j >= height) return;
-    int idx = j * width + i;
-    float wx, wy, wz;
-    float D = pixel_ray(&cam, i, j, depth[idx], &wx, &wy, &wz);
+    PIXEL_RAY
     float3 w = (float3)(wx, wy, wz);
     float p = 0.0f;
     int ok = stride > 1;

@@ -36,6 +36,16 @@ inline float pixel_ray(const camera_t *c, int i, int j, float metric,
     return dist < c->max_depth ? dist : c->max_depth;   /* inf compares fine; NaN is filled upstream */
 }
 
+/* The opening of a per-pixel kernel over a width x height frame of metric `depth` seen by
+ * the camera `cam`: the pixel (i, j) and its index idx (work-items past the frame return),
+ * its ray's unit direction (wx, wy, wz) and length D to the surface. */
+#define PIXEL_RAY                                                                              \
+    int i = get_global_id(0), j = get_global_id(1);                                            \
+    if (i >= width || j >= height) return;                                                     \
+    int idx = j * width + i;                                                                   \
+    float wx, wy, wz;                                                                          \
+    float D = pixel_ray(&cam, i, j, depth[idx], &wx, &wy, &wz);
+
 /* pre exp(-b <x - o, n>) from t = 0 to D along c + t w, with pre = rho' exp(-b <c - o, n>)
  * from the host (the same for every pixel): pre D (e^x - 1) / x, x = -b D <w, n>. The
  * printed form divides (1 - exp(..)) by b <w, n>, two tiny numbers for grazing rays; here

@@ -63,11 +63,7 @@ __kernel void airlight_pk(__global const float *depth, __global float4 *a_dir, _
                           const int width, const int height, const camera_t cam, const lmedium_t m,
                           const light_t L)
 {
-    int i = get_global_id(0), j = get_global_id(1);
-    if (i >= width || j >= height) return;
-    int idx = j * width + i;
-    float wx, wy, wz;
-    float D = pixel_ray(&cam, i, j, depth[idx], &wx, &wy, &wz);
+    PIXEL_RAY
     float3 w = (float3)(wx, wy, wz), v = L.pos.xyz - cam.pos.xyz;
     float d1 = dot(w, v);
     float3 cr = cross(w, v);
@@ -95,11 +91,7 @@ __kernel void airlight(__global const float *depth, __global float4 *a_dir, __gl
                        const int width, const int height, const camera_t cam, const lmedium_t m,
                        __global const float4 *prims, __global const float2 *gl, const light_t L)
 {
-    int i = get_global_id(0), j = get_global_id(1);
-    if (i >= width || j >= height) return;
-    int idx = j * width + i;
-    float wx, wy, wz;
-    float D = pixel_ray(&cam, i, j, depth[idx], &wx, &wy, &wz);
+    PIXEL_RAY
     float3 w = (float3)(wx, wy, wz), c = cam.pos.xyz;
     float3 sa = m.sa.xyz, ss = m.ss.xyz, st = sa + ss;
     float3 dir = (float3)(0.0f), sc = (float3)(0.0f);
@@ -279,12 +271,7 @@ ALWAYS_INLINE float8 al_pixel_ray(const camera_t *c, int i0, int j, float8 dep, 
 #define AL_PUT                                                                                 \
     AL_PUT1(0) AL_PUT1(1) AL_PUT1(2) AL_PUT1(3) AL_PUT1(4) AL_PUT1(5) AL_PUT1(6) AL_PUT1(7)
 #else
-#define AL_PIXELS                                                                              \
-    int i = get_global_id(0), j = get_global_id(1);                                            \
-    if (i >= width || j >= height) return;                                                     \
-    int idx = j * width + i;                                                                   \
-    float wx, wy, wz;                                                                          \
-    float D = pixel_ray(&cam, i, j, depth[idx], &wx, &wy, &wz);
+#define AL_PIXELS PIXEL_RAY
 #define AL_PUT                                                                                 \
     store4(a_dir, idx, d0r, d1r, d2r, 0.0f);                                                   \
     store4(a_sc, idx, s0, s1, s2, wp);
@@ -405,11 +392,7 @@ __kernel void airlight_sun(__global const float *depth, __global float4 *a_dir, 
                            const int width, const int height, const camera_t cam, const lmedium_t m,
                            const light_t L)
 {
-    int i = get_global_id(0), j = get_global_id(1);
-    if (i >= width || j >= height) return;
-    int idx = j * width + i;
-    float wx, wy, wz;
-    float D = pixel_ray(&cam, i, j, depth[idx], &wx, &wy, &wz);
+    PIXEL_RAY
     float hf = m.homogeneous, gg = m.g;
     float hd = 1.0f + gg * gg - 2.0f * gg * (L.axis.x * wx + L.axis.y * wy + L.axis.z * wz);
     float p = (1.0f - gg * gg) / (12.566370614f * hd * SQRT_(hd));

@@ -178,16 +178,9 @@ __kernel void preprocess(__global const float4 *image, __global const float *dep
     int nlev = (int)lut[3];
     float lf;
     int li = lut_pos(lut, lp, &lf);
-#ifdef EMISSION_LAMBERT
-    /* the energy ratio times the Lambertian weight at this pixel's view cosine, one table */
-    float lw0, lw1, lw2;
-    lambert_at(lut, nlev, li, lf, cosines[idx], &lw0, &lw1, &lw2);
-    sc[0] *= lw0; sc[1] *= lw1; sc[2] *= lw2;
-#else
-    sc[0] *= lut_get(lut, lut_ratio(nlev, 0), li, lf);
-    sc[1] *= lut_get(lut, lut_ratio(nlev, 1), li, lf);
-    sc[2] *= lut_get(lut, lut_ratio(nlev, 2), li, lf);
-#endif
+    float e0, e1, e2;
+    apsf_energy(lut, nlev, li, lf, VIEW_COS(cosines, idx), &e0, &e1, &e2);
+    sc[0] *= e0; sc[1] *= e1; sc[2] *= e2;
 #if PRE_SOURCE
     /* level 0's shares passed up (store_prep_apsf's), read here with the other table reads:
      * after the stores below LLVM must assume they changed the table and reads it again,
@@ -265,11 +258,7 @@ __kernel void coverage(__global float4 *direct, __global const float *P_empty, c
     int nlev = (int)lut[3];
     float lf;
     int li = lut_pos(lut, lp, &lf);
-#ifdef EMISSION_LAMBERT
-    lambert_at(lut, nlev, li, lf, 1.0f, &r[0], &r[1], &r[2]);   /* the ratio times the weight, as preprocess */
-#else
-    for (int c = 0; c < 3; ++c) r[c] = lut_get(lut, lut_ratio(nlev, c), li, lf);
-#endif
+    apsf_energy(lut, nlev, li, lf, 1.0f, &r[0], &r[1], &r[2]);     /* as preprocess, facing the camera */
 #endif
     float te = 0.0f;
     for (int c = 0; c < 3; ++c) {

@@ -148,11 +148,7 @@ __kernel void airlight_fill(__global const float *depth, __global float4 *a_dir,
                             const int width, const int height, NOISE_ARGS, const int stride, const int cw,
                             const int ch, const float lx, const float ly)
 {
-    int i = get_global_id(0), j = get_global_id(1);
-    if (i >= width || j >= height) return;
-    int idx = j * width + i;
-    float wx, wy, wz;
-    float D = pixel_ray(&cam, i, j, depth[idx], &wx, &wy, &wz);
+    PIXEL_RAY
     float3 w = (float3)(wx, wy, wz);
     float hit = noise_meets(nz, count, cam.pos.xyz, w, D) ? 1.0f : 0.0f;
     grid4_t g = grid_neighbours(depth, width, height, cam.max_depth, i, j, stride, cw, ch);
