@@ -33,11 +33,7 @@ __kernel void p_noise_samples(__global const float *depth, __global float *S,
                               __global const noise_t *nz, const int count, const int stride, const int cw,
                               const int ch)
 {
-    int ci = get_global_id(0), cj = get_global_id(1);
-    if (ci >= cw || cj >= ch) return;
-    int i = grid_at(ci, stride, width), j = grid_at(cj, stride, height);
-    float wx, wy, wz;
-    float D = pixel_ray(&cam, i, j, depth[j * width + i], &wx, &wy, &wz);
+    SAMPLE_RAY
     S[cj * cw + ci] = noise_march(nz, count, cam.pos.xyz, (float3)(wx, wy, wz), D);
 }
 

@@ -45,6 +45,15 @@ inline float pixel_ray(const camera_t *c, int i, int j, float metric,
     int idx = j * width + i;                                                                   \
     float wx, wy, wz;                                                                          \
     float D = pixel_ray(&cam, i, j, depth[idx], &wx, &wy, &wz);
+/* The same for the cw x ch samples of render.noise_stride (every `stride`-th pixel of every
+ * `stride`-th row, and the last ones; grid_at, noise.h): the sample (ci, cj) and its pixel
+ * (i, j), the ray's direction and length. */
+#define SAMPLE_RAY                                                                             \
+    int ci = get_global_id(0), cj = get_global_id(1);                                          \
+    if (ci >= cw || cj >= ch) return;                                                          \
+    int i = grid_at(ci, stride, width), j = grid_at(cj, stride, height);                       \
+    float wx, wy, wz;                                                                          \
+    float D = pixel_ray(&cam, i, j, depth[j * width + i], &wx, &wy, &wz);
 
 /* pre exp(-b <x - o, n>) from t = 0 to D along c + t w, with pre = rho' exp(-b <c - o, n>)
  * from the host (the same for every pixel): pre D (e^x - 1) / x, x = -b D <w, n>. The

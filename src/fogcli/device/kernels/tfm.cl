@@ -127,11 +127,7 @@ __kernel void airlight_noise(__global const float *depth, __global float4 *a_dir
                              const int width, const int height, NOISE_ARGS, const int stride, const int cw,
                              const int ch)
 {
-    int ci = get_global_id(0), cj = get_global_id(1);
-    if (ci >= cw || cj >= ch) return;
-    int i = grid_at(ci, stride, width), j = grid_at(cj, stride, height);
-    float wx, wy, wz;
-    float D = pixel_ray(&cam, i, j, depth[j * width + i], &wx, &wy, &wz);
+    SAMPLE_RAY
     float3 w = (float3)(wx, wy, wz);
     float4 od, os;
     noise_ray(cam.pos.xyz, w, D, &L, &m, prims, nz, count, &tm, coef, span, sub, &od, &os);
