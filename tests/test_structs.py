@@ -8,7 +8,7 @@ import pytest
 
 from fogcli.api import make_config
 from fogcli.device.plan import defines
-from fogcli.device.structs import C_NAMES, CAMERA_T, LIGHT_T, LMEDIUM_T, MEDIUM_T, NOISE_T, TFM_T
+from fogcli.device.structs import AL_TABLE_T, C_NAMES, CAMERA_T, LIGHT_T, LMEDIUM_T, MEDIUM_T, NOISE_T, TFM_T
 from fogcli.device.runtime import KERNEL_DIR
 
 # (C type, the file that declares it, numpy dtype, (numpy field, C member) pairs)
@@ -21,6 +21,7 @@ STRUCTS = [
                                                               "has_p")]),
     ("lmedium_t", "lights.h", LMEDIUM_T, [(n, n) for n in LMEDIUM_T.names]),
     ("light_t", "lights.h", LIGHT_T, [(n, n) for n in LIGHT_T.names]),
+    ("al_table_t", "lights.h", AL_TABLE_T, [(n, n) for n in AL_TABLE_T.names]),
     ("noise_t", "noise.h", NOISE_T, [(n, n) for n in NOISE_T.names]),
     ("tfm_t", "noise.h", TFM_T, [(n, n) for n in TFM_T.names]),
 ]

@@ -13,7 +13,7 @@ from fogcli.device.geometry import placed
 from fogcli.device.noise import airlight_noise, noise_args
 from fogcli.device.plan import Timings, defines
 from fogcli.device.shadows import epipolar
-from fogcli.device.structs import LIGHT_T, LIGHT_TYPES, SH_BINS, camera_struct, lmedium_struct
+from fogcli.device.structs import AL_TABLE_T, LIGHT_T, LIGHT_TYPES, SH_BINS, camera_struct, lmedium_struct
 from fogcli.physics.airlight_table import NB, NX, tables
 from fogcli.physics.apsf import _slice_ga, load_table, log_along_tau, read_data
 
@@ -154,9 +154,9 @@ def airlight(plan, t: Timings) -> None:
         elif noise_args(plan) is not None:     # the light leg from a map, the camera leg marched
             ev = airlight_noise(plan, t, dst, cam, lm, device_quad()[0], ls, light)
         elif homogeneous and light.type == "point":    # tables instead of quadrature
-            tab, grey, uniforms = table_args(plan, ls)
+            tab, grey, u = table_args(plan, ls)
             kernel = plan.k_lights.airlight_table_grey if grey else plan.k_lights.airlight_table
-            ev = kernel(q, *plan.rt.nd(-(-plan.w // plan.lanes), plan.h), **frame, **dst, tab=tab, **uniforms)
+            ev = kernel(q, *plan.rt.nd(-(-plan.w // plan.lanes), plan.h), **frame, **dst, tab=tab, u=u)
         elif homogeneous and light.type == "directional":     # closed form
             ev = plan.k_lights.airlight_sun(q, *size, **frame, **dst, m=lm, L=ls)
         else:
@@ -199,36 +199,28 @@ def airlight_tables(plan):
 
 
 def table_args(plan, ls):
-    """The airlight tables on the device, whether the medium is grey, and the uniform values
-    of airlight_table (or airlight_table_grey) by parameter name, as scalars (a float4
-    argument's lanes worked on the same way get paired by LLVM and stop PoCL's vectoriser):
-    g, hf; per channel c st, ln st, sa, r, xm, em and the table's offset (st<c> ... off<c>;
-    grey: one set, st ... off); ln(ss I) (lk<c>; grey: the largest, lkm, and exp(each -
-    largest), k<c>), the gain (gn<c>), camera-to-light (vx, vy, vz) and radius^2 (rad2)."""
+    """The airlight tables on the device, whether the medium is grey (airlight_table_grey),
+    and the table kernels' uniforms (al_table_t, kernels/lights.h)."""
     tab, rs, kind = airlight_tables(plan)
     m = plan.cfg.medium
     hf = m.homogeneous
-    f = np.float32
-    per = []
+    u = np.zeros((), AL_TABLE_T)
     for c in range(3):
         r = rs[c]
-        xm, em = (-math.atanh(r), math.sqrt(1.0 - r * r)) if r < 1.0 else (-1e30, 0.0)
         st = hf * (m.absorption[c] + m.scattering[c])
-        per.append(dict(st=f(st), lst=f(math.log(st)) if st > 0 else f(-1e30), sa=f(hf * m.absorption[c]), r=f(r),
-                        xm=f(xm), em=f(em), off=np.int32(kind[c] * 2 * NB * NX)))
-    k = [hf * m.scattering[c] * float(ls["intensity"][c]) for c in range(3)]
-    v = np.array(ls["pos"][:3], np.float64) - np.array(plan.cfg.camera.position, np.float64)
-    out = dict(g=f(m.asymmetry), hf=f(hf), **{f"gn{c}": f(x) for c, x in enumerate(ls["gain"][:3])},
-               vx=f(v[0]), vy=f(v[1]), vz=f(v[2]), rad2=f(float(ls["radius"]) ** 2))
-    lk = [f(math.log(x)) if x > 0 else f(-1e30) for x in k]
-    grey = len(set(m.absorption)) == 1 and len(set(m.scattering)) == 1
-    if grey:        # ln(ss I) per channel as its largest and exp(each - largest)
-        lkm = max(float(x) for x in lk)
-        out.update(per[0], lkm=np.float32(lkm), **{f"k{c}": np.float32(math.exp(float(x) - lkm)) for c, x in enumerate(lk)})
-    else:
-        out.update({f"{name}{c}": value for c, p in enumerate(per) for name, value in p.items()},
-                   **{f"lk{c}": x for c, x in enumerate(lk)})
-    return tab, grey, out
+        u["st"][c], u["lst"][c], u["sa"][c], u["r"][c] = st, math.log(st) if st > 0 else -1e30, hf * m.absorption[c], r
+        u["xm"][c], u["em"][c] = (-math.atanh(r), math.sqrt(1.0 - r * r)) if r < 1.0 else (-1e30, 0.0)
+        u["off"][c] = kind[c] * 2 * NB * NX
+        k = hf * m.scattering[c] * float(ls["intensity"][c])
+        u["lk"][c] = math.log(k) if k > 0 else -1e30
+    # grey media: ln(ss I) per channel as its largest and exp(each - largest)
+    u["lkm"] = max(float(x) for x in u["lk"])
+    u["k"] = [math.exp(float(x) - float(u["lkm"])) for x in u["lk"]]
+    u["gn"] = ls["gain"][:3]
+    u["g"], u["hf"] = m.asymmetry, hf
+    u["vx"], u["vy"], u["vz"] = np.array(ls["pos"][:3], np.float64) - np.array(plan.cfg.camera.position, np.float64)
+    u["rad2"] = float(ls["radius"]) ** 2
+    return tab, len(set(m.absorption)) == 1 and len(set(m.scattering)) == 1, u
 
 
 def clear_sources(plan, t: Timings, mask: np.ndarray) -> None:

@@ -13,7 +13,7 @@ from fogcli.config.model import Config
 from fogcli.device.geometry import rotation
 
 # -- structs (their C declarations: density.h camera_t, medium.h medium_t, lights.h
-# lmedium_t and light_t, noise.h noise_t and tfm_t)
+# lmedium_t, light_t and al_table_t, noise.h noise_t and tfm_t)
 CAMERA_T = np.dtype([
     ("pos", np.float32, 4), ("rot", np.float32, (3, 4)), ("focal_px", np.float32),
     ("focal_y", np.float32), ("cx", np.float32), ("cy", np.float32), ("max_depth", np.float32),
@@ -35,6 +35,11 @@ NOISE_T = np.dtype({"names": ["center", "hsize", "factor", "inv_scale", "amplitu
                               "norm", "octaves", "seed", "shape"],
                     "formats": [(np.float32, 4)] * 2 + [np.float32] * 7 + [np.int32, np.uint32, np.int32],
                     "offsets": [0, 16, 32, 36, 40, 44, 48, 52, 56, 60, 64, 68], "itemsize": 80})
+AL_TABLE_T = np.dtype({"names": ["st", "lst", "sa", "r", "xm", "em", "off", "lk", "k", "gn", "g", "hf", "lkm", "vx",
+                                "vy", "vz", "rad2"],
+                      "formats": [(np.float32, 3)] * 6 + [(np.int32, 3)] + [(np.float32, 3)] * 3 + [np.float32] * 7,
+                      "offsets": [0, 12, 24, 36, 48, 60, 72, 84, 96, 108, 120, 124, 128, 132, 136, 140, 144],
+                      "itemsize": 148})
 TFM_T = np.dtype({"names": ["origin", "e1", "e2", "e3", "extent", "kind", "size", "ncoef"],
                   "formats": [(np.float32, 4)] * 4 + [np.float32] + [np.int32] * 3,
                   "offsets": [0, 16, 32, 48, 64, 68, 72, 76], "itemsize": 80})

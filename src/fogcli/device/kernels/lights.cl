@@ -335,40 +335,43 @@ ALWAYS_INLINE float8 al_pixel_ray(const camera_t *c, int i0, int j, float8 dep, 
     lanef wp = sstar * (0.2126f * s0 + 0.7152f * s1 + 0.0722f * s2);                             \
     AL_PUT
 
+/* The uniforms both table kernels read by name in the macros above (al_table_t). */
+#define AL_UNIFORMS                                                                            \
+    const float g = u.g, hf = u.hf, vx = u.vx, vy = u.vy, vz = u.vz, rad2 = u.rad2;            \
+    const float gn0 = u.gn[0], gn1 = u.gn[1], gn2 = u.gn[2];
+
 /* Point lights when every density primitive is homogeneous (factor hf): grey media (the three
  * channels share st, sa), integrated once. vx, vy, vz: camera to light (world); rad2: the
  * light's radius squared; lkm: the largest ln(ss I) of the channels (-1e30 for none), k*: each
  * channel's ss I over the largest; gn*: the gain. */
 __kernel void airlight_table_grey(__global const float *depth, __global float4 *a_dir, __global float4 *a_sc,
                                   const int width, const int height, const camera_t cam,
-                                  __global const float *tab, const float g, const float hf,
-                                  const float st, const float lst, const float sa, const float r, const float xm, const float em,
-                                  const int off, const float lkm, const float k0, const float k1, const float k2,
-                                  const float gn0, const float gn1, const float gn2,
-                                  const float vx, const float vy, const float vz, const float rad2)
+                                  __global const float *tab, const al_table_t u)
 {
+    AL_UNIFORMS
+    const float lkm = u.lkm, k0 = u.k[0], k1 = u.k[1], k2 = u.k[2];
     AL_GEOMETRY
     lanef ld0, lt0;
-    al_channel(tab, st, lst, sa, r, xm, em, off, R, d1, x0, x1, ex0, ex1, lR, sp, sp[4], &ld0, &lt0);
+    al_channel(tab, u.st[0], u.lst[0], u.sa[0], u.r[0], u.xm[0], u.em[0], u.off[0], R, d1, x0, x1, ex0, ex1, lR, sp,
+               sp[4], &ld0, &lt0);
     AL_STORE_GREY
 }
 
 /* The same for media whose channels differ (sea water): three channels, one after another. */
 __kernel void airlight_table(__global const float *depth, __global float4 *a_dir, __global float4 *a_sc,
                              const int width, const int height, const camera_t cam,
-                             __global const float *tab, const float g, const float hf,
-                             const float st0, const float lst0, const float sa0, const float r0, const float xm0, const float em0, const int off0,
-                             const float st1, const float lst1, const float sa1, const float r1, const float xm1, const float em1, const int off1,
-                             const float st2, const float lst2, const float sa2, const float r2, const float xm2, const float em2, const int off2,
-                             const float lk0, const float lk1, const float lk2,
-                             const float gn0, const float gn1, const float gn2,
-                             const float vx, const float vy, const float vz, const float rad2)
+                             __global const float *tab, const al_table_t u)
 {
+    AL_UNIFORMS
+    const float lk0 = u.lk[0], lk1 = u.lk[1], lk2 = u.lk[2];
     AL_GEOMETRY
     lanef ld0, lt0, ld1, lt1, ld2, lt2;
-    al_channel(tab, st0, lst0, sa0, r0, xm0, em0, off0, R, d1, x0, x1, ex0, ex1, lR, sp, sp[4], &ld0, &lt0);
-    al_channel(tab, st1, lst1, sa1, r1, xm1, em1, off1, R, d1, x0, x1, ex0, ex1, lR, sp, lt0, &ld1, &lt1);
-    al_channel(tab, st2, lst2, sa2, r2, xm2, em2, off2, R, d1, x0, x1, ex0, ex1, lR, sp, lt1, &ld2, &lt2);
+    al_channel(tab, u.st[0], u.lst[0], u.sa[0], u.r[0], u.xm[0], u.em[0], u.off[0], R, d1, x0, x1, ex0, ex1, lR, sp,
+               sp[4], &ld0, &lt0);
+    al_channel(tab, u.st[1], u.lst[1], u.sa[1], u.r[1], u.xm[1], u.em[1], u.off[1], R, d1, x0, x1, ex0, ex1, lR, sp,
+               lt0, &ld1, &lt1);
+    al_channel(tab, u.st[2], u.lst[2], u.sa[2], u.r[2], u.xm[2], u.em[2], u.off[2], R, d1, x0, x1, ex0, ex1, lR, sp,
+               lt1, &ld2, &lt2);
     AL_STORE
 }
 

@@ -32,7 +32,7 @@ typedef struct {
     float cos_outer, cos_inner;
     int type;               /* LIGHT_POINT, LIGHT_SPOT, LIGHT_DIRECTIONAL */
     float4 gain;            /* all orders of scattering over what single scattering carries
-                             * (fogcli.lights.gain), per RGB: the rest joins the scattered part */
+                             * (device/lights.py: gain), per RGB: the rest joins the scattered part */
 } light_t;
 
 inline float hg(float g, float c)
@@ -74,6 +74,19 @@ inline float optical_depth(__global const float4 *prims, const lmedium_t *m, flo
     }
     return P;
 }
+
+/* The uniforms of airlight_table and airlight_table_grey (device/lights.py: table_args):
+ * per channel the medium's st, ln st, sa, r = sa / st, the table's x range (xm, em) and its
+ * offset in the tables; ln(ss I) per channel (lk; grey media: its largest, lkm, and
+ * k = exp(lk - lkm)), the gain; g, the homogeneous factor hf, camera to light (vx, vy, vz),
+ * the light's radius squared. Scalars and arrays of them, no float4: LLVM pairs the lanes
+ * of a float4 worked on the same way, which stops PoCL's vectoriser. */
+typedef struct {
+    float st[3], lst[3], sa[3], r[3], xm[3], em[3];
+    int off[3];
+    float lk[3], k[3], gn[3];
+    float g, hf, lkm, vx, vy, vz, rad2;
+} al_table_t;
 
 /* What the integrand needs of the noise primitives (the marched airlight, tfm.cl): the
  * primitives, the light's transmittance function map, and the camera leg's noise optical
