@@ -16,7 +16,7 @@ def test_plan_allocates_what_is_declared(rt, sets, aovs):
     plan, cfg = plan_for(rt, w, h, *sets, aovs=aovs)
     total = sum(a * b for a, b in plan.sizes)
     want = buffer_bytes(w * h, total, plan_features(cfg, aovs), h)
-    got = {name: getattr(plan, name).size for name in BUFFERS}
+    got = {b.name: getattr(plan, b.name).size for b in BUFFERS}
     assert got == {k: want[ALIASES[k]] if k in ALIASES and not v else max(v, 16) for k, v in want.items()}
     for k, other in ALIASES.items():        # one buffer, not a copy
         assert (getattr(plan, k) is getattr(plan, other)) == (not want[k])

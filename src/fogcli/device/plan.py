@@ -1,11 +1,13 @@
-"""The per-image plan: the device buffers of one image size, declared once (BUFFERS: name ->
-bytes, from which allocation, the memory estimate and the plan cache key follow) and
+"""The per-image plan: the device buffers of one image size, declared once (BUFFERS: name,
+element, extent over the frame or the pyramid, the features it exists for; allocation, the
+memory estimate and the plan cache key follow from it) and
 allocated once per size (silx style), with the kernels its options build. The stages
 (preprocess, pyramid, composite, lights, shadows, noise, reference) are modules that run
 on a plan; run.py orders them. Kernel times come from OpenCL profiling events, per stage."""
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Callable
 
 import numpy as np
 
@@ -108,43 +110,63 @@ class Features:
                           # spread, the AOVs, or the P of a heterogeneous medium); no level above
 
 
-# The per-frame device buffers, declared once: name -> bytes for n pixels in r rows, a pyramid
-# of t pixels in all (every level) and the plan's features. Plan allocates them (0: a 16-byte
-# placeholder, or the buffer ALIASES names), check_memory sums them, and the reference's
-# planes are declared the same way.
-BUFFERS = {
-    "image": lambda n, t, f, r: 16 * n,                       # RGBA in; scratch after preprocess
+@dataclass(frozen=True)
+class Buffer:
+    """One device buffer of a plan, declared once: its element (bytes: 16 a float4, 4 a float,
+    1 a flag), its extent (FRAME: a pixel of level 0; PYRAMID: a pixel of every level), and
+    the features it exists for (otherwise a 16-byte placeholder, or the buffer of ALIASES).
+    Plan allocates these, check_memory and memory.estimate sum them, and the plan cache keys
+    on the Features they depend on (get_plan)."""
+    name: str
+    element: int
+    extent: str
+    when: Callable[[Features], bool] = lambda f: True
+    size: Callable | None = None        # bytes(n, t, f, rows) where the extent does not say
+
+    def bytes(self, n: int, t: int, f: Features, rows: int) -> int:
+        if not self.when(f):
+            return 0
+        if self.size is not None:
+            return int(self.size(n, t, f, rows))
+        return self.element * (n if self.extent == FRAME else t)
+
+
+FRAME, PYRAMID = "frame", "pyramid"
+F4, F1, U1 = 16, 4, 1
+
+BUFFERS = (
+    Buffer("image", F4, FRAME),                                      # RGBA in; scratch after preprocess
     # metric depth, read up to the lights; then (the source collapse) level k+1 up-sampled
     # along y to level k's rows, as colour planes (up_planes: the pair kernels, up_rows):
     # 12 h ceil(w / 2) <= 6 n + 6 h bytes at level 0, the largest
-    "depth": lambda n, t, f, r: max(4 * n, (6 * n + 6 * r) * f.source),
-    "direct": lambda n, t, f, r: 16 * n,                      # L exp(-st P) (+ L_em + L_amb)
-    "medium": lambda n, t, f, r: 16 * n * f.split_medium,
-    "chain": lambda n, t, f, r: 16 * t,                       # colour chain, every level
-    "spread": lambda n, t, f, r: 4 * (n * f.spread0 if f.source else t),
-    "prep": lambda n, t, f, r: 16 * t * f.source,
-    "up_planes": lambda n, t, f, r: 0,                     # in `depth`, free by then
-    "chain2": lambda n, t, f, r: 16 * t * f.sep,
-    "prep2": lambda n, t, f, r: 16 * t * f.sep,
-    "half2": lambda n, t, f, r: 16 * n * f.sep,
-    "spread2": lambda n, t, f, r: 4 * t * f.sep,             # unused output of reduce_level
+    Buffer("depth", F1, FRAME, size=lambda n, t, f, r: max(4 * n, (6 * n + 6 * r) * f.source)),
+    Buffer("direct", F4, FRAME),                                     # L exp(-st P) (+ L_em + L_amb)
+    Buffer("medium", F4, FRAME, lambda f: f.split_medium),           # L_em + L_amb, P in .w
+    Buffer("chain", F4, PYRAMID),                                    # the colour chain
+    Buffer("spread", F1, PYRAMID, size=lambda n, t, f, r: 4 * (n * f.spread0 if f.source else t)),
+    Buffer("prep", F4, PYRAMID, lambda f: f.source),
+    Buffer("up_planes", F1, FRAME, lambda f: False),                 # in `depth`, free by then
+    Buffer("chain2", F4, PYRAMID, lambda f: f.sep),
+    Buffer("prep2", F4, PYRAMID, lambda f: f.sep),
+    Buffer("half2", F4, FRAME, lambda f: f.sep),
+    Buffer("spread2", F1, PYRAMID, lambda f: f.sep),                 # unused output of reduce_level
     # the result, written over `direct` (every stage that writes it reads direct at its own
     # pixel only, first) unless the direct AOV must keep it
-    "out": lambda n, t, f, r: 16 * n * ("direct" in f.aovs),
-    "a_dir": lambda n, t, f, r: 16 * n * f.lights,            # airlight reaching the camera directly
-    "a_sc": lambda n, t, f, r: 16 * n * f.lights,             # ... and scattered again on the way
-    "trans": lambda n, t, f, r: 16 * n * ("transmittance" in f.aovs),
-    "level_aov": lambda n, t, f, r: 4 * n * bool(f.aovs),
-    "scat_aov": lambda n, t, f, r: 16 * n * bool(f.aovs),
-    "cosines": lambda n, t, f, r: 4 * n * f.lambert,
-    "epi_flags": lambda n, t, f, r: n * f.epipolar,           # pixels the epipolar unwarp leaves to the march
-}
+    Buffer("out", F4, FRAME, lambda f: "direct" in f.aovs),
+    Buffer("a_dir", F4, FRAME, lambda f: f.lights),                  # airlight reaching the camera directly
+    Buffer("a_sc", F4, FRAME, lambda f: f.lights),                   # ... and scattered again on the way
+    Buffer("trans", F4, FRAME, lambda f: "transmittance" in f.aovs),
+    Buffer("level_aov", F1, FRAME, lambda f: bool(f.aovs)),
+    Buffer("scat_aov", F4, FRAME, lambda f: bool(f.aovs)),
+    Buffer("cosines", F1, FRAME, lambda f: f.lambert),
+    Buffer("epi_flags", U1, FRAME, lambda f: f.epipolar),            # pixels the epipolar unwarp leaves to the march
+)
 # Buffers declared with 0 bytes that are another one: up_planes is made after the last read
 # of the depth; out is written over direct (see above)
 ALIASES = {"up_planes": "depth", "out": "direct"}
 
-
-REFERENCE_BUFFERS = {"src": lambda n: 16 * n, "tmp": lambda n: 16 * n, "acc": lambda n: 16 * n}
+# the reference's planes (reference.py), allocated when it runs
+REFERENCE_BUFFERS = (Buffer("src", F4, FRAME), Buffer("tmp", F4, FRAME), Buffer("acc", F4, FRAME))
 
 
 def plan_features(cfg: Config, aovs=()) -> Features:
@@ -158,7 +180,7 @@ def plan_features(cfg: Config, aovs=()) -> Features:
 
 
 def buffer_bytes(n: int, t: int, f: Features, rows: int) -> dict:
-    return {name: int(size(n, t, f, rows)) for name, size in BUFFERS.items()}
+    return {b.name: b.bytes(n, t, f, rows) for b in BUFFERS}
 
 
 def planned_bytes(n: int, t: int, f: Features, cfg: Config, rows: int) -> int:
@@ -167,7 +189,7 @@ def planned_bytes(n: int, t: int, f: Features, cfg: Config, rows: int) -> int:
     (the padded frame at 1/2^EXT_LEVEL: about (1 + 2 margin)^2 / 64 of a plan)."""
     total = sum(buffer_bytes(n, t, f, rows).values())
     if f.reference:
-        total += sum(size(n) for size in REFERENCE_BUFFERS.values())
+        total += sum(b.bytes(n, t, f, rows) for b in REFERENCE_BUFFERS)
     if f.lights and len(cfg.lights) > 1:
         total += 32 * n
     if cfg.render.border == "extend" and f.source and uses_apsf(cfg):

@@ -34,8 +34,8 @@ class _Blur:
         self.prog = rt.program("reference", **_defines(plan))
         w, h, n = plan.w, plan.h, plan.w * plan.h
         mf = cl.mem_flags
-        for name, size in REFERENCE_BUFFERS.items():      # declared with the plan's (check_memory)
-            setattr(self, name, cl.Buffer(rt.ctx, mf.READ_WRITE, size(n)))
+        for b in REFERENCE_BUFFERS:      # declared with the plan's (check_memory)
+            setattr(self, b.name, cl.Buffer(rt.ctx, mf.READ_WRITE, b.bytes(n, n, plan.features, h)))
         t.add("reference", cl.enqueue_fill_buffer(self.q, self.acc, np.float32(0), 0, self.acc.size))
         rmax = int(math.ceil(4.0 * max(smax, S0) * RATIO)) + 1
         self.taps = cl.Buffer(rt.ctx, mf.READ_WRITE, 4 * (rmax + 1))
