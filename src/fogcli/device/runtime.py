@@ -57,9 +57,13 @@ def _cl():
 def _import_pyopencl():
     """pyopencl, imported lazily (`fogcli check` and `media` never touch OpenCL). A Ctrl-C
     that lands while its extension creates its enums aborts the process (nanobind: a
-    'Critical nanobind error' and SIGABRT): the interrupt is held until the import is done."""
+    'Critical nanobind error' and SIGABRT): the interrupt is held until the import is done,
+    and that of the kernel invoker pyopencl would import at the first launch."""
     with interrupt_held():
         import pyopencl
+        # imported by pyopencl at the first launch otherwise: its cache (a sqlite dict) made
+        # half by a Ctrl-C printed a traceback from its __del__ (3 ms, here and not there)
+        import pyopencl.invoker  # noqa: F401
 
     return pyopencl
 
