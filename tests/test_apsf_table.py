@@ -13,6 +13,10 @@ import pytest
 
 import apsf_mc as mc
 
+import apsf_fit as fit
+
+import apsf_crossing as crossing
+
 TABLE = Path(__file__).resolve().parents[1] / "src" / "fogcli" / "physics" / "data" / "apsf.npz"
 NB = 6            # independent seeds per Monte Carlo check
 K_SIGMA = 4.0     # allowed deviation in standard errors (a seeded run: deterministic pass/fail)
@@ -37,8 +41,8 @@ def batched(g, tau, photons, albedo, seed0=1000, **kw):
     ratios, fs = [], []
     for b in range(NB):
         t = mc.simulate(g, tau, photons // NB, seed0 + b, **kw)
-        f, _ = mc.profiles(t, albedo, relative=True)
-        ring, _ = mc.kernel_bins(t.th_edges, f)
+        f, _ = fit.profiles(t, albedo, relative=True)
+        ring, _ = fit.kernel_bins(t.th_edges, f)
         ratios.append(ring.sum(-1) / -np.expm1(-np.asarray(tau))[None, :])
         fs.append(f)
     return np.array(ratios), np.mean(fs, 0), t.th_edges
@@ -47,7 +51,7 @@ def batched(g, tau, photons, albedo, seed0=1000, **kw):
 def sphere_quadrature(d, g, albedo):
     """Single-scattering energy over the sphere, by quadrature in theta of the ray integral."""
     th = np.concatenate([np.geomspace(1e-7, 0.05, 200), np.linspace(0.05, math.pi - 1e-4, 400)[1:]])
-    f = mc.single_scatter(th, d, g, albedo, n=600)
+    f = fit.single_scatter(th, d, g, albedo, n=600)
     return np.trapezoid(f * 2 * math.pi * np.sin(th), th)
 
 
@@ -108,8 +112,8 @@ def test_fit_reproduces_smooth_profiles():
     thc = np.sqrt(te[:-1] * te[1:])
     thc[0] = te[1] / 2
     for g, d in ((0.9, 0.05), (0.96, 1.0)):
-        f = mc.single_scatter(thc, d, g, 1.0, n=600)
-        w, e, err = mc.fit_gaussians(te, f[None])
+        f = fit.single_scatter(thc, d, g, 1.0, n=600)
+        w, e, err = fit.fit_gaussians(te, f[None])
         assert np.all(w >= 0)
         assert abs(w.sum() / e[0] - 1) < 1e-12
         assert err[0] < 0.03, (g, d, err)
@@ -125,12 +129,12 @@ def test_single_scattering_estimators_match_quadrature(estimator):
     the sphere-crossing one, a photon scoring w / |mu| where it crosses the sphere of radius d
     (simulate_far)."""
     tau, photons, seed0, run = {"point": (np.array([0.03, 0.3, 2.0]), 24000 // NB, 500, mc.simulate),
-                                "crossing": (np.array([0.3, 2.0]), 4000, 900, mc.simulate_far)}[estimator]
+                                "crossing": (np.array([0.3, 2.0]), 4000, 900, crossing.simulate_far)}[estimator]
     albedo = [1.0, 0.5]
     ratios = []
     for b in range(NB):
         t = run(0.7, tau, photons, seed0 + b, max_order=1)
-        f, _ = mc.profiles(t, albedo)
+        f, _ = fit.profiles(t, albedo)
         dom = 2 * math.pi * (np.cos(t.th_edges[:-1]) - np.cos(t.th_edges[1:]))
         ratios.append(f @ dom)
     ratios = np.array(ratios)
@@ -184,9 +188,9 @@ def far_batched(g, tau, photons, albedo, seed0, **kw):
     """batched() with the sphere-crossing estimator (simulate_far)."""
     ratios = []
     for b in range(NB):
-        t = mc.simulate_far(g, tau, photons // NB, seed0 + b, **kw)
-        f, _ = mc.profiles(t, albedo, relative=True)
-        ring, _ = mc.kernel_bins(t.th_edges, f)
+        t = crossing.simulate_far(g, tau, photons // NB, seed0 + b, **kw)
+        f, _ = fit.profiles(t, albedo, relative=True)
+        ring, _ = fit.kernel_bins(t.th_edges, f)
         ratios.append(ring.sum(-1) / -np.expm1(-np.asarray(tau))[None, :])
     return np.array(ratios)
 

@@ -1,6 +1,6 @@
 """Probe for issue 8 that chose the table's estimators (make_apsf_table.T_FAR): the
 forward-hemisphere scattered light at large tau from the sphere-crossing estimator
-(apsf_mc.simulate_far) against the point estimator (apsf_mc.simulate), two seeds each;
+(apsf_crossing.simulate_far) against the point estimator (apsf_mc.simulate), two seeds each;
 prints, per albedo and tau, the mean energy (relative form, no r_max background), the
 seed-to-seed noise of the energy |a/b - 1| / sqrt(2) and of the shape (ring L1 of the
 normalised Gaussian weights between the seeds / sqrt(2), as docs/apsf-table.md measures).
@@ -31,6 +31,8 @@ import numpy as np
 
 sys.path[:0] = [str(Path(__file__).resolve().parents[1] / d) for d in ("src", "tools")]
 import apsf_mc as mc  # noqa: E402
+import apsf_fit as fit
+import apsf_crossing as crossing
 
 TAU = np.array([5.0, 7.0, 10.0, 14.0, 20.0, 28.0])
 ALB = np.array([0.8, 0.9, 0.95, 0.99])
@@ -38,10 +40,10 @@ ALB = np.array([0.8, 0.9, 0.95, 0.99])
 
 def run(estimator: str, g: float, photons: int, seed: int, r_max: float = 60.0):
     """(forward energy, Gaussian weights) per (albedo, tau), relative form, no r_max background."""
-    sim = mc.simulate_far if estimator == "crossing" else mc.simulate
+    sim = crossing.simulate_far if estimator == "crossing" else mc.simulate
     t = sim(g, TAU, photons, seed, r_max=r_max, rr_order=int(120 / math.sqrt(1 - g)))
-    f, _ = mc.profiles(t, ALB, relative=True, background=False)
-    W, E, _ = mc.fit_gaussians(t.th_edges, f)
+    f, _ = fit.profiles(t, ALB, relative=True, background=False)
+    W, E, _ = fit.fit_gaussians(t.th_edges, f)
     return E, W
 
 
@@ -50,7 +52,7 @@ def tau_step_run(g: float, seed: int, photons: int = 60000):
 
     grid = M.TAU[M.TAU >= 5.0]
     fine = np.exp(np.linspace(np.log(grid[0]), np.log(grid[-1]), 4 * (len(grid) - 1) + 1))
-    t = mc.simulate_far(g, fine, photons, seed, r_max=M.R_MAX, rr_order=M.rr_order_for(g))
+    t = crossing.simulate_far(g, fine, photons, seed, r_max=M.R_MAX, rr_order=M.rr_order_for(g))
     r = M.reduce_tally(t, M.ALBEDO)
     return r["ratio"], r["shape"], t.th_edges
 
@@ -94,7 +96,7 @@ def main() -> int:
     for name, n in counts.items():
         t0 = time.time()
         (e1, w1), (e2, w2) = run(name, g, n, 1), run(name, g, n, 2)
-        ring = mc.ring_error(mc.theta_edges(), shape(w1), shape(w2)) / math.sqrt(2)
+        ring = fit.ring_error(mc.theta_edges(), shape(w1), shape(w2)) / math.sqrt(2)
         print(f"{name}: {n} photons, {(time.time() - t0) / 2:.1f} s a run")
         for i, a in enumerate(ALB):
             print(f"  a {a}: " + " ".join(f"{v:.4g}" for v in (e1[i] + e2[i]) / 2)

@@ -7,7 +7,7 @@ q = sqrt((1 - a) / a) of the log ratio and of the shape; linear in g and log tau
   --scale 0.25 takes the first quarter of them);
 * tau, from the shipped table itself: its curvature along log tau (curvature_errors);
 * g: single scattering by quadrature (exact) at the grid g and the midpoints, tau < 1;
-* tau >= 5, albedo and tau: the sphere-crossing estimator (apsf_mc.simulate_far, the one the
+* tau >= 5, albedo and tau: the sphere-crossing estimator (apsf_crossing.simulate_far, the one the
   table uses from tau 0.3 on) with cameras at the grid taus and the geometric midpoints between
   them in one tally, two seeds; the runtime interpolates the log ratio linearly in log tau
   (fogcli.physics.apsf.log_along_tau) and the shape linearly.
@@ -30,7 +30,8 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path[:0] = [str(ROOT / "src"), str(ROOT / "tools")]
 import make_apsf_table as M  # noqa: E402
 from fogcli.physics import apsf  # noqa: E402
-import apsf_mc as mc
+import apsf_fit as fit
+import apsf_crossing as crossing
 
 G_CHECK = (0.0, 0.5, 0.85, 0.95)
 RANGES = ((0.01, 1.0), (1.0, 5.0), (5.0, 31.0))
@@ -62,18 +63,18 @@ def albedo_errors(ratio, shape, th_edges):
     ok = rd > 1e-250
     with np.errstate(divide="ignore", invalid="ignore"):
         energy = lambda r: np.where(ok, np.abs(r / rd - 1), np.nan)  # noqa: E731
-        shape_err = lambda s: np.where(ok, mc.ring_error(th_edges, s, sd), np.nan)  # noqa: E731
+        shape_err = lambda s: np.where(ok, fit.ring_error(th_edges, s, sd), np.nan)  # noqa: E731
         return dict(shipped=(energy(ri), shape_err(si)), clipped=(energy(ri), shape_err(clipped)),
                     linear=(energy(ri_lin), shape_err(si_lin)))
 
 
 def far_run(g: float, photons: int, seed: int = M.SEED):
-    """The sphere-crossing estimator (apsf_mc.simulate_far) at the grid taus >= 5 and the
+    """The sphere-crossing estimator (apsf_crossing.simulate_far) at the grid taus >= 5 and the
     geometric midpoints between them, the table's albedos and their midpoints: one tally, so
     every midpoint (in albedo and in tau) comes from the same photons as its neighbours."""
     grid = M.TAU[M.TAU >= 5.0]
     taus = np.sort(np.concatenate([grid, np.sqrt(grid[:-1] * grid[1:])]))
-    t = mc.simulate_far(g, taus, photons, seed, r_max=M.R_MAX, rr_order=M.rr_order_for(g))
+    t = crossing.simulate_far(g, taus, photons, seed, r_max=M.R_MAX, rr_order=M.rr_order_for(g))
     r = M.reduce_tally(t, np.concatenate([M.ALBEDO, 0.5 * (M.ALBEDO[:-1] + M.ALBEDO[1:])]))
     return g, r["ratio"], r["shape"], t.th_edges
 
@@ -91,7 +92,7 @@ def tau_errors(ratio, shape, th_edges):
     ok = rd > 1e-250
     with np.errstate(divide="ignore", invalid="ignore"):
         rl = 0.5 * (r[:, :-2:2] + r[:, 2::2])
-        return (np.where(ok, np.abs(ri / rd - 1), np.nan), np.where(ok, mc.ring_error(th_edges, si, sd), np.nan),
+        return (np.where(ok, np.abs(ri / rd - 1), np.nan), np.where(ok, fit.ring_error(th_edges, si, sd), np.nan),
                 np.where(ok, np.abs(rl / rd - 1), np.nan))
 
 
@@ -118,7 +119,7 @@ def curvature_errors(path=ROOT / "src/fogcli/physics/data/apsf.npz"):
         ds = np.moveaxis(miss(np.moveaxis(s, -1, 0)), 0, -1)            # (G, A, T - 2, K)
         sm = s[:, :, 1:-1]
         ok = np.isfinite(energy) & (w[:, :, 1:-1].sum(-1) > 0)     # float32 weights underflow before the ratio
-        shape = np.where(ok, mc.ring_error(d["theta_edges"].astype(np.float64), sm + ds, sm), np.nan)
+        shape = np.where(ok, fit.ring_error(d["theta_edges"].astype(np.float64), sm + ds, sm), np.nan)
     return energy, shape, d["energy"][:, :, 1:-1].astype(np.float64), d["tau"][1:-1], d["albedo"], d["g"]
 
 
@@ -133,12 +134,12 @@ def g_errors(th_edges, taus=(0.03, 0.1, 0.3, 0.7), albedo=1.0):
         f = np.zeros((3, len(taus), len(te) - 1))
         for i, g in enumerate(gs):
             for k, tv in enumerate(taus):
-                f[i, k, :nf] = mc.single_scatter(thc[:nf], tv, g, albedo, n=1000)
-        W, E, _ = mc.fit_gaussians(te, f)
+                f[i, k, :nf] = fit.single_scatter(thc[:nf], tv, g, albedo, n=1000)
+        W, E, _ = fit.fit_gaussians(te, f)
         sh = W / np.maximum(W.sum(-1, keepdims=True), 1e-300)
         ei = np.exp(0.5 * (np.log(E[0]) + np.log(E[2])))
         out_e.append(np.abs(ei / E[1] - 1))
-        out_s.append(mc.ring_error(th_edges, 0.5 * (sh[0] + sh[2]), sh[1]))
+        out_s.append(fit.ring_error(th_edges, 0.5 * (sh[0] + sh[2]), sh[1]))
     return np.array(out_e), np.array(out_s)
 
 

@@ -23,6 +23,8 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "src"))
 import apsf_mc as mc  # noqa: E402
+import apsf_fit as fit
+import apsf_crossing as crossing
 
 # 0.15, 0.4, 0.95 and the albedos below 0.3 were added where a study of the earlier 30-tau grid
 # (tools/apsf_interpolation.py, removed with that grid; in git history) measured more than
@@ -73,7 +75,7 @@ def rr_order_for(g: float) -> int:
 
 def run_g(g: float, scale: float, seed: int, tau=TAU, r_max=R_MAX) -> list:
     """The tallies of one g: the point estimator for the cameras at tau < T_FAR, the
-    sphere-crossing estimator (apsf_mc.simulate_far) at tau >= T_FAR, where its noise is
+    sphere-crossing estimator (apsf_crossing.simulate_far) at tau >= T_FAR, where its noise is
     3-20x lower for the same time (tools/apsf_crossing_probe.py; at g 0.9, tau 0.2-3,
     its energy noise is 0.1-2 % with 20000 photons against 0.4-14 % with 60000 point
     photons). Either may be absent when no tau falls in its range."""
@@ -83,7 +85,7 @@ def run_g(g: float, scale: float, seed: int, tau=TAU, r_max=R_MAX) -> list:
         runs.append(mc.simulate(g, tau[tau < T_FAR], photons_for(g, scale), seed, r_max=r_max,
                                 rr_order=rr_order_for(g)))
     if (tau >= T_FAR).any():
-        runs.append(mc.simulate_far(g, tau[tau >= T_FAR], far_photons_for(g, scale), seed, r_max=r_max,
+        runs.append(crossing.simulate_far(g, tau[tau >= T_FAR], far_photons_for(g, scale), seed, r_max=r_max,
                                     rr_order=rr_order_for(g)))
     return runs
 
@@ -109,8 +111,8 @@ def thin(tau, albedo):
 
 def reduce_tally(t: mc.Tally, albedo=ALBEDO) -> dict:
     """Everything the table stores for one g: ratio-space fit (no underflow), then scaled."""
-    f_rel, em_rel = mc.profiles(t, albedo, relative=True)
-    W, E_rel, err = mc.fit_gaussians(t.th_edges, f_rel)
+    f_rel, em_rel = fit.profiles(t, albedo, relative=True)
+    W, E_rel, err = fit.fit_gaussians(t.th_edges, f_rel)
     dom = 2 * math.pi * (np.cos(t.th_edges[:-1]) - np.cos(t.th_edges[1:]))
     att = np.exp(-np.outer((1 - albedo) / albedo, t.tau))             # exp(-sa d)
     em_sum = em_rel.sum(-1, keepdims=True)
@@ -137,7 +139,7 @@ def interp(tab: dict, g: float, a: float, tau: float):
 
 def ring_l1(th_edges, sa, sb):
     """Relative L1 of the ring energies of two normalised weight sets."""
-    return mc.ring_error(th_edges, sa, sb)
+    return fit.ring_error(th_edges, sa, sb)
 
 
 def pct(x, q):
@@ -158,11 +160,11 @@ def single_scatter_rows(th_edges, scale: float) -> list:
     thc[0] = th_edges[1] / 2
     for g in (0.0, 0.9):
         for k in ks:
-            sim = mc.simulate if TAU[k] < T_FAR else mc.simulate_far
+            sim = mc.simulate if TAU[k] < T_FAR else crossing.simulate_far
             t = sim(g, TAU[k:k + 1], int(100_000 * max(scale, 0.2)), SEED + 7, max_order=1, r_max=R_MAX)
-            f, _ = mc.profiles(t, [1.0, 0.3])
+            f, _ = fit.profiles(t, [1.0, 0.3])
             for i, a in enumerate((1.0, 0.3)):
-                q = mc.single_scatter(thc, TAU[k], g, a, n=2000) @ dom
+                q = fit.single_scatter(thc, TAU[k], g, a, n=2000) @ dom
                 rows.append((g, a, TAU[k], f[i, 0] @ dom / q))
     return rows
 
@@ -214,7 +216,7 @@ def main(argv=None) -> int:
         # ~40 ms of each start-up (1.1 MB more in the package)
         np.savez(
             out, g=G.astype(f32), albedo=ALBEDO.astype(f32), tau=TAU.astype(f32),
-            sigma_u=mc.SIGMA_U.astype(f32), weights=stack["weights"].astype(f32),
+            sigma_u=fit.SIGMA_U.astype(f32), weights=stack["weights"].astype(f32),
             energy=stack["energy"].astype(f32), energy_sphere=stack["energy_sphere"].astype(f32),
             ratio=stack["ratio"].astype(f32), emit_mu=stack["emit_mu"].astype(f32),
             theta_edges=th_edges.astype(f32), t_far=np.float32(T_FAR),
@@ -252,8 +254,8 @@ def main(argv=None) -> int:
     for g in (0.0, 0.9, 0.96):
         a3 = [1.0, 0.999, 0.99, 0.9]
         dom = 2 * math.pi * (np.cos(th_edges[:-1]) - np.cos(th_edges[1:]))
-        e_no = np.concatenate([mc.profiles(t, a3, relative=True, background=False)[0] @ dom for t in tallies[g]], 1)
-        e_bg = np.concatenate([mc.profiles(t, a3, relative=True, background=True)[0] @ dom for t in tallies[g]], 1)
+        e_no = np.concatenate([fit.profiles(t, a3, relative=True, background=False)[0] @ dom for t in tallies[g]], 1)
+        e_bg = np.concatenate([fit.profiles(t, a3, relative=True, background=True)[0] @ dom for t in tallies[g]], 1)
         trunc.append((g, a3, 1 - e_no / np.maximum(e_bg, 1e-300)))
     # 4. interpolation at off-grid points, simulated directly
     interp_rows = []
@@ -333,7 +335,7 @@ def write_doc(ctx: dict, doc: str | None) -> None:
       "with the first three moments per bin so exp(-sa x) is averaged within a bin): one run per g "
       "serves every albedo.")
     L(f"* Two estimators: below tau {T_FAR:g} the point estimator (this item and the next three), from "
-      f"tau {T_FAR:g} on sphere crossings (`apsf_mc.simulate_far`): the medium is infinite and homogeneous "
+      f"tau {T_FAR:g} on sphere crossings (`apsf_crossing.simulate_far`): the medium is infinite and homogeneous "
       "and the source isotropic, so the whole sphere of radius d is the detector; a photon crossing it with "
       "radial cosine mu scores w / |mu| in the theta = acos(mu) bin. Isotropic emission, exponential first "
       "flight, no weight window; the same excess-path histogram. At tau 0.2-3 its noise is 3-20x below the "
@@ -360,13 +362,13 @@ def write_doc(ctx: dict, doc: str | None) -> None:
       "Unbiased. A last roulette (keep 1/2) after 120 / sqrt(1 - g) scatterings bounds the time.")
     L("* Fit: NNLS on the ring energies (the profile weighted by u du) and the cumulative energy, "
       "with sum(w) = energy imposed exactly, plus a small penalty on the weights' second difference "
-      f"across widths (`apsf_mc.FIT_SMOOTH` = {mc.FIT_SMOOTH:g}): neighbouring half-octave Gaussians are "
+      f"across widths (`apsf_mc.FIT_SMOOTH` = {fit.FIT_SMOOTH:g}): neighbouring half-octave Gaussians are "
       "nearly interchangeable, and without it the fit is sparse and picks different ones at neighbouring "
       "albedos, which interpolation then mixes. Light narrower than sigma_0 goes to w_0.")
     L("")
     L("## Estimator check: single scattering against quadrature")
     L("")
-    L("Only the first scattering scored, against `apsf_mc.single_scatter` (quadrature along the "
+    L("Only the first scattering scored, against `apsf_fit.single_scatter` (quadrature along the "
       "view ray), energy over the whole sphere:")
     L("")
     L("| g | albedo | tau | MC / quadrature |")
@@ -454,7 +456,7 @@ def write_doc(ctx: dict, doc: str | None) -> None:
     L("| g | " + " | ".join(f"tau {t:g}" for t in (0.01, 0.3, 3.0)) + " |")
     L("|---|---|---|---|")
     for g in (0.0, 0.5, 0.85, 0.96):
-        errs = [mc.fit_gaussians(te, mc.single_scatter(thc, t, g, 1.0, n=1000)[None])[2][0]
+        errs = [fit.fit_gaussians(te, fit.single_scatter(thc, t, g, 1.0, n=1000)[None])[2][0]
                 for t in (0.01, 0.3, 3.0)]
         L(f"| {g:g} | " + " | ".join(f"{e:.3f}" for e in errs) + " |")
     L("")

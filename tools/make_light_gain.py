@@ -29,7 +29,7 @@ def carried_energy(tau: float, g: float, albedo: float, n: int = 200) -> float:
     """Forward-hemisphere energy (over I / d^2) of single scattering with the light leg in
     extinction and the camera leg in absorption, by Gauss-Legendre quadrature: theta from the
     source direction, and along each view ray the angle b at the vertex (r = d sin(b - theta)
-    / sin b, rho = d sin(theta) / sin b: smooth in b, as in apsf_mc.single_scatter)."""
+    / sin b, rho = d sin(theta) / sin b: smooth in b, as in apsf_fit.single_scatter)."""
     st, d = 1.0 / albedo, tau
     sa = st - 1.0
     xt, wt = np.polynomial.legendre.leggauss(n)
