@@ -114,6 +114,10 @@ MAX_MODULE, MAX_FUNCTION = 500, 80
 
 def oversized(root) -> list[str]:
     out = []
+    for p in sorted([*root.rglob("*.cl"), *root.rglob("*.h")]):      # the kernels: lines only
+        n = len(p.read_text().splitlines())
+        if n > MAX_MODULE:
+            out.append(f"{p.relative_to(root)}: {n} lines")
     for p in sorted(root.rglob("*.py")):
         text = p.read_text()
         if len(text.splitlines()) > MAX_MODULE:
@@ -128,6 +132,10 @@ def oversized(root) -> list[str]:
 
 def test_no_module_over_500_lines_and_no_function_over_80(tmp_path):
     assert oversized(SRC) == []
+    kernel = tmp_path / "k"
+    kernel.mkdir()
+    (kernel / "long.cl").write_text("int x;\n" * (MAX_MODULE + 1))
+    assert oversized(kernel) == [f"long.cl: {MAX_MODULE + 1} lines"]
     pkg = planted(tmp_path, "errors.py", "def _planted():\n" + "    x = 1\n" * MAX_FUNCTION)
     assert oversized(pkg / "fogcli") == ["errors.py:" + str(len((SRC / "errors.py").read_text().splitlines()) + 3)
                                          + " _planted: 81 lines"]
