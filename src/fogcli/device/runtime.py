@@ -27,6 +27,19 @@ KERNEL_DIR = Path(__file__).resolve().parent / "kernels"
 LOCAL_CPU = tuple(int(v) for v in os.environ.get("FOGCLI_LOCAL", "64,4").split(","))
 
 
+def fit_work_group(local: tuple[int, int], most: int, per_dim: tuple) -> tuple[int, int]:
+    """The preferred 2-D work-group shape, halved (rows first, then columns) until a device
+    whose groups hold at most `most` work-items, and `per_dim` along each dimension, takes it
+    (a GPU: often 256; PoCL told POCL_MAX_WORK_GROUP_SIZE)."""
+    lx, ly = local
+    while lx * ly > most or lx > per_dim[0] or ly > per_dim[1]:
+        if ly > 1:
+            ly //= 2
+        else:
+            lx //= 2
+    return max(lx, 1), max(ly, 1)
+
+
 def cache_dir() -> str:
     """fogcli's folder of the user's cache: PoCL's cache and the device binaries."""
     base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
@@ -222,8 +235,10 @@ class Runtime:
         self._programs: dict[tuple, object] = {}
         self.pocl = "portable computing language" in device.platform.name.lower()
         gpu = "gpu" in self.info.kind or "accelerator" in self.info.kind
-        self.local2d = (16, 8) if gpu else LOCAL_CPU
-        self.local1d = 128 if gpu else LOCAL_CPU[0] * LOCAL_CPU[1]
+        # the preferred shapes, within what this device takes
+        most = device.max_work_group_size
+        self.local2d = fit_work_group((16, 8) if gpu else LOCAL_CPU, most, tuple(device.max_work_item_sizes))
+        self.local1d = min(128 if gpu else LOCAL_CPU[0] * LOCAL_CPU[1], most, device.max_work_item_sizes[0])
         # kernels written on float8 for CPUs whose vectoriser would leave them scalar:
         # 8-wide SIMD without AVX-512 (kernels/lanes.h, LANES)
         self.lanes = 8 if not gpu and device.native_vector_width_float == 8 else 1
