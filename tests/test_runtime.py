@@ -230,3 +230,18 @@ def test_a_device_with_smaller_work_groups_gives_the_same_result(tmp_path):
     (a, shape_a), (b, shape_b) = outs
     assert shape_b == "(64, 1)" and shape_a != shape_b
     assert np.abs(a - b).sum() / np.abs(a).sum() < 1e-6
+
+
+def test_a_simulator_is_used_only_when_named():
+    """Oclgrind (a test implementation) reports itself as every kind of device, a GPU too:
+    the default, and `--device gpu` / `cpu`, pass it over; naming it picks it."""
+    sim = runtime.DeviceInfo(0, 0, "Oclgrind", "Oclgrind Simulator", "accelerator | cpu | default | gpu", "1.2")
+    cpu = runtime.DeviceInfo(1, 0, "Portable Computing Language", "pthread-cpu", "cpu", "3.0")
+    devices = [(sim, "s"), (cpu, "c")]
+    assert runtime.choose(devices, None)[1] == "c"
+    assert runtime.choose(devices, "cpu")[1] == "c"
+    with pytest.raises(runtime.UserError, match="--device 'gpu': no such OpenCL device"):
+        runtime.choose(devices, "gpu")
+    assert runtime.choose(devices, "oclgrind")[1] == "s"
+    assert runtime.choose(devices, "0:0")[1] == "s"
+    assert runtime.choose([(sim, "s")], None)[1] == "s"        # the only one there is

@@ -97,6 +97,12 @@ class DeviceInfo:
     def label(self) -> str:
         return f"{self.name} [{self.platform}, {self.spec}]"
 
+    @property
+    def simulator(self) -> bool:
+        """Oclgrind: it checks every memory access and reports itself as every kind of device
+        (a GPU too), at a thousandth of a CPU's speed. Used only when named."""
+        return "oclgrind" in self.platform.lower()
+
 
 def list_devices() -> list[tuple[DeviceInfo, object]]:
     cl = _cl()
@@ -122,17 +128,18 @@ def choose(devices, spec: str | None, origin: str = "--device"):
     if spec:
         s = spec.strip().lower()
         for info, dev in devices:
-            if s == info.spec or (s in ("cpu", "gpu", "accelerator") and s in info.kind):
+            if s == info.spec or (s in ("cpu", "gpu", "accelerator") and s in info.kind and not info.simulator):
                 return info, dev
         for info, dev in devices:
             if s in info.name.lower() or s in info.platform.lower():
                 return info, dev
         known = ", ".join(i.spec + " " + i.name for i, _ in devices)
         raise UserError(f"{origin} {spec!r}: no such OpenCL device (have: {known})")
-    for info, dev in devices:
+    real = [(info, dev) for info, dev in devices if not info.simulator] or devices
+    for info, dev in real:
         if "gpu" in info.kind or "accelerator" in info.kind:
             return info, dev
-    return devices[0]
+    return real[0]
 
 
 class _Kernels:
