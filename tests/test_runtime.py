@@ -56,6 +56,24 @@ def test_second_runtime_loads_the_binary(cache, monkeypatch):
     assert b.binary_path("pyramid", "src", ["-D", "A=2"]) != b.binary_path("pyramid", "src", ["-D", "A=1"])
 
 
+def test_a_binary_keeps_its_kernels_parameter_names(cache, monkeypatch):
+    """A program made from a binary may have no argument info (Intel's CPU runtime:
+    KERNEL_ARG_INFO_NOT_AVAILABLE), so the names the device gave at the build from source are
+    kept beside the binary; a binary without them is built again."""
+    import json
+
+    seen = _builds(monkeypatch)
+    runtime.Runtime().program("pyramid", **D4).build()
+    (names,) = cache.glob("pyramid-*.json")
+    assert json.loads(names.read_text())["prep_level0"] == ["chain", "prep", "n", "thresh1", "eps"]
+    progs = runtime.Runtime().program("pyramid", **D4).build()
+    assert len(seen) == 1 and progs._params["prep_level0"] == ["chain", "prep", "n", "thresh1", "eps"]
+    assert progs.prep_level0.params == ("chain", "prep", "n", "thresh1", "eps")
+    names.unlink()
+    runtime.Runtime().program("pyramid", **D4).build()
+    assert len(seen) == 2 and names.is_file()
+
+
 def test_the_key_follows_the_kernels_content_not_their_folder(cache, monkeypatch, tmp_path):
     """Another install of the same kernels (a fresh venv) loads the binaries already built;
     an edited header builds anew."""

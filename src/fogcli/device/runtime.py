@@ -150,6 +150,7 @@ class _Kernels:
 
     def __init__(self, cl, build):
         self._cl, self._build, self._program, self._cache = cl, build, None, {}
+        self._params: dict = {}     # kernel -> parameter names, as the device said at the build
 
     def __getattr__(self, name):
         if name.startswith("_"):
@@ -162,11 +163,17 @@ class _Kernels:
     def build(self) -> "_Kernels":
         """The program now (the binary cache's tests; a launch does it by itself)."""
         if self._program is None:
-            self._program = self._build()
+            built = self._build()
+            self._program, self._params = built if isinstance(built, tuple) else (built, {})
         return self
 
     def kernel(self, name: str):
         return self._cl.Kernel(self.build()._program, name)
+
+
+def kernel_params(cl, k) -> list[str]:
+    """A kernel's parameter names, from the device's argument info (-cl-kernel-arg-info)."""
+    return [k.get_arg_info(i, cl.kernel_arg_info.NAME) for i in range(k.get_info(cl.kernel_info.NUM_ARGS))]
 
 
 def _arg_dtype(arg):
@@ -204,9 +211,9 @@ class _Kernel:
     def params(self) -> tuple[str, ...]:
         """The kernel's parameter names, in order, as the device reports them."""
         if self._params is None:
-            k, cl = self._get(), self._owner._cl
-            n = k.get_info(cl.kernel_info.NUM_ARGS)
-            self._params = tuple(k.get_arg_info(i, cl.kernel_arg_info.NAME) for i in range(n))
+            k = self._get()
+            known = self._owner._params.get(self._name)
+            self._params = tuple(known) if known is not None else kernel_params(self._owner._cl, k)
         return self._params
 
     def __call__(self, queue, global_size, local_size, /, *, global_offset=None, **named):
@@ -328,31 +335,48 @@ class Runtime:
         return _user_cache_dir() / "kernels" / f"{name}-{h.hexdigest()[:40]}.bin"
 
     def _build(self, name: str, src: str, opts: list[str]):
-        """Build from the cached binary when there is one (a few ms against 50-150 ms from
-        source with a warm PoCL cache); a binary that does not load is rebuilt from source
-        and replaced. Written to a temporary file and renamed: concurrent processes never
-        see half a binary."""
+        """(program, its kernels' parameter names). From the cached binary when there is one
+        (a few ms against 50-150 ms from source with a warm PoCL cache), with the names the
+        device gave when it built it from source (a program made from a binary may have no
+        argument info: Intel's CPU runtime); a binary that does not load, or has no names, is
+        rebuilt from source and replaced. Written to temporary files and renamed: concurrent
+        processes never see half a binary."""
+        import json
+        import warnings
+
         cl = self.cl
         path = self.binary_path(name, src, opts)
-        if path is not None and path.is_file():
+        names_path = path.with_suffix(".json") if path is not None else None
+        # a compiler's log of a successful build is not the user's business: pyopencl warns on
+        # any (Intel's CPU runtime logs its vectoriser's remarks); a failed build's log is
+        # in the error below
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", cl.CompilerWarning)
+            if path is not None and path.is_file():
+                try:
+                    names = json.loads(names_path.read_text())
+                    return cl.Program(self.ctx, [self.device], [path.read_bytes()]).build(options=opts), names
+                except (cl.Error, OSError, ValueError):
+                    pass   # stale, damaged or without names: build from source below and write it again
+            prog = cl.Program(self.ctx, src)
+            # from source, not from pyopencl's own binary cache (whose programs may lack argument info)
+            prog._prg = cl._cl._Program(self.ctx, src)
             try:
-                return cl.Program(self.ctx, [self.device], [path.read_bytes()]).build(options=opts)
-            except (cl.Error, OSError, ValueError):
-                pass   # stale or damaged: build from source below and write it again
-        try:
-            prog = cl.Program(self.ctx, src).build(options=opts)
-        except cl.RuntimeError as exc:
-            raise ProcessingError(f"kernel {name}.cl failed to build: {exc}") from exc
+                prog.build(options=opts)
+            except cl.RuntimeError as exc:
+                raise ProcessingError(f"kernel {name}.cl failed to build: {exc}") from exc
+        names = {k.function_name: kernel_params(cl, k) for k in prog.all_kernels()}
         if path is not None:
             try:
                 binary = prog.get_info(cl.program_info.BINARIES)[0]
                 path.parent.mkdir(parents=True, exist_ok=True)
-                tmp = path.with_suffix(f".{os.getpid()}.tmp")
-                tmp.write_bytes(binary)
-                os.replace(tmp, path)
+                for target, data in ((names_path, json.dumps(names).encode()), (path, binary)):
+                    tmp = target.with_suffix(f".{os.getpid()}.tmp")
+                    tmp.write_bytes(data)
+                    os.replace(tmp, target)
             except (cl.Error, OSError):
                 pass   # an unwritable cache only costs the next process a build
-        return prog
+        return prog, names
 
 
 _RUNTIMES: dict[str | None, Runtime] = {}
