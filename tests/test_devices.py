@@ -19,8 +19,10 @@ CASES = {
                                     "angle: 30, intensity: 300}]", "render.lights.shadows=screen",
                                     "render.lights.method=march"],
     "reference, open border": ["render.method=reference", "render.border=open"],
+    "smoke ball (noise), a light, stride 2": ["lights=[{type: point, position: [0, 2, -10], intensity: 300}]",
+                                              "render.noise_stride=2"],
 }
-MEDIUM = {"sea, separation, AOVs": "sea"}
+MEDIUM = {"sea, separation, AOVs": "sea", "smoke ball (noise), a light, stride 2": "smoke-ball"}
 
 CHILD = r"""
 import json, sys, numpy as np, fogcli
