@@ -53,6 +53,9 @@ def test_second_runtime_loads_the_binary(cache, monkeypatch):
     p = b.binary_path("pyramid", "src", ["-D", "A=1"])
     monkeypatch.setenv("POCL_LLVM_CPU_NAME", "znver1")
     assert b.binary_path("pyramid", "src", ["-D", "A=1"]) != p
+    q = b.binary_path("pyramid", "src", ["-D", "A=1"])
+    monkeypatch.setenv("CL_CONFIG_CPU_VECTORIZER_MODE", "1")      # Intel's CPU runtime's settings too
+    assert b.binary_path("pyramid", "src", ["-D", "A=1"]) != q
     assert b.binary_path("pyramid", "src", ["-D", "A=2"]) != b.binary_path("pyramid", "src", ["-D", "A=1"])
 
 

@@ -314,7 +314,7 @@ class Runtime:
         """Where the device binary of this source, these options, this device and driver
         lives (None: the cache is off, FOGCLI_KERNEL_CACHE=0). The key hashes the program's
         source, every header it can include, the options, the device, the driver, the
-        OpenCL platform and PoCL's settings (POCL_*), so an edit, an upgrade or another
+        OpenCL platform and the driver's settings (POCL_*, CL_CONFIG_*), so an edit, an upgrade or another
         target builds anew: PoCL's device version names the CPU it compiles for
         (tools/avx2/run.sh makes it another)."""
         if os.environ.get("FOGCLI_KERNEL_CACHE", "1") == "0":
@@ -329,7 +329,9 @@ class Runtime:
         d = self.device
         parts += [d.name, d.vendor, d.version, d.driver_version, d.platform.name, d.platform.version,
                   self.cl.VERSION_TEXT]
-        parts += [f"{k}={v}" for k, v in sorted(os.environ.items()) if k.startswith("POCL_") and k != "POCL_CACHE_DIR"]
+        # the drivers' own compile settings: PoCL's POCL_*, Intel's CPU runtime's CL_CONFIG_*
+        parts += [f"{k}={v}" for k, v in sorted(os.environ.items())
+                  if k.startswith(("POCL_", "CL_CONFIG_")) and k != "POCL_CACHE_DIR"]
         for part in parts:
             h.update(part.encode() + b"\0")
         return _user_cache_dir() / "kernels" / f"{name}-{h.hexdigest()[:40]}.bin"
