@@ -154,8 +154,8 @@ def test_launch2d_covers_every_pixel_once(rt, w, h):
     checked one fills the strips, and no pixel is done twice."""
     cl = rt.cl
     opts = ["-I", str(runtime.KERNEL_DIR), "-cl-kernel-arg-info"] + [f"-D{k}={v}" for k, v in D4.items()]
-    whole = runtime._Kernels(cl, lambda: cl.Program(rt.ctx, COUNT).build(options=opts + ["-DWHOLE_GROUPS=1"])).count
-    checked = runtime._Kernels(cl, lambda: cl.Program(rt.ctx, COUNT).build(options=opts)).count
+    whole = runtime._Kernels(cl, lambda: (cl.Program(rt.ctx, COUNT).build(options=opts + ["-DWHOLE_GROUPS=1"]), {})).count
+    checked = runtime._Kernels(cl, lambda: (cl.Program(rt.ctx, COUNT).build(options=opts), {})).count
     guard = 4096                    # a whole-groups launch past the image would count here
     buf = cl.Buffer(rt.ctx, cl.mem_flags.READ_WRITE | cl.mem_flags.COPY_HOST_PTR,
                     hostbuf=np.zeros(w * h + guard, np.int32))

@@ -38,17 +38,18 @@ cl, q = rt.cl, rt.queue
 args = ", ".join([f"__global float *b{{i}}" for i in range(8)] + [f"const int n{{i}}" for i in range(8)]
                  + ["const float f0", "const float f1"])
 src = f"__kernel void k({{args}}) {{{{ int i = get_global_id(0); if (i < n0) b0[i] = f0 + f1; }}}}"
-prog = R._Kernels(cl, lambda: cl.Program(rt.ctx, src).build())
+prog = R._Kernels(cl, lambda: (cl.Program(rt.ctx, src).build(options=["-cl-kernel-arg-info"]), {{}}))
 k = prog.k
 bufs = [cl.Buffer(rt.ctx, cl.mem_flags.READ_WRITE, 4096) for _ in range(8)]
-a = bufs + [np.int32(i + 1) for i in range(8)] + [np.float32(1), np.float32(2)]
-k(q, (64,), (64,), *a).wait()
+a = dict(zip([f"b{{i}}" for i in range(8)] + [f"n{{i}}" for i in range(8)] + ["f0", "f1"],
+             bufs + [np.int32(i + 1) for i in range(8)] + [np.float32(1), np.float32(2)]))
+k(q, (64,), (64,), **a).wait()
 gate = cl.UserEvent(rt.ctx)
 cl.enqueue_marker(q, wait_for=[gate])
 n = 300
 t0 = time.perf_counter()
 for _ in range(n):
-    k(q, (64,), (64,), *a)
+    k(q, (64,), (64,), **a)
 one = (time.perf_counter() - t0) / n * 1e6
 gate.set_status(cl.command_execution_status.COMPLETE)
 q.finish()

@@ -149,6 +149,7 @@ class _Kernels:
     from the binary cache costs 5-15 ms of every process)."""
 
     def __init__(self, cl, build):
+        """build() -> (program, its kernels' parameter names; {}: ask the device)."""
         self._cl, self._build, self._program, self._cache = cl, build, None, {}
         self._params: dict = {}     # kernel -> parameter names, as the device said at the build
 
@@ -163,8 +164,7 @@ class _Kernels:
     def build(self) -> "_Kernels":
         """The program now (the binary cache's tests; a launch does it by itself)."""
         if self._program is None:
-            built = self._build()
-            self._program, self._params = built if isinstance(built, tuple) else (built, {})
+            self._program, self._params = self._build()
         return self
 
     def kernel(self, name: str):

@@ -127,13 +127,15 @@ def compute(st: Staged, cfg: Config, aovs=(), device=None, timings: Timings | No
     result is the device's buffer until store() has written it (run.run)."""
     notes: list = []
     frame, src = st.frame, st.job.input
-    l_in = mean_luminance(frame.colour())
+    colour = frame.colour()         # made once (a copy where the channels are not a run)
+    l_in = mean_luminance(colour)
     try:
-        frame_cfg, lamp_mask = for_image(frame.colour(), st.depth, cfg, report=notes, lamps=st.lamps)
-        started = start(frame.colour(), st.depth, frame_cfg, alpha=frame.alpha, aovs=aovs, device=device,
+        frame_cfg, lamp_mask = for_image(colour, st.depth, cfg, report=notes, lamps=st.lamps)
+        started = start(colour, st.depth, frame_cfg, alpha=frame.alpha, aovs=aovs, device=device,
                         timings=timings if timings is not None else Timings(), lamp_mask=lamp_mask)
     except UserError as exc:        # the colour is checked as it is uploaded: name the file
         raise UserError(str(exc).replace("colour: ", f"{src}: ", 1)) from None
+    del colour
     # uploaded: not read again but for the median depth of a warning (of a grid, the same)
     frame.rgb, grid, st.depth = None, np.array(depth_grid(st.depth)), None
     st.rgb, st.alpha, st.planes = finish(started, mapped)

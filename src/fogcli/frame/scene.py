@@ -16,8 +16,6 @@ def for_image(rgb: np.ndarray, depth: np.ndarray, cfg: Config, report: list | No
     """(the config for this frame, the lamps' pixels or None). depth: metric, at the
     image's size; `report` collects notes (lamps found), `lamps` the point lights that
     `{type: auto}` made of them."""
-    h, w = depth.shape
-    cfg = cfg.model_copy(update={"camera": cfg.camera.for_size(w, h)})
     lamp_mask = None
     if any(x.type == "auto" for x in cfg.lights):     # lamps of the image become point lights
         found, lamp_mask, notes = [], None, []
