@@ -18,6 +18,12 @@
  * before PoCL builds the loop over work-items, and such a value stops that loop's vectoriser
  * ("instruction return type cannot be vectorized"): chaining the copies prevents the pairing. */
 #define AFTER(v, prev) ((v) + 0.0f * (prev))
+/* A kernel a compiler must not vectorise across work-items. Intel's CPU runtime (2026.2)
+ * does it to airlight_noise and airlight_fill and loses some work-items' results after
+ * ray_cuts (the noise span of every ray but one of a vector read as a miss; PoCL, Oclgrind
+ * and Intel's own scalar build agree on them: docs/devices.md). A vector type hint is Intel's
+ * documented way to keep a kernel scalar; other compilers take it as a hint. */
+#define NOT_ACROSS_ITEMS __attribute__((vec_type_hint(float4)))
 
 #ifdef WHOLE_GROUPS
 #define OUTSIDE(i, j, w, h) 0

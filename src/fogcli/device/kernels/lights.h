@@ -232,8 +232,8 @@ inline void sort_cuts(float *c, int n)
  * (dir) and what scatters again on the way (sc), with sc's luminance-weighted P in wp. */
 inline void al_accumulate(float3 src, float P, float3 sa, float3 st, float3 *dir, float3 *sc, float *wp)
 {
-    float3 tdir = native_exp(-st * P);
-    float3 add = src * (native_exp(-sa * P) - tdir);
+    float3 tdir = exp(-st * P);
+    float3 add = src * (exp(-sa * P) - tdir);
     *dir += src * tdir;
     *sc += add;
     *wp += luminance(add) * P;

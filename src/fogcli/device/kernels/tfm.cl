@@ -123,7 +123,7 @@ inline void noise_ray(float3 c, float3 w, float D, const light_t *L, const lmedi
 /* the airlight at every `stride`-th pixel of every `stride`-th row (and the last ones): the
  * samples airlight_fill interpolates; .w of a sample's A_dir: 1 where its ray meets the
  * noise. stride 1: every pixel, written straight to a_dir, a_sc. */
-__kernel void airlight_noise(__global const float *depth, __global float4 *a_dir, __global float4 *a_sc,
+__kernel NOT_ACROSS_ITEMS void airlight_noise(__global const float *depth, __global float4 *a_dir, __global float4 *a_sc,
                              const int width, const int height, NOISE_ARGS, const int stride, const int cw,
                              const int ch)
 {
@@ -139,7 +139,7 @@ __kernel void airlight_noise(__global const float *depth, __global float4 *a_dir
 /* Every pixel from the four samples around it (bilinear), where all four lie on its surface,
  * agree with it on meeting the noise, and it is more than 12 strides from the light's image
  * (lx, ly; the 1/R peak); elsewhere its own ray, integrated. */
-__kernel void airlight_fill(__global const float *depth, __global float4 *a_dir, __global float4 *a_sc,
+__kernel NOT_ACROSS_ITEMS void airlight_fill(__global const float *depth, __global float4 *a_dir, __global float4 *a_sc,
                             __global const float4 *s_dir, __global const float4 *s_sc,
                             const int width, const int height, NOISE_ARGS, const int stride, const int cw,
                             const int ch, const float lx, const float ly)
