@@ -14,3 +14,10 @@ def rng():
     return np.random.default_rng(1234)
 
 
+
+
+def pytest_report_header(config):
+    """The OpenCL device the run's kernels go to (tests/test_devices.py runs the kernel tests
+    on each implementation and checks this line)."""
+    rt = get_runtime(None)
+    return f"fogcli device: {rt.info.label()}, work-group {rt.local2d[0]} x {rt.local2d[1]}"

@@ -35,9 +35,9 @@ def test_memory_check_names_the_limit():
     n = 16000 * 12000
     sizes = buffer_bytes(n, n * 4 // 3, f, 12000)
     with pytest.raises(ProcessingError, match=r"16000x12000: its chain buffer needs 3906 MiB in one piece, device "
-                                              r"test device allocates at most 2048 MiB"):
+                                              r"test device allocates at most 2048 MiB: choose a device with more memory \(--device"):
         check_memory(_rt(2**40, 2**31), 16000, 12000, sizes, sum(sizes.values()))
-    with pytest.raises(ProcessingError, match="needs .* MiB, device test device has 1024 MiB"):
+    with pytest.raises(ProcessingError, match="needs .* MiB, device test device has 1024 MiB: choose a device .* or a smaller image$"):
         check_memory(_rt(2**30, 2**31), 16000, 12000, sizes, sum(sizes.values()))
     check_memory(_rt(2**40, 2**33), 16000, 12000, sizes, sum(sizes.values()))   # fits: no error
 

@@ -38,7 +38,7 @@ cl, q = rt.cl, rt.queue
 args = ", ".join([f"__global float *b{{i}}" for i in range(8)] + [f"const int n{{i}}" for i in range(8)]
                  + ["const float f0", "const float f1"])
 src = f"__kernel void k({{args}}) {{{{ int i = get_global_id(0); if (i < n0) b0[i] = f0 + f1; }}}}"
-prog = R._Kernels(cl, lambda: (cl.Program(rt.ctx, src).build(options=["-cl-kernel-arg-info"]), {{}}))
+prog = R._Kernels(cl, lambda: R.build_source(cl, rt.ctx, src, ["-cl-kernel-arg-info"]))
 k = prog.k
 bufs = [cl.Buffer(rt.ctx, cl.mem_flags.READ_WRITE, 4096) for _ in range(8)]
 a = dict(zip([f"b{{i}}" for i in range(8)] + [f"n{{i}}" for i in range(8)] + ["f0", "f1"],

@@ -111,10 +111,11 @@ def stage_table(mpxs, reps):
 
 LAMP = "lights=[{type: point, position: [2, 3, -15], intensity: 400}]"    # also tools/lights.py's
 
-# The scripts that write the other blocks of docs/performance.md, run by --all (enqueue_cost.py
-# and huge_image.py write docs/performance.md itself, whatever --out says)
+# The scripts that write the other blocks of docs/performance.md, run by --all (enqueue_cost.py,
+# huge_image.py and transfer_budget.py write docs/performance.md itself, whatever --out says)
 OTHERS = [("end_to_end.py", "--rounds", "7", "--out", "{out}"), ("throughput.py", "--rounds", "3", "--out", "{out}"),
-          ("pocl_vectorisation.py", "--doc", "{out}"), ("enqueue_cost.py",), ("huge_image.py",)]
+          ("pocl_vectorisation.py", "--doc", "{out}"), ("enqueue_cost.py",), ("huge_image.py",),
+          ("transfer_budget.py",)]
 
 
 def light_stage(reps):

@@ -198,15 +198,18 @@ def planned_bytes(n: int, t: int, f: Features, cfg: Config, rows: int) -> int:
 
 
 def check_memory(rt: Runtime, width: int, height: int, sizes: dict, need: int) -> None:
-    """Refuse before allocating: the device's memory and its largest single allocation."""
+    """Refuse before allocating: the device's memory and its largest single allocation, each
+    in one line with the estimate, the device's figure and what to do instead."""
     dev = rt.device
+    instead = "choose a device with more memory (--device; fogcli devices lists them) or a smaller image"
     if need > dev.global_mem_size:
         raise ProcessingError(f"image of {width}x{height} needs {need / 2**20:.0f} MiB, "
-                              f"device {rt.info.name} has {dev.global_mem_size / 2**20:.0f} MiB")
+                              f"device {rt.info.name} has {dev.global_mem_size / 2**20:.0f} MiB: {instead}")
     name, big = max(sizes.items(), key=lambda kv: kv[1])
     if big > dev.max_mem_alloc_size:
         raise ProcessingError(f"image of {width}x{height}: its {name} buffer needs {big / 2**20:.0f} MiB in one "
-                              f"piece, device {rt.info.name} allocates at most {dev.max_mem_alloc_size / 2**20:.0f} MiB")
+                              f"piece, device {rt.info.name} allocates at most {dev.max_mem_alloc_size / 2**20:.0f} MiB: "
+                              f"{instead}")
 
 
 def pair_region(sizes: list, nt: int, local: tuple) -> tuple | None:

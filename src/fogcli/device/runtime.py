@@ -117,7 +117,9 @@ def list_devices() -> list[tuple[DeviceInfo, object]]:
         except Exception:
             continue
         for di, d in enumerate(devices):
-            kind = cl.device_type.to_string(d.type).replace("ALL | ", "").lower()
+            # a device of every kind (Oclgrind) spells its type as a bit field: the kinds alone
+            kind = " | ".join(k for k in cl.device_type.to_string(d.type).lower().split(" | ")
+                              if k and k not in ("all", "default") and not k.startswith("_"))
             out.append((DeviceInfo(pi, di, p.name.strip(), d.name.strip(), kind, p.version.strip()), d))
     if not out:
         raise ProcessingError("no OpenCL device available; install pocl-binary-distribution")
@@ -233,6 +235,16 @@ class _Kernel:
 
     def __getattr__(self, attr):
         return getattr(self._get(), attr)
+
+
+def build_source(cl, ctx, src: str, opts: list[str]):
+    """(program, its kernels' parameter names) built from source: not through pyopencl's own
+    binary cache, whose programs may lack argument info (Intel's CPU runtime has none for a
+    program made from a binary). Options should hold -cl-kernel-arg-info."""
+    prog = cl.Program(ctx, src)
+    prog._prg = cl._cl._Program(ctx, src)
+    prog.build(options=opts)
+    return prog, {k.function_name: kernel_params(cl, k) for k in prog.all_kernels()}
 
 
 class Runtime:
@@ -360,14 +372,10 @@ class Runtime:
                     return cl.Program(self.ctx, [self.device], [path.read_bytes()]).build(options=opts), names
                 except (cl.Error, OSError, ValueError):
                     pass   # stale, damaged or without names: build from source below and write it again
-            prog = cl.Program(self.ctx, src)
-            # from source, not from pyopencl's own binary cache (whose programs may lack argument info)
-            prog._prg = cl._cl._Program(self.ctx, src)
             try:
-                prog.build(options=opts)
+                prog, names = build_source(cl, self.ctx, src, opts)
             except cl.RuntimeError as exc:
                 raise ProcessingError(f"kernel {name}.cl failed to build: {exc}") from exc
-        names = {k.function_name: kernel_params(cl, k) for k in prog.all_kernels()}
         if path is not None:
             try:
                 binary = prog.get_info(cl.program_info.BINARIES)[0]

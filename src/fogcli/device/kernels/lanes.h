@@ -51,7 +51,7 @@ ALWAYS_INLINE float8 lane_log(float8 x)
 #else
 typedef float lanef;
 typedef int lanei;
-#define LANE_ABS(v) __builtin_fabsf(v)
+#define LANE_ABS(v) ABS_(v)
 #define LANE_SQRT(v) SQRT_(v)
 #define LANE_INT(v) ((int)(v))
 #define LANE_FLOAT(v) ((float)(v))

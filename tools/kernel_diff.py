@@ -1,0 +1,338 @@
+"""Every kernel's output on one OpenCL implementation against PoCL's (issue 39).
+
+Each case runs the whole pipeline on a tiny frame on PoCL and on the other device with every
+kernel launch recorded: after a launch, each buffer the kernel may write (a __global
+argument not declared const) is read back. A record is keyed by the kernel, its parameter
+and the buffer's size, and holds the buffer as the kernel's last launch on it left it (a
+stage's launches differ in number between devices: whole work-groups and strips on a CPU,
+one launch on a GPU, but leave the same buffer behind). Each buffer the plan
+allocates starts filled with NaN, so a value a kernel did not write, or computed from one
+it should not have read, shows up as a NaN against PoCL's number (and a non-finite result
+stops the frame). The difference of a record is max |a - b| / max |a| over its floats; a
+NaN against a number counts as infinite.
+
+    python tools/kernel_diff.py oclgrind     # table of the largest difference per kernel
+    python tools/kernel_diff.py intel        # (with Intel's ICD set up: docs/devices.md)
+    python tools/kernel_diff.py --doc        # both, as the block of docs/devices.md (sets the ICD up)
+
+tests/test_devices.py runs this for Intel's CPU runtime and Oclgrind against TOLERANCE.
+"""
+from __future__ import annotations
+
+import json
+import os
+import sys
+
+import numpy as np
+
+# programs built from source hold argument info (which parameters are const); one from a
+# binary may not (Intel's CPU runtime)
+os.environ["FOGCLI_KERNEL_CACHE"] = "0"
+
+H, W = 36, 64
+
+LIGHT = "lights=[{type: point, position: [2, 1, -20], intensity: 300}]"
+NOISE = ("medium.density=[{type: homogeneous}, {type: noise, factor: 5, scale: 4, octaves: 2, shape: box, "
+         "center: [0, 0, -8], size: [2, 6, 2], seed: 3, edge: 1}]")
+SPOT = ("lights=[{type: spot, position: [-3, 3, -6], direction: [1, -1, -0.6], angle: 30, intensity: 300}]")
+# name: (medium, --set values, options: size (w, h), aovs, alpha, then: the kernels only tests
+# launch, after the frame: level 0 of the chains set (run.write_level0), the brute-force
+# reference (reference.brute_force), the transmittance map read at points (noise.probe_map))
+CASES = {
+    "fog": ("fog", [], {}),
+    # the two-pixel kernels need a level 1 of whole pairs of work-groups: 320 x 180 at a CPU's
+    # 64 x 4, 192 x 108 at a GPU's 16 x 8 (the simulator's)
+    "fog, two-pixel kernels": ("fog", [], {"size": (320, 180), "simulator_size": (192, 108)}),
+    "sea, separation, AOVs": ("sea", ["render.separation.enabled=true"],
+                              {"aovs": ("scattered", "spread", "airlight", "optical_depth")}),
+    "receiver fetch, separation": ("fog", ["render.fetch=receiver", "render.psf=gaussian",
+                                           "render.separation.enabled=true"], {}),
+    "receiver fetch, apsf": ("fog", ["render.fetch=receiver"], {}),
+    "valley fog (exponential), alpha": ("valley-fog", ["camera.empty_depth=50"], {"alpha": True}),
+    "point light, epipolar shadows": ("fog", [LIGHT, "render.lights.shadows=screen"], {}),
+    "spot light, marched shadows": ("fog", ["lights=[{type: spot, position: [0, 2, -5], direction: [0, -0.3, -1], "
+                                            "angle: 30, intensity: 300}]", "render.lights.shadows=screen",
+                                            "render.lights.method=march"], {}),
+    "point light, chromatic table": ("sea", [LIGHT], {}),
+    "sun and point": ("haze", ["lights=[{type: directional, direction: [0.3, 1, 0.2], irradiance: 3}, "
+                                          "{type: point, position: [-3, 1, -12], intensity: [300, 200, 100]}]"], {}),
+    "lamps found in the image": ("fog", ["lights=[{type: auto}]"], {}),
+    "point light, airlight pk": ("fog", [LIGHT, "render.lights.airlight=pk"], {}),
+    "sphere medium, a light": ("smoke-ball", [LIGHT], {}),
+    "noise column, spot, stride 1": ("fog", [NOISE, SPOT, "render.noise_stride=1"], {}),
+    "noise column, spot, stride 2, map probed": ("fog", [NOISE, SPOT, "render.noise_stride=2"],
+                                                 {"then": "probe"}),
+    "reference, open border": ("fog", ["render.method=reference", "render.border=open"], {}),
+    "reference, gaussian, brute force": ("fog", ["render.method=reference", "render.psf=gaussian"],
+                                         {"then": "brute force"}),
+    "extend border": ("fog", ["render.border=extend"], {}),
+    "gaussian, level 0 set": ("fog", ["render.psf=gaussian"], {"then": "level 0"}),
+}
+
+# The largest difference to PoCL each kernel may show, max |a - b| / max |a| of a buffer it
+# writes (a float32 result holds ~6e-8; kernels that sum hundreds of terms or call the math
+# library differ more between compilers). Measured figures: docs/devices.md.
+TOLERANCE_DEFAULT = 1e-5
+TOLERANCE = {
+    # quadrature of the airlight: hundreds of nodes, each through exp, atan2, tan, sin/cos
+    "airlight": 1e-4, "airlight_noise": 1e-4, "airlight_fill": 1e-4, "airlight_pk": 1e-4,
+    "airlight_table": 1e-4, "airlight_table_grey": 1e-4, "airlight_sun": 1e-4,
+    # the light leg marched through noise, and its DCT (sums of 32-512 terms)
+    "tfm_build": 1e-4, "p_noise": 1e-4, "p_noise_samples": 1e-4,
+    # shadows: a march whose visibility steps where a depth compare flips
+    "epi_march": 1e-4, "shadow_march": 1e-4, "epi_unwarp": 1e-4, "epi_samples": 1e-4, "add_light": 1e-4,
+    "add_airlight": 1e-4,
+    # the reference: sums over every pixel pair of a 64 x 36 frame
+    "ref_brute": 1e-4, "ref_brute_norm": 1e-4, "ref_finish": 1e-4,
+}
+
+
+# Kernels whose outputs hold decisions (epi_samples: whether a sample's line meets a shadow,
+# and the shares that follow from it): a decision flips where a depth compare is as close as
+# the float rounding, and the kernels after it (epi_march, epi_unwarp) differ by far less.
+# Compared as the share of elements (float4s) that differ by more than TOLERANCE_DEFAULT.
+DECISIONS = {"epi_samples": 0.02}
+
+
+def tolerance(kernel: str) -> float:
+    return DECISIONS.get(kernel) or TOLERANCE.get(kernel, TOLERANCE_DEFAULT)
+
+
+def frame(w: int = W, h: int = H):
+    """A random scene-linear frame with a bright pixel (a lamp) and a band of sky."""
+    rng = np.random.default_rng(1)
+    rgb = rng.uniform(0, 2, (h, w, 3)).astype(np.float32)
+    rgb[h // 4 - 1: h // 4 + 2, w // 4 - 1: w // 4 + 2] = 400.0     # a lamp (lights: auto)
+    z = rng.uniform(1, 200, (h, w)).astype(np.float32)
+    z[: h // 6] = np.inf
+    return rgb, z
+
+
+class Recorder:
+    """Wraps runtime._Kernel.__call__ and pyopencl.Buffer for one run."""
+
+    def __init__(self):
+        self.records: dict[tuple, np.ndarray] = {}
+
+    def __enter__(self):
+        import pyopencl as cl
+
+        from fogcli.device import runtime
+
+        rec = self
+        self._saved = (runtime._Kernel.__call__, cl.Buffer)
+        call, Buffer = self._saved
+
+        class NanBuffer(Buffer):
+            def __init__(self, ctx, flags, size=0, hostbuf=None):
+                super().__init__(ctx, flags, size, hostbuf)
+                if hostbuf is None and size % 4 == 0:
+                    q = cl.CommandQueue(ctx)
+                    cl.enqueue_fill_buffer(q, self, np.float32(np.nan), 0, size).wait()
+
+        def recorded(kern, queue, gsize, lsize, /, *, global_offset=None, **named):
+            ev = call(kern, queue, gsize, lsize, global_offset=global_offset, **named)
+            ev.wait()
+            name = kern._name
+            k = kern._get()
+            for i, p in enumerate(kern.params):
+                a = named[p]
+                if not isinstance(a, cl.Buffer):
+                    continue
+                if k.get_arg_info(i, cl.kernel_arg_info.TYPE_QUALIFIER) & cl.kernel_arg_type_qualifier.CONST:
+                    continue
+                host = np.empty(a.size // 4, np.float32)
+                cl.enqueue_copy(queue, host, a)
+                rec.records[(name, p, a.size)] = host
+            return ev
+
+        runtime._Kernel.__call__ = recorded
+        cl.Buffer = NanBuffer
+        return self
+
+    def __exit__(self, *exc):
+        import pyopencl as cl
+
+        from fogcli.device import runtime
+
+        runtime._Kernel.__call__, cl.Buffer = self._saved
+
+
+def run_case(name: str, device: str, simulated: bool = False) -> dict:
+    """The records of one case on one device (simulated: at the case's simulator size)."""
+    import fogcli
+    from fogcli.device import plan
+
+    medium, sets, opts = CASES[name]
+    cfg = fogcli.make_config(medium, sets=sets)
+    size = opts.get("simulator_size" if simulated else "size", opts.get("size", (W, H)))
+    rgb, z = frame(*size)
+    alpha = None
+    if opts.get("alpha"):
+        alpha = np.ones(z.shape, np.float32)
+        alpha[:, : z.shape[1] // 5] = 0.0
+    aovs = opts.get("aovs", ())
+    plan._PLANS.clear()         # a plan's buffers are made inside the recorder (NaN-filled)
+    with Recorder() as rec:
+        fogcli.apply(rgb, z, cfg, alpha=alpha, aovs=aovs, return_aovs=bool(aovs), device=device)
+        if opts.get("then") == "brute force":
+            from fogcli.device.plan import Timings
+            from fogcli.device.reference import brute_force
+
+            (frame_plan,) = plan._PLANS.values()
+            brute_force(frame_plan, Timings())
+        elif opts.get("then") == "level 0":
+            from fogcli.device.run import write_level0
+
+            (frame_plan,) = plan._PLANS.values()
+            level0 = np.random.default_rng(3).uniform(0, 2, (frame_plan.h, frame_plan.w, 4)).astype(np.float32)
+            write_level0(frame_plan, level0, level0[:, :, 3] * 4)
+        elif opts.get("then") == "probe":
+            from fogcli.device.noise import probe_map
+
+            pts = np.random.default_rng(2).uniform([-1.5, -4, -10], [1.5, 4, -6], (97, 3))
+            probe_map(cfg, cfg.lights[0], pts, device=device)
+    return rec.records
+
+
+def partial(kernel: str) -> bool:
+    """A kernel that writes a region of its buffer sized by the work-group shape (the inner
+    part of Plan.launch_inner, *_inner and *_pairs, and up_rows, which feeds the pairs): the
+    region differs between devices, and right after it the rest of the buffer holds what it
+    held. Its work is compared in the stage's result, which the kernel launched last on the
+    buffer (the strips around the region) leaves."""
+    return kernel.endswith(("_inner", "_pairs")) or kernel == "up_rows"
+
+
+def difference(a: np.ndarray, b: np.ndarray) -> float:
+    """max |a - b| / max |a| over finite values; inf where one holds a NaN or inf the other
+    has not."""
+    fa, fb = np.isfinite(a), np.isfinite(b)
+    if (fa != fb).any() or (np.isnan(a) != np.isnan(b)).any():
+        return float("inf")
+    if not fa.any():
+        return 0.0
+    scale = np.abs(a[fa]).max()
+    d = np.abs(a[fa].astype(np.float64) - b[fa])
+    return float(d.max() / scale) if scale > 0 else float(d.max())
+
+
+def record_difference(key: tuple, a: np.ndarray, b: np.ndarray) -> float:
+    """difference(); for DECISIONS the share of float4s differing by more than
+    TOLERANCE_DEFAULT of the buffer's largest value."""
+    if key[0] not in DECISIONS:
+        return difference(a, b)
+    scale = max(float(np.abs(a[np.isfinite(a)]).max(initial=0.0)), 1e-30)
+    off = ~np.isclose(a, b, rtol=0.0, atol=TOLERANCE_DEFAULT * scale, equal_nan=True)
+    return float(off.reshape(-1, 4).any(axis=1).mean())
+
+
+def compare(device: str, cases=None) -> dict:
+    """{kernel: (largest difference, its case, its parameter)} over the cases. A kernel both
+    devices ran on different buffers counts as an infinite difference; one that only one
+    device's plan runs (PoCL's whole-group kernels) is left out of that case."""
+    worst: dict[str, tuple] = {}
+    for name in cases or CASES:
+        sim = "oclgrind" in device.lower()
+        ref, got = run_case(name, "portable", sim), run_case(name, device, sim)
+        for key in ref.keys() | got.keys():
+            k = key[0]
+            if partial(k):
+                if key in got:        # it ran on the device under test (PoCL's shapes may skip it)
+                    worst.setdefault(k, (None, name, key[1]))
+                continue
+            if key in ref and key in got:
+                d = record_difference(key, ref[key], got[key])
+            elif any(r[0] == k for r in ref) and any(r[0] == k for r in got):
+                d = float("inf")       # the kernel wrote other buffers on one device
+            else:
+                continue               # a kernel one device's plan does not use (CPU-only, two-pixel)
+            if k not in worst or worst[k][0] is None or d > worst[k][0]:
+                worst[k] = (d, name, key[1])
+    return worst
+
+
+def intel_icd() -> str | None:
+    """A folder with an ICD file naming Intel's CPU runtime as pip installs it in this
+    environment (intel-opencl-rt, the test extra), for OCL_ICD_VENDORS; None without it."""
+    import tempfile
+    from pathlib import Path
+
+    lib = Path(sys.prefix) / "lib" / "libintelocl.so"
+    if not lib.is_file():
+        return None
+    folder = Path(tempfile.mkdtemp(prefix="fogcli-icd-"))
+    (folder / "intel-cpu.icd").write_text(f"{lib}\n")
+    return str(folder)
+
+
+def table(results: dict) -> list[str]:
+    """Markdown rows: kernel, each device's largest difference, the tolerance."""
+    names = list(results)
+    rows = [f"| kernel | {' | '.join(names)} | tolerance | case of the largest |", "|---" * (len(names) + 3) + "|"]
+    for k in sorted(set().union(*results.values())):
+        cells, where = [], ""
+        for n in names:
+            d = results[n].get(k)
+            cells.append("–" if d is None else "in the stage's result" if d[0] is None else f"{d[0]:.1e}")
+            if d is not None and d[0] is not None and (not where or d[0] > float(where[0])):
+                where = (d[0], f"{d[1]} ({d[2]})")
+        tol = "share of samples " + f"{DECISIONS[k]:.0%}" if k in DECISIONS else f"{tolerance(k):.0e}"
+        rows.append(f"| {k} | {' | '.join(cells)} | {tol} | {where[1] if where else ''} |")
+    return rows
+
+
+def write_doc() -> int:
+    """Intel's CPU runtime and Oclgrind against PoCL, as a block of docs/devices.md."""
+    from docblock import cpu_kind, cpu_name, markers, write_block
+
+    import pyopencl as cl
+
+    results = {}
+    if "intel(r) opencl" in " ".join(p.name.lower() for p in cl.get_platforms()):
+        results["Intel CPU runtime"] = compare("intel(r) opencl")
+    results["Oclgrind"] = compare("oclgrind")
+    over = [k for r in results.values() for k, v in r.items() if v[0] is not None and v[0] > tolerance(k)]
+    versions = "; ".join(f"{p.name.strip()} {p.version.strip()}" for p in cl.get_platforms())
+    begin, end = markers(f"kernel-diff-{cpu_kind()}")
+    block = [begin, f"Largest difference to PoCL per kernel, max |a - b| / max |a| of a buffer it writes, over "
+             f"{len(CASES)} tiny frames (`python tools/kernel_diff.py --doc`; {cpu_name()}; {versions}). "
+             "Over tolerance: " + (", ".join(over) if over else "none") + ".", "", *table(results), end]
+    from pathlib import Path
+
+    doc = Path(__file__).resolve().parents[1] / "docs" / "devices.md"
+    write_block(doc, begin, end, "\n".join(block), new_doc="# OpenCL devices\n")
+    print("\n".join(block))
+    return 1 if over else 0
+
+
+def main(argv=None) -> int:
+    import warnings
+
+    warnings.simplefilter("ignore")     # the lamps case's note: stderr is Oclgrind's report
+    args = argv or sys.argv[1:]
+    if "--doc" in args:
+        icd = intel_icd()
+        if icd and "OCL_ICD_VENDORS" not in os.environ:
+            os.environ["OCL_ICD_VENDORS"] = icd      # before pyopencl's first platform query
+        return write_doc()
+    device = (args or ["intel"])[0]
+    worst = compare(device)
+    if "--json" in args:
+        print(json.dumps({k: list(v) for k, v in worst.items()}))
+        return 0
+    print(f"{'kernel':24s} {'largest difference':>18s} {'tolerance':>9s}  case (parameter)")
+    bad = 0
+    for k in sorted(worst):
+        d, case, p = worst[k]
+        if d is None:
+            print(f"{k:24s} {'in the stage':>18s} {'':9s}  {case} ({p})")
+            continue
+        ok = d <= tolerance(k)
+        bad += not ok
+        print(f"{k:24s} {d:18.2e} {tolerance(k):9.0e}  {case} ({p}){'' if ok else '  OVER'}")
+    return 1 if bad else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
