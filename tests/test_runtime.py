@@ -219,6 +219,17 @@ def test_work_group_shapes_fit_the_device():
     assert runtime.fit_work_group((16, 8), 256, (256, 4, 1)) == (16, 4)
 
 
+def test_a_name_means_a_platform_before_a_device():
+    """`--device intel` picks Intel's platform although PoCL, listed first, names its CPU
+    device after the CPU; a device's name still picks it when no platform has it."""
+    pocl = runtime.DeviceInfo(0, 0, "Portable Computing Language", "pthread-Intel(R) Xeon(R) Processor", "cpu", "3.0")
+    intel = runtime.DeviceInfo(1, 0, "Intel(R) OpenCL", "Intel(R) Xeon(R) Processor", "cpu", "3.1")
+    devices = [(pocl, "p"), (intel, "i")]
+    assert runtime.choose(devices, "intel")[1] == "i"
+    assert runtime.choose(devices, "pthread")[1] == "p"
+    assert runtime.choose(devices, "portable")[1] == "p"
+
+
 def test_a_simulator_is_used_only_when_named():
     """Oclgrind (a test implementation) reports itself as every kind of device, a GPU too:
     the default, and `--device gpu` / `cpu`, pass it over; naming it picks it."""

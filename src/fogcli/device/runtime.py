@@ -4,7 +4,7 @@ Device choice (first match wins): the explicit spec (``--device`` / ``FOGCLI_DEV
 else the first GPU or accelerator of any platform, else the first CPU device (PoCL from
 pip is the embedded default). A spec is ``P:D`` (platform and device index, as listed
 by ``fogcli devices``, needed when two platforms share a name), ``cpu``, ``gpu`` or a
-case-insensitive substring of the platform or device name.
+case-insensitive substring of a platform's name, else of a device's.
 """
 from __future__ import annotations
 
@@ -132,9 +132,11 @@ def choose(devices, spec: str | None, origin: str = "--device"):
         for info, dev in devices:
             if s == info.spec or (s in ("cpu", "gpu", "accelerator") and s in info.kind and not info.simulator):
                 return info, dev
-        for info, dev in devices:
-            if s in info.name.lower() or s in info.platform.lower():
-                return info, dev
+        # a platform's name before a device's: PoCL names its CPU device after the CPU
+        # ("pthread-Intel(R) Xeon(R) ..."), and "intel" means Intel's platform
+        for info, dev in [d for d in devices if s in d[0].platform.lower()] + \
+                [d for d in devices if s in d[0].name.lower()]:
+            return info, dev
         known = ", ".join(i.spec + " " + i.name for i, _ in devices)
         raise UserError(f"{origin} {spec!r}: no such OpenCL device (have: {known})")
     real = [(info, dev) for info, dev in devices if not info.simulator] or devices
