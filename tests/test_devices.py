@@ -28,20 +28,20 @@ KERNELS = sorted(ln.split("void", 1)[1].split("(", 1)[0].strip()
 # the tests of kernels (each against a numpy oracle) run again on each implementation
 KERNEL_TESTS = ["test_kernels.py", "test_lights.py", "test_shadows.py", "test_noise.py", "test_density.py",
                 "test_border_extend.py", "test_apsf.py", "test_buffers.py", "test_structs.py", "test_runtime.py"]
-INTEL_LIB = Path(sys.prefix) / "lib" / "libintelocl.so"
 LIGHTS = ROOT / "samples" / "harbour-lights.yaml"
 
 
 @pytest.fixture(scope="session")
 def intel(tmp_path_factory) -> dict:
     """The environment under which Intel's CPU runtime is a platform beside PoCL and Oclgrind
-    (an ICD file naming its library, in a folder of its own: OCL_ICD_VENDORS), and the
-    device spec that picks it. Skipped, saying why, only where it cannot run (not x86-64)."""
+    (kernel_diff.intel_icd's folder as OCL_ICD_VENDORS), and the device spec that picks it.
+    Skipped, saying why, only where it cannot run (not x86-64 Linux, or no device listed)."""
+    import kernel_diff
+
     if platform.machine() != "x86_64" or sys.platform != "linux":
         pytest.skip(f"Intel's CPU runtime is built for x86-64 Linux only, not {platform.machine()} {sys.platform}")
-    assert INTEL_LIB.is_file(), "intel-opencl-rt (a test extra) is not installed in this environment"
     icd = tmp_path_factory.mktemp("icd")
-    (icd / "intel-cpu.icd").write_text(f"{INTEL_LIB}\n")
+    assert kernel_diff.intel_icd(icd), "intel-opencl-rt (a test extra) is not installed in this environment"
     env = dict(os.environ, OCL_ICD_VENDORS=str(icd))
     r = subprocess.run([sys.executable, "-c", "from fogcli.cli import main; main()", "devices"], env=env,
                        capture_output=True, text=True, timeout=300)
@@ -49,7 +49,7 @@ def intel(tmp_path_factory) -> dict:
         cpu = next((ln.split(":", 1)[1].strip() for ln in Path("/proc/cpuinfo").read_text().splitlines()
                     if ln.startswith("model name")), "this CPU")
         pytest.skip(f"Intel's CPU runtime lists no device on {cpu}: {(r.stdout + r.stderr).strip()[-300:]}")
-    return {"env": env, "device": "intel(r) opencl"}
+    return {"env": env, "device": kernel_diff.INTEL_SPEC}
 
 
 def implementation(name: str, intel_env=None) -> tuple[dict, str]:
@@ -165,16 +165,30 @@ def _quarter_sample(tmp: Path) -> Path:
     return out
 
 
+@pytest.fixture(scope="session")
+def pocl_output(tmp_path_factory):
+    """PoCL's (uncapped) output of a source, fog or the lights sample's config: made once a
+    session for the implementations compared with it."""
+    folder, made = tmp_path_factory.mktemp("pocl"), {}
+
+    def output(source: Path, lights: bool) -> np.ndarray:
+        if (source, lights) not in made:
+            env, device = implementation("pocl")
+            made[source, lights] = _sample(folder, source, f"pocl{len(made)}", env, device, lights)
+        return made[source, lights]
+
+    return output
+
+
 @pytest.mark.parametrize("name", ["intel", "oclgrind", "pocl-64", "pocl-256"])
-def test_the_samples_match_pocl(name, request, tmp_path):
+def test_the_samples_match_pocl(name, request, tmp_path, pocl_output):
     """`fogcli apply` on the bundled sample (fog) and with the lights sample's config: within
     1e-4 relative L1 of PoCL's (uncapped) output. Oclgrind (checking every access and race)
     takes the sample at a quarter of its size."""
     env, device = implementation(name, request.getfixturevalue("intel") if name == "intel" else None)
-    ref_env, _ = implementation("pocl")
     source = _quarter_sample(tmp_path) if name == "oclgrind" else SAMPLE
     for lights in (False, True):
-        a = _sample(tmp_path, source, "pocl", ref_env, "portable", lights)
+        a = pocl_output(source, lights)
         b = _sample(tmp_path, source, name, env, device, lights)
         rel = np.abs(b - a).sum() / np.abs(a).sum()
         assert a.shape == b.shape and rel <= 1e-4, (lights, rel)

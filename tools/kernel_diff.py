@@ -22,6 +22,8 @@ from __future__ import annotations
 import json
 import os
 import sys
+import tempfile
+from pathlib import Path
 
 import numpy as np
 
@@ -124,11 +126,15 @@ class Recorder:
         self._saved = (runtime._Kernel.__call__, cl.Buffer)
         call, Buffer = self._saved
 
+        queues = {}         # a queue of the recorder's own per context, for the fills
+
         class NanBuffer(Buffer):
             def __init__(self, ctx, flags, size=0, hostbuf=None):
                 super().__init__(ctx, flags, size, hostbuf)
                 if hostbuf is None and size % 4 == 0:
-                    q = cl.CommandQueue(ctx)
+                    q = queues.get(ctx.int_ptr)
+                    if q is None:
+                        q = queues[ctx.int_ptr] = cl.CommandQueue(ctx)
                     cl.enqueue_fill_buffer(q, self, np.float32(np.nan), 0, size).wait()
 
         def recorded(kern, queue, gsize, lsize, /, *, global_offset=None, **named):
@@ -253,18 +259,20 @@ def compare(device: str, cases=None) -> dict:
     return worst
 
 
-def intel_icd() -> str | None:
-    """A folder with an ICD file naming Intel's CPU runtime as pip installs it in this
-    environment (intel-opencl-rt, the test extra), for OCL_ICD_VENDORS; None without it."""
-    import tempfile
-    from pathlib import Path
+# Intel's CPU runtime as pip installs it in this environment (intel-opencl-rt, the test
+# extra), and the device spec that picks it: its platform's name
+INTEL_LIB = Path(sys.prefix) / "lib" / "libintelocl.so"
+INTEL_SPEC = "intel(r) opencl"
 
-    lib = Path(sys.prefix) / "lib" / "libintelocl.so"
-    if not lib.is_file():
-        return None
-    folder = Path(tempfile.mkdtemp(prefix="fogcli-icd-"))
-    (folder / "intel-cpu.icd").write_text(f"{lib}\n")
-    return str(folder)
+
+def intel_icd(folder: Path) -> bool:
+    """Write into folder an ICD file naming INTEL_LIB (the package's own names its build
+    machine's path), so that OCL_ICD_VENDORS=folder makes Intel's runtime a platform beside
+    PoCL and Oclgrind; False where it is not installed."""
+    if not INTEL_LIB.is_file():
+        return False
+    (folder / "intel-cpu.icd").write_text(f"{INTEL_LIB}\n")
+    return True
 
 
 def table(results: dict) -> list[str]:
@@ -272,14 +280,13 @@ def table(results: dict) -> list[str]:
     names = list(results)
     rows = [f"| kernel | {' | '.join(names)} | tolerance | case of the largest |", "|---" * (len(names) + 3) + "|"]
     for k in sorted(set().union(*results.values())):
-        cells, where = [], ""
-        for n in names:
-            d = results[n].get(k)
-            cells.append("–" if d is None else "in the stage's result" if d[0] is None else f"{d[0]:.1e}")
-            if d is not None and d[0] is not None and (not where or d[0] > float(where[0])):
-                where = (d[0], f"{d[1]} ({d[2]})")
+        got = [results[n].get(k) for n in names]
+        cells = ["–" if d is None else "in the stage's result" if d[0] is None else f"{d[0]:.1e}" for d in got]
+        measured = [d for d in got if d is not None and d[0] is not None]
+        top = max(measured, key=lambda d: d[0]) if measured else None
+        where = f"{top[1]} ({top[2]})" if top else ""
         tol = "share of samples " + f"{DECISIONS[k]:.0%}" if k in DECISIONS else f"{tolerance(k):.0e}"
-        rows.append(f"| {k} | {' | '.join(cells)} | {tol} | {where[1] if where else ''} |")
+        rows.append(f"| {k} | {' | '.join(cells)} | {tol} | {where} |")
     return rows
 
 
@@ -290,8 +297,8 @@ def write_doc() -> int:
     import pyopencl as cl
 
     results = {}
-    if "intel(r) opencl" in " ".join(p.name.lower() for p in cl.get_platforms()):
-        results["Intel CPU runtime"] = compare("intel(r) opencl")
+    if INTEL_SPEC in " ".join(p.name.lower() for p in cl.get_platforms()):
+        results["Intel CPU runtime"] = compare(INTEL_SPEC)
     results["Oclgrind"] = compare("oclgrind")
     over = [k for r in results.values() for k, v in r.items() if v[0] is not None and v[0] > tolerance(k)]
     versions = "; ".join(f"{p.name.strip()} {p.version.strip()}" for p in cl.get_platforms())
@@ -299,8 +306,6 @@ def write_doc() -> int:
     block = [begin, f"Largest difference to PoCL per kernel, max |a - b| / max |a| of a buffer it writes, over "
              f"{len(CASES)} tiny frames (`python tools/kernel_diff.py --doc`; {cpu_name()}; {versions}). "
              "Over tolerance: " + (", ".join(over) if over else "none") + ".", "", *table(results), end]
-    from pathlib import Path
-
     doc = Path(__file__).resolve().parents[1] / "docs" / "devices.md"
     write_block(doc, begin, end, "\n".join(block), new_doc="# OpenCL devices\n")
     print("\n".join(block))
@@ -313,10 +318,10 @@ def main(argv=None) -> int:
     warnings.simplefilter("ignore")     # the lamps case's note: stderr is Oclgrind's report
     args = argv or sys.argv[1:]
     if "--doc" in args:
-        icd = intel_icd()
-        if icd and "OCL_ICD_VENDORS" not in os.environ:
-            os.environ["OCL_ICD_VENDORS"] = icd      # before pyopencl's first platform query
-        return write_doc()
+        with tempfile.TemporaryDirectory(prefix="fogcli-icd-") as icd:
+            if "OCL_ICD_VENDORS" not in os.environ and intel_icd(Path(icd)):
+                os.environ["OCL_ICD_VENDORS"] = icd      # before pyopencl's first platform query
+            return write_doc()
     device = (args or ["intel"])[0]
     worst = compare(device)
     if "--json" in args:

@@ -5,7 +5,7 @@ The plugin stops the whole process when it meets an instruction it does not mode
 pipeline under it ends at the first such kernel. Here each kernel is replayed alone: the
 cases of tools/kernel_diff.py run on Oclgrind (without the plugin), and for each kernel the
 first launch's arguments are saved as they were right before it (every buffer's contents,
-every scalar, the program's defines, the launch's sizes). Each saved launch is then run in
+every scalar, the program's build options, the launch's sizes). Each saved launch is then run in
 a child process with the plugin on, with buffers made from those contents (so what the
 plugin calls uninitialised is what the kernel itself never wrote: a private or local value
 read before it was set). A child's stderr is the plugin's report; a crash is the plugin's
@@ -27,9 +27,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-os.environ["FOGCLI_KERNEL_CACHE"] = "0"
-
-import kernel_diff  # noqa: E402
+import kernel_diff  # noqa: E402  (it turns the binary cache off: programs with argument info)
 
 CHILD = r"""
 import pickle, sys
@@ -62,21 +60,8 @@ def capture(folder: Path, cases=None) -> dict:
     saved: dict[str, Path] = {}
     call = runtime._Kernel.__call__
 
-    def program_of(kern):
-        rt_programs = [rt._programs for rt in runtime._RUNTIMES.values()]
-        for programs in rt_programs:
-            for key, kernels in programs.items():
-                if kernels is kern._owner:
-                    return key
-        raise LookupError(kern._name)
-
     def recording(kern, queue, gsize, lsize, /, *, global_offset=None, **named):
         if kern._name not in saved:
-            key = program_of(kern)
-            name, defines = key[0], dict(key[1:])
-            opts = ["-I", str(runtime.KERNEL_DIR)]
-            for d, v in sorted(defines.items()):
-                opts += ["-D", f"{d}={v}"]
             args = []
             for p in kern.params:
                 a = named[p]
@@ -88,7 +73,8 @@ def capture(folder: Path, cases=None) -> dict:
                     args.append(("value", a))
             path = folder / f"{kern._name}.pkl"
             with open(path, "wb") as f:
-                pickle.dump({"program": name, "options": opts, "kernel": kern._name, "args": args,
+                pickle.dump({"program": kern._owner._source, "options": list(kern._owner._options),
+                             "kernel": kern._name, "args": args,
                              "global": tuple(gsize), "local": tuple(lsize) if lsize else None,
                              "offset": tuple(global_offset) if global_offset else None}, f)
             saved[kern._name] = path

@@ -113,8 +113,6 @@ def measure(args: list[str], src: Path, folder: Path, frames: int = 2) -> list[T
 
 
 def main() -> int:
-    import pyopencl  # noqa: F401  (wrapped before fogcli imports it)
-
     rows = []
     with tempfile.TemporaryDirectory() as d:
         folder = Path(d)

@@ -134,9 +134,9 @@ def choose(devices, spec: str | None, origin: str = "--device"):
                 return info, dev
         # a platform's name before a device's: PoCL names its CPU device after the CPU
         # ("pthread-Intel(R) Xeon(R) ..."), and "intel" means Intel's platform
-        for info, dev in [d for d in devices if s in d[0].platform.lower()] + \
-                [d for d in devices if s in d[0].name.lower()]:
-            return info, dev
+        named = [d for d in devices if s in d[0].platform.lower()] or [d for d in devices if s in d[0].name.lower()]
+        if named:
+            return named[0]
         known = ", ".join(i.spec + " " + i.name for i, _ in devices)
         raise UserError(f"{origin} {spec!r}: no such OpenCL device (have: {known})")
     real = [(info, dev) for info, dev in devices if not info.simulator] or devices
@@ -152,10 +152,13 @@ class _Kernels:
     might launch, and a frame of the default pipeline launches six of its eight (a build
     from the binary cache costs 5-15 ms of every process)."""
 
-    def __init__(self, cl, build):
-        """build() -> (program, its kernels' parameter names; {}: ask the device)."""
+    def __init__(self, cl, build, source: str | None = None, options: tuple = ()):
+        """build() -> (program, its kernels' parameter names; {}: ask the device); source
+        (kernels/<source>.cl) and options: what it builds, for tools that build it again
+        (tools/oclgrind_uninitialized.py)."""
         self._cl, self._build, self._program, self._cache = cl, build, None, {}
         self._params: dict = {}     # kernel -> parameter names, as the device said at the build
+        self._source, self._options = source, tuple(options)
 
     def __getattr__(self, name):
         if name.startswith("_"):
@@ -320,7 +323,7 @@ class Runtime:
                 opts += ["-D", "FOGCLI_POCL=1"]
             for k, v in sorted(defines.items()):
                 opts += ["-D", f"{k}={v}"]
-            prog = _Kernels(self.cl, lambda name=name, src=src, opts=opts: self._build(name, src, opts))
+            prog = _Kernels(self.cl, lambda name=name, src=src, opts=opts: self._build(name, src, opts), name, opts)
             self._programs[key] = prog
         return prog
 
