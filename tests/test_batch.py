@@ -242,3 +242,36 @@ def test_jobs_1_overlaps_io_and_keeps_every_frame_apart(tmp_path):
         got, want = read(out / f"f{i}.exr")[1], read(single)[1]
         assert got.shape == want.shape == (30, 40 + 4 * i, want.shape[2])
         np.testing.assert_array_equal(got, want)
+
+
+def test_a_pool_broken_before_a_submit_is_a_crash_not_an_error(monkeypatch):
+    """A worker can die between the pool's last wait and the next submit: the submit then
+    raises BrokenProcessPool itself. That is the crash the reruns handle (the job whose
+    submit failed goes back to the source), not 'processing failed' for the whole batch
+    (seen once on CI). Deterministic here: submits after the third raise."""
+    from concurrent.futures import Future, ProcessPoolExecutor
+    from concurrent.futures.process import BrokenProcessPool
+
+    from fogcli.batch import runners
+    from fogcli.frame.job import Job
+
+    calls = []
+
+    def fake_submit(self, fn, job):
+        calls.append(job.input)
+        if len(calls) > 3:
+            raise BrokenProcessPool("a child process terminated abruptly")
+        f = Future()
+        f.set_result({"ok": True, "input": job.input})
+        return f
+
+    monkeypatch.setattr(ProcessPoolExecutor, "submit", fake_submit)
+    jobs = [Job(input=f"f{i}.exr", output=f"o{i}.exr") for i in range(6)]
+    source = runners.Source(jobs)
+    got = []
+    crashed, suspects = runners._pool(source, 2, None, None, None, 1, None,
+                                      lambda r, p: got.append(r["input"]))
+    assert crashed and suspects == [] and got == ["f0.exr", "f1.exr", "f2.exr"]
+    rest = [source.get(block=False) for _ in range(3)]     # and each of the others once
+    assert [j.input for j in rest] == ["f3.exr", "f4.exr", "f5.exr"]
+    assert source.get(block=False) is runners.END

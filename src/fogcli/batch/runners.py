@@ -269,10 +269,18 @@ def _pool(source, workers, cfg, aovs, device, threads, progress, collect):
         crashed, ended = False, False
         def submit(job):
             with _children_ignore_ctrl_c():            # a submit may spawn a worker
-                return ex.submit(process, job)
+                try:
+                    return ex.submit(process, job)
+                except BrokenProcessPool:
+                    source.pushback([job])             # never started: the next pool runs it
+                    raise
 
         while not crashed and (futs or not ended):
-            ended = ended or _fill(source, futs, 2 * workers, submit)
+            try:
+                ended = ended or _fill(source, futs, 2 * workers, submit)
+            except BrokenProcessPool:    # a worker died after the last wait, before this submit
+                crashed = True
+                break
             if not futs:
                 continue
             try:
@@ -292,6 +300,9 @@ def _pool(source, workers, cfg, aovs, device, threads, progress, collect):
                 collect(r, progress)
     if not crashed:
         return False, []
+    for f in [f for f in futs if f.done() and f.exception() is None]:
+        collect(f.result(), progress)              # finished before the pool broke
+        del futs[f]
     began = set()
     while not started.empty():
         began.add(started.get())
