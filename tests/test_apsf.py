@@ -308,26 +308,39 @@ def test_apsf_with_heterogeneous_media_separation_emission_and_every_aov():
     assert abs(e2 / e1 - 1) < 0.02
 
 
-def _view_cosines(cfg, depth):
+def _view_cosines(cfg, depth, steps=(1, 1)):
     """float64 oracle of kernels/preprocess.cl view_cosines: camera-space points (from
     planar z, or from the ray length with camera.depth distance), along each axis the
-    one-sided difference with the smaller depth step (the inward one at the image's edge),
-    |cos| between the normal and the line of sight."""
+    one-sided difference over `steps` pixels with the smaller depth step (the inward one at
+    the image's edge); where both steps go the same way and are steeper than ISOLATED_STEEP
+    times the spacing, the neighbour moved to this pixel's depth; |cos| between the normal
+    and the line of sight."""
     from light_oracles import pinhole_rays
+
+    from fogcli.device.preprocess import ISOLATED_STEEP
 
     h, w = depth.shape
     dirs, lengths = pinhole_rays(cfg, depth)
     if cfg.camera.depth == "distance":
         lengths = np.asarray(depth, np.float64)
     P = dirs * lengths[..., None]
+    f = {1: cfg.camera.focal(w), 0: cfg.camera.focal(w)}   # square pixels
     out = np.empty((h, w))
+
+    def side(p, a, b, k, n, at, axis):
+        fwd = at + k < n and (at < k or abs(a[2] - p[2]) < abs(p[2] - b[2]))
+        dz_f, dz_b = a[2] - p[2], p[2] - b[2]
+        lim = ISOLATED_STEEP * k / f[axis] * abs(p[2])
+        if dz_f * dz_b < 0 and abs(dz_f) > lim and abs(dz_b) > lim:      # (neighbours clamped)
+            a, b = a * p[2] / a[2], b * p[2] / b[2]
+        return a - p if fwd else p - b
+
+    sx, sy = steps
     for j in range(h):
         for i in range(w):
             p = P[j, i]
-            a, b = P[j, min(i + 1, w - 1)], P[j, max(i - 1, 0)]
-            u = a - p if i == 0 or (i < w - 1 and abs(a[2] - p[2]) < abs(p[2] - b[2])) else p - b
-            a, b = P[min(j + 1, h - 1), i], P[max(j - 1, 0), i]
-            v = a - p if j == 0 or (j < h - 1 and abs(a[2] - p[2]) < abs(p[2] - b[2])) else p - b
+            u = side(p, P[j, min(i + sx, w - 1)], P[j, max(i - sx, 0)], sx, w, i, 1)
+            v = side(p, P[min(j + sy, h - 1), i], P[max(j - sy, 0), i], sy, h, j, 0)
             n = np.cross(u, v)
             c = abs(n @ p) / math.sqrt((n @ n) * (p @ p)) if n @ n > 0 else float("nan")
             out[j, i] = c if c <= 1 else 1.0
@@ -342,11 +355,12 @@ LX = LOCAL_CPU[0]     # the interior (one pixel in from each edge) of 2 LX colum
 def test_view_cosines_match_oracle(rt, rng, w, h, kind):
     """view_cosines (view_cosines_inner on the interior's whole work-groups where the frame
     holds one, the checked per-pixel kernel on the strips around it) against the oracle on a
-    depth map of tilted steps, every pixel including the edges; 1e-4 absolute (float32).
+    depth map of tilted steps with one-pixel lamps in front, every pixel including the edges; 1e-4 absolute (float32).
     Planar depth takes the inner kernel's division-free path (CAM_Z), distance the general one."""
     yy, xx = np.mgrid[0:h, 0:w]
     depth = (5.0 + 0.05 * xx + 0.03 * yy + 2.0 * ((xx // 7 + yy // 5) % 2)
              + rng.uniform(0, 0.01, (h, w))).astype(np.float32)
+    depth[2::5, 1::6] -= 3.0          # one-pixel lamps in front: isolated along both axes
     plan, cfg = plan_for(rt, w, h, "camera.fov=60", "render.psf=apsf", "render.emission_profile=lambertian",
                          f"camera.depth={kind}")
     tm = Timings()
@@ -354,6 +368,52 @@ def test_view_cosines_match_oracle(rt, rng, w, h, kind):
     preprocess(plan, tm)
     got = download(plan, plan.cosines, 1)
     np.testing.assert_allclose(got, _view_cosines(cfg, depth), atol=1e-4)
+
+
+def test_staircase_finds_the_blocks_of_a_nearest_neighbour_upsampling(rng):
+    """Blocks of equal depth k x l (a depth map enlarged by nearest neighbour) are found
+    per axis; a smooth map, a quantised one (flats of every length) and one with wide
+    constant regions (sky, a fronto wall) are not staircases."""
+    from fogcli.device.preprocess import staircase
+
+    yy, xx = np.mgrid[0:120, 0:160]
+    smooth = (4.0 + 0.05 * xx + 0.2 * yy + rng.uniform(0, 1e-3, (120, 160))).astype(np.float32)
+    assert staircase(smooth) == (1, 1)
+    for k, m in ((2, 2), (3, 2), (4, 4), (2, 1)):
+        low = smooth[::m, ::k]
+        big = np.repeat(np.repeat(low, m, 0), k, 1)[:120, :160]
+        assert staircase(big) == (k, m), (k, m)
+    assert staircase(np.round(smooth * 1000 / 7) * 7 / 1000) == (1, 1)   # 7 mm steps: flats of 1-3 px
+    wall = smooth.copy()
+    wall[:, 60:] = 30.0
+    wall[:40] = np.inf
+    assert staircase(wall) == (1, 1)
+
+
+@pytest.mark.parametrize("k", [2, 3])
+def test_view_cosines_of_a_staircase_span_its_blocks(rt, rng, k):
+    """A ground plane whose depth was enlarged k x k by nearest neighbour: the view cosines
+    (with the blocks found by staircase) are the oracle's over k pixels, and within 0.03 of
+    the smooth plane's on 95 % of the ground (the one-pixel differences of the staircase
+    were flat or a whole block's rise: cosines of 1 and of about half the true one)."""
+    from fogcli.device.preprocess import staircase
+
+    w, h = 3 * LX + 7, 40
+    plan, cfg = plan_for(rt, w, h, "camera.fov=60", "render.psf=apsf", "render.emission_profile=lambertian",
+                         "camera.depth=z")
+    f = cfg.camera.focal(w)
+    ry = -(np.arange(h) + 0.5 - h / 2) / f
+    z = np.broadcast_to((1.6 / (0.3 - ry))[:, None], (h, w)).astype(np.float32)  # a ground seen from 1.6 m, pitched down
+    big = np.repeat(np.repeat(z[::k, ::k], k, 0), k, 1)[:h, :w]
+    assert staircase(big) == (1, k)      # planar z of a level ground does not change along a row
+    got = []
+    for d in (z, big):
+        upload(plan, rng.uniform(0, 1, (h, w, 4)).astype(np.float32), d, Timings())
+        preprocess(plan, Timings())
+        got.append(download(plan, plan.cosines, 1).astype(np.float64))
+    np.testing.assert_allclose(got[1], _view_cosines(cfg, big, (1, k)), atol=1e-4)
+    err = np.abs(got[1] - got[0])[k:-k, k:-k]
+    assert np.percentile(err, 95) < 0.03, np.percentile(err, 95)
 
 
 def test_grey_media_build_matches_the_per_channel_build(monkeypatch):

@@ -98,8 +98,12 @@ def test_separate_depth_files(rgbz, tmp_path, kind):
     ref_out = tmp_path / "ref.exr"
     d_exr = tmp_path / "d.exr"
     write_img(d_exr, zf[:, :, None], ["Z"])
-    assert run("apply", img, "--depth", d_exr, "-o", ref_out)[0] == 0
-    extra = []
+    # png16 holds centimetres: on this depth of random values every pixel is an edge, and
+    # a centimetre flips some pixels' normal choices (one-sided steps, isolated pixels; a
+    # 0.5 % change at 2 of 2745 pixels): the decoding is compared without normals
+    profile = ["--set", "render.emission_profile=isotropic"] if kind == "png16" else []
+    assert run("apply", img, "--depth", d_exr, "-o", ref_out, *profile)[0] == 0
+    extra = list(profile)
     if kind == "exr":
         d = d_exr
     elif kind == "tif":
@@ -108,7 +112,7 @@ def test_separate_depth_files(rgbz, tmp_path, kind):
     elif kind == "png16":
         d = tmp_path / "d.png"
         write_img(d, np.round(zf * 100)[:, :, None].astype(np.uint16), ["Y"], fmt="uint16")
-        extra = ["--set", "camera.depth_scale=0.01"]
+        extra += ["--set", "camera.depth_scale=0.01"]
     else:
         d = tmp_path / "d.npy"
         np.save(d, zf)

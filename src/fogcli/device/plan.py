@@ -274,6 +274,7 @@ class Plan:
             B = lambda nbytes: cl.Buffer(rt.ctx, mf.READ_WRITE, max(int(nbytes), 16))  # noqa: E731
             self.lut = B(4 * self.lut_floats()) if self.apsf else B(16)
             self._lut_key = None
+            self.steps = (1, 1)          # the depth's staircase (preprocess.staircase), set at upload
             self.edge_off = [0] * len(self.sizes)
             self.edge = B(16)
             self.cons_off = [0] * (len(self.sizes) + 1)

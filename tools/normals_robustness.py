@@ -1,0 +1,93 @@
+"""Normals that real depth maps carry (issue 40): the default pipeline's output on each
+path-traced case with its smooth depth against the same with
+  * `replicated`: every other row and column kept, each repeated 2x2 (a half-resolution
+    sensor's depth upsampled by nearest neighbour: a staircase, and edges a pixel off);
+  * `quantised`: the ray length rounded to whole millimetres (a 16-bit millimetre sensor;
+    depths past its 65.535 m are kept as they are, so that only the quantisation is
+    measured, not the sensor's range).
+Relative L1 of each to the smooth depth's output, with each emission profile (isotropic
+does not use normals: it shows what the depth change alone costs).
+
+    python tools/normals_robustness.py [--doc docs/physics.md]
+"""
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+
+import numpy as np
+
+from pathlib import Path
+
+from fogcli import apply
+from fogcli.api import make_config
+from groundtruth.load import cases as all_cases
+from metrics import rel_l1
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+import importlib.util  # noqa: E402
+_spec = importlib.util.spec_from_file_location("gt_main", Path(__file__).resolve().parent / "groundtruth.py")
+_gt = importlib.util.module_from_spec(_spec)
+_spec.loader.exec_module(_gt)
+case_sets = _gt.case_sets
+
+PROFILES = ("lambertian", "isotropic")
+
+
+def replicated(depth: np.ndarray) -> np.ndarray:
+    h, w = depth.shape
+    return np.repeat(np.repeat(depth[::2, ::2], 2, 0), 2, 1)[:h, :w]
+
+
+def quantised(depth: np.ndarray) -> np.ndarray:
+    return np.where(depth < 65.535, np.round(depth * 1000.0) / 1000.0, depth).astype(np.float32)
+
+
+def measure(cases) -> list[dict]:
+    rows = []
+    for case in cases:
+        sets = case_sets(case["meta"])
+        row = {"case": case["name"]}
+        for prof in PROFILES:
+            cfg = make_config(None, sets=sets + [f"render.emission_profile={prof}"])
+            smooth = apply(case["L"], case["depth"], cfg)
+            for name, fn in (("replicated", replicated), ("quantised", quantised)):
+                row[f"{name} {prof}"] = rel_l1(apply(case["L"], fn(case["depth"]), cfg), smooth)
+        rows.append(row)
+        print(" ".join(f"{k}={v:.4f}" if isinstance(v, float) else str(v) for k, v in row.items()), flush=True)
+    return rows
+
+
+def table(rows: list[dict]) -> str:
+    cols = [f"{n} {p}" for n in ("replicated", "quantised") for p in PROFILES]
+    out = ["| case | " + " | ".join(cols) + " |", "|---" * (len(cols) + 1) + "|"]
+    for r in rows:
+        out.append(f"| {r['case']} | " + " | ".join(f"{r[c]:.5f}" for c in cols) + " |")
+    out.append("| largest | " + " | ".join(f"{max(r[c] for r in rows):.5f}" for c in cols) + " |")
+    over = [r["case"] for r in rows if r["replicated lambertian"] > 0.02 or r["quantised lambertian"] > 0.02]
+    out.append(f"\nDefault profile (lambertian) over 0.02: {', '.join(over) or 'none'}.")
+    return "\n".join(out)
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--doc", help="write the table into this markdown file's normals block")
+    args = ap.parse_args(argv)
+    t0 = time.time()
+    rows = measure(all_cases())
+    text = table(rows)
+    print(text)
+    if args.doc:
+        from docblock import cpu_name, markers, write_block
+        head = (f"Written by `python tools/normals_robustness.py --doc {args.doc}` on "
+                f"{cpu_name()} ({time.time() - t0:.0f} s). Relative L1 of the "
+                "default pipeline's output with the changed depth to its output with the path tracer's smooth "
+                "depth, per emission profile.\n\n")
+        begin, end = markers("normals")
+        write_block(Path(args.doc), begin, end, f"{begin}\n{head}{text}\n{end}", new_doc="")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
