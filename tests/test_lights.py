@@ -195,7 +195,13 @@ def test_lamps_found_are_written_as_a_config_that_reads_back(tmp_path):
         spec, px = read(tmp_path / name)
         got.append(px[:, :, [spec.channelnames.index(f"airlight.{ch}") for ch in "RGB"]])
     assert got[0].max() > 0
-    np.testing.assert_allclose(got[1], got[0], rtol=1e-4, atol=1e-6 * got[0].max())
+    # read back, the lamp is an ordinary light with its whole intensity; found, the light
+    # model carries its singly scattered share tau e^-tau / (1 - e^-tau), tau = ss |position|
+    # (frame.scene.share_lamps), and its pixels the rest
+    tau = np.asarray(fogcli.make_config("fog").medium.scattering) * np.linalg.norm(data["lights"][0]["position"])
+    share = tau * np.exp(-tau) / (1 - np.exp(-tau))
+    assert 0.05 < share.min() and share.max() < 0.95
+    np.testing.assert_allclose(got[1] * share, got[0], rtol=1e-4, atol=1e-6 * got[0].max())
     for args, msg in [(["--lamps", str(tmp_path / "l.txt")], "expected a .json or .yaml"),
                       ([], "no `{type: auto}`"),
                       (["--lamps", str(tmp_path / "none" / "l.json")], "does not exist"),
@@ -288,3 +294,51 @@ def test_a_near_lamp_over_a_far_one_keeps_its_own_colour():
     assert np.abs(np.array(found[0].intensity) / want - 1).max() < 0.03, found[0].intensity
     ratio = np.array(found[1].intensity) / lamps[1][2]
     assert np.abs(ratio / ratio.mean() - 1).max() < 0.02, found[1].intensity
+
+
+def test_a_lamp_found_is_shared_between_its_pixels_and_the_light_model(rng):
+    """share_lamps: each lamp's light gets its singly scattered share tau e^-tau / (1 - e^-tau)
+    (tau = ss P at its distance, per channel) of the intensity, and its pixels keep the rest
+    of their scattered light; thin media give the light nearly all, thick ones the pixels.
+    keep_sources then scales level 0 of the colour chain (and prep) at those pixels only."""
+    from helpers import download, plan_for
+
+    from fogcli.device import lights
+    from fogcli.device.plan import Timings
+    from fogcli.device.preprocess import preprocess, upload
+    from fogcli.device.runtime import get_runtime
+    from fogcli.frame.scene import share_lamps
+
+    found = [fogcli.make_config("fog", sets=["lights=[{type: point, position: [0, 0, -4], intensity: [10, 20, 30]}]"]
+                                ).lights[0],
+             fogcli.make_config("fog", sets=["lights=[{type: point, position: [3, 0, -40], intensity: [5, 5, 5]}]"]
+                                ).lights[0]]
+    labels = np.zeros((6, 8), np.int32)
+    labels[1, 1:3], labels[4, 5] = 1, 2
+    for ss in (0.01, 0.5):
+        cfg = fogcli.make_config("fog", sets=[f"medium.scattering={ss}", "medium.absorption=0.01"])
+        shared, (idx, keep) = share_lamps(cfg, found, labels)
+        assert idx.tolist() == [9, 10, 37]
+        for k, (light, dist) in enumerate(zip(found, (4.0, math.hypot(3, 40)))):
+            tau = ss * dist
+            share = tau * math.exp(-tau) / -math.expm1(-tau)
+            np.testing.assert_allclose(shared[k].intensity, np.asarray(light.intensity) * share, rtol=1e-6)
+            rows = keep[[0, 1]] if k == 0 else keep[[2]]
+            np.testing.assert_allclose(rows[:, :3], 1 - share, rtol=1e-6)
+        assert (keep[:, :3] < 0.2).all() if ss == 0.01 else (keep[2, :3] > 0.99).all()
+
+    rt = get_runtime(None)
+    w, h = 8, 6
+    plan, _ = plan_for(rt, w, h, "render.psf=apsf", "lights=[{type: point, position: [0, 0, -4], intensity: 1}]")
+    img = rng.uniform(0.5, 2, (h, w, 4)).astype(np.float32)
+    upload(plan, img, np.full((h, w), 7.0, np.float32), Timings())
+    preprocess(plan, Timings())
+    before = [download(plan, b, 4)[:h * w].reshape(-1, 4).copy() for b in (plan.chain, plan.prep)]
+    idx, keep = np.array([9, 10, 37], np.int32), np.array([[0.2, 0.5, 0.9, 7], [0, 1, 0.3, 7], [0.6, 0.6, 0.6, 7]],
+                                                          np.float32)
+    lights.keep_sources(plan, Timings(), (idx, keep))
+    for buf, old in zip((plan.chain, plan.prep), before):
+        new = download(plan, buf, 4)[:h * w].reshape(-1, 4)
+        want = old.copy()
+        want[idx, :3] *= keep[:, :3]
+        np.testing.assert_allclose(new, want, rtol=1e-6)

@@ -154,9 +154,9 @@ def apply(image: np.ndarray, depth: np.ndarray, config: Config | str | None = No
         for n in rep.notes:
             warnings.warn(n, UserWarning, stacklevel=2)
     notes: list = []
-    frame_cfg, lamp_mask = for_image(img, dm, cfg, report=notes)
+    frame_cfg, lamp_pixels = for_image(img, dm, cfg, report=notes)
     out, a_out, planes = run(img, dm, frame_cfg, alpha=alpha, aovs=aovs, device=device, timings=timings,
-                             lamp_mask=lamp_mask)
+                             lamp_pixels=lamp_pixels)
     if notes:
         import warnings
 

@@ -223,13 +223,15 @@ def table_args(plan, ls):
     return tab, len(set(m.absorption)) == 1 and len(set(m.scattering)) == 1, u
 
 
-def clear_sources(plan, t: Timings, mask: np.ndarray) -> None:
-    cl, n = plan.rt.cl, plan.w * plan.h
-    buf = cl.Buffer(plan.rt.ctx, cl.mem_flags.READ_ONLY | cl.mem_flags.COPY_HOST_PTR,
-                    hostbuf=np.ascontiguousarray(mask, np.uint8))
-    t.add("lights",
-          plan.k_lights.clear_sources(plan.rt.queue, *plan.rt.nd(n), chain0=plan.chain, prep0=plan.prep, mask=buf,
-                                      n=np.int32(n)))
+def keep_sources(plan, t: Timings, pixels: tuple) -> None:
+    """The lamps' pixels keep their share of their scattered light (frame.scene.share_lamps:
+    flat indices, float32 (n, 4) shares)."""
+    cl, (idx, keep) = plan.rt.cl, pixels
+    mf = cl.mem_flags
+    b_idx = cl.Buffer(plan.rt.ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=np.ascontiguousarray(idx, np.int32))
+    b_keep = cl.Buffer(plan.rt.ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=np.ascontiguousarray(keep, np.float32))
+    t.add("lights", plan.k_lights.keep_sources(plan.rt.queue, *plan.rt.nd(len(idx)), chain0=plan.chain, prep0=plan.prep,
+                                               idx=b_idx, keep=b_keep, n=np.int32(len(idx))))
 
 
 def add_airlight(plan, t: Timings) -> None:

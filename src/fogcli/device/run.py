@@ -16,16 +16,16 @@ from fogcli.errors import UserError
 
 
 def run(rgb: np.ndarray, depth: np.ndarray, cfg: Config, alpha=None, aovs=(), device=None,
-        timings: Timings | None = None, lamp_mask: np.ndarray | None = None,
+        timings: Timings | None = None, lamp_pixels: tuple | None = None,
         mapped: bool = False) -> tuple[np.ndarray, np.ndarray | None, dict]:
     """Process one frame on the device. depth: metric (depth.decode / depth.prepare), at the
     image's size, holes filled; alpha: premultiplied coverage or None; cfg: made concrete
-    for the image (frame.scene.for_image), with lamp_mask the pixels of the lamps it found.
+    for the image (frame.scene.for_image), with lamp_pixels the pixels of the lamps it found and the share of their scattered light they keep.
     Returns (rgb out (h, w, 3), alpha out (h, w) or None, aov planes). mapped: the rgb out is the
     device's result buffer mapped (a CPU device's own memory: no copy), to be released with
     unmap() before the next frame; otherwise a copy. The same as finish(start(...)), between
     which a caller may drop its rgb: it is not read after the upload."""
-    return finish(start(rgb, depth, cfg, alpha, aovs, device, timings, lamp_mask), mapped)
+    return finish(start(rgb, depth, cfg, alpha, aovs, device, timings, lamp_pixels), mapped)
 
 
 @dataclass
@@ -35,11 +35,11 @@ class Started:
     cfg: Config
     t: Timings
     has_alpha: bool
-    lamp_mask: np.ndarray | None
+    lamp_pixels: tuple | None
 
 
 def start(rgb: np.ndarray, depth: np.ndarray, cfg: Config, alpha=None, aovs=(), device=None,
-          timings: Timings | None = None, lamp_mask: np.ndarray | None = None) -> Started:
+          timings: Timings | None = None, lamp_pixels: tuple | None = None) -> Started:
     """What run() does up to the frame's upload: the plan and the upload."""
     if any(x.type == "auto" for x in cfg.lights) or isinstance(cfg.medium.visibility, str) \
             or cfg.medium.ambient == "auto":
@@ -53,19 +53,19 @@ def start(rgb: np.ndarray, depth: np.ndarray, cfg: Config, alpha=None, aovs=(), 
     rt = get_runtime(device)
     plan = get_plan(rt, w, h, cfg, aovs)
     preprocess.upload_rgb(plan, rgb, alpha, depth, t)
-    return Started(plan, cfg, t, alpha is not None, lamp_mask)
+    return Started(plan, cfg, t, alpha is not None, lamp_pixels)
 
 
 def finish(st: Started, mapped: bool = False) -> tuple[np.ndarray, np.ndarray | None, dict]:
     """The device stages of a started frame, and its result (run)."""
-    plan, cfg, t, lamp_mask, rt = st.plan, st.cfg, st.t, st.lamp_mask, st.plan.rt
+    plan, cfg, t, lamp_pixels, rt = st.plan, st.cfg, st.t, st.lamp_pixels, st.plan.rt
     h = plan.h
     preprocess.preprocess(plan, t)
     if st.has_alpha and cfg.camera.empty_depth > 0:   # at 0 the alpha is the input's
         preprocess.coverage(plan, t, cfg.camera.empty_depth)
     if cfg.lights:
-        if lamp_mask is not None:       # the lamps' scattered light is now the light model's
-            lights.clear_sources(plan, t, lamp_mask)
+        if lamp_pixels is not None:     # the lamps' scattered light is shared with the light model
+            lights.keep_sources(plan, t, lamp_pixels)
         lights.airlight(plan, t)
     method = cfg.render.method
     if method == "reference":

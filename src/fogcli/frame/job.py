@@ -130,9 +130,9 @@ def compute(st: Staged, cfg: Config, aovs=(), device=None, timings: Timings | No
     colour = frame.colour()         # made once (a copy where the channels are not a run)
     l_in = mean_luminance(colour)
     try:
-        frame_cfg, lamp_mask = for_image(colour, st.depth, cfg, report=notes, lamps=st.lamps)
+        frame_cfg, lamp_pixels = for_image(colour, st.depth, cfg, report=notes, lamps=st.lamps)
         started = start(colour, st.depth, frame_cfg, alpha=frame.alpha, aovs=aovs, device=device,
-                        timings=timings if timings is not None else Timings(), lamp_mask=lamp_mask)
+                        timings=timings if timings is not None else Timings(), lamp_pixels=lamp_pixels)
     except UserError as exc:        # the colour is checked as it is uploaded: name the file
         raise UserError(str(exc).replace("colour: ", f"{src}: ", 1)) from None
     del colour

@@ -1,6 +1,7 @@
 """Lamps of the image found on the host (`lights: [{type: auto}]`): bright cores with a
-depth become point lights of the config, and their pixels a mask whose scattered light the
-light model then carries instead."""
+depth become point lights of the config, and their pixels a map of which lamp each is, so
+that a lamp's scattered light is shared between the light model and its pixels
+(frame.scene.share_lamps)."""
 from __future__ import annotations
 
 import math
@@ -17,7 +18,8 @@ def detect_lamps(rgb: np.ndarray, depth: np.ndarray, cfg: Config, spec) -> tuple
     Omega_px over the core dilated 2 px (Omega_px = cos^3 / (f fy)); radius = t sqrt(n / pi) / f;
     placed at t + radius, just behind the visible surface, so that it does not sit inside its
     own pixels. A core spanning depths more than 20 % apart is split into lamps by depth (a near
-    lamp in front of a far one). Returns (lights, mask of the lamps' pixels, notes)."""
+    lamp in front of a far one). Returns (lights, the lamps' pixels as int32 labels: 0 none,
+    k the k-th light, notes)."""
     import cv2
 
     from fogcli.config.model import PointLight
@@ -35,7 +37,7 @@ def detect_lamps(rgb: np.ndarray, depth: np.ndarray, cfg: Config, spec) -> tuple
     dlen = np.sqrt(dx * dx + dy * dy + 1.0)
     ray = depth * (dlen if cam.depth == "z" else 1.0)
     lights, notes = [], []
-    mask = np.zeros((h, w), bool)
+    mask = np.zeros((h, w), np.int32)
     kernel = np.ones((5, 5), np.uint8)
     cores = []
     for k in range(1, n):
@@ -66,7 +68,7 @@ def detect_lamps(rgb: np.ndarray, depth: np.ndarray, cfg: Config, spec) -> tuple
         pos = (dist + radius) * d
         lights.append(PointLight(type="point", position=tuple(pos), intensity=tuple(float(v) for v in intensity),
                                  radius=radius, frame="camera"))
-        mask |= blob
+        mask[blob] = len(lights)
         if not hdr and float(rgb[core].max()) >= 0.98:
             notes.append(f"lamp at {dist:.3g} m is clipped in this display-referred image: its intensity "
                          f"({float(intensity.mean()):.3g}) is a lower bound")

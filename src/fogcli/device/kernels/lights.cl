@@ -470,12 +470,16 @@ __kernel void add_airlight(__global float4 *out, __global const float4 *a_dir, c
     out[idx] = (float4)(o.xyz + a_dir[idx].xyz, o.w);
 }
 
-/* Detected lamps: their own pixels leave the scattered light at level 0 (the light model
- * carries their scattered energy now); what reaches the camera directly stays. */
-__kernel void clear_sources(__global float4 *chain0, __global float4 *prep0, __global const uchar *mask, const int n)
+/* Detected lamps: their own pixels keep the share `keep` of their scattered light at level 0
+ * (the light model carries the rest: frame.scene.share_lamps); what reaches the camera
+ * directly stays. idx: the n pixels, keep: their shares (RGB). */
+__kernel void keep_sources(__global float4 *chain0, __global float4 *prep0, __global const int *idx,
+                           __global const float4 *keep, const int n)
 {
-    int idx = get_global_id(0);
-    if (idx >= n || !mask[idx]) return;
-    chain0[idx].xyz = (float3)(0.0f);
-    prep0[idx].xyz = (float3)(0.0f);
+    int k = get_global_id(0);
+    if (k >= n) return;
+    int i = idx[k];
+    float3 s = keep[k].xyz;
+    chain0[i].xyz *= s;
+    prep0[i].xyz *= s;
 }
