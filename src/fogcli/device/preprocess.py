@@ -28,11 +28,11 @@ ISOLATED_STEEP = 5.0
 def staircase(depth: np.ndarray) -> tuple[int, int]:
     """(columns, rows) of the blocks of equal depth that nearest-neighbour upsampling leaves
     (a sensor's depth map enlarged elsewhere: 2 x 2 at twice its size), 1 where there are
-    none. From the lengths of the runs of equal values along every 32nd row (column): a
+    none. From the lengths of the runs of equal values along 16 rows (columns) across the frame: a
     block size when it is at least 60 % of the runs of 1-8 pixels (a quantised sensor's
     flats have every length; sky and walls at one depth have longer runs) and its runs
     cover a quarter of the lines (not a few windows on a fronto wall). A map where
-    most neighbours differ is none (0.1 ms at 2 MPx; the run lengths cost 5 ms)."""
+    most neighbours differ is none early. 0.1-0.3 ms at 2 MPx (every 8th row: 5 ms)."""
     d = np.asarray(depth)
 
     def along(lines: np.ndarray) -> int:
@@ -45,7 +45,8 @@ def staircase(depth: np.ndarray) -> tuple[int, int]:
         k = int(hist.argmax())
         return k if k >= 2 and hist[k] >= 0.6 * hist.sum() and hist[k] * k >= 0.25 * lines.size else 1
 
-    return along(d[::32]), along(d[:, ::32].T)
+    h, w = d.shape[:2]
+    return along(d[h // 32::max(1, h // 16)]), along(d[:, w // 32::max(1, w // 16)].T)
 
 
 def upload(plan, rgba: np.ndarray, depth: np.ndarray, t: Timings) -> None:
