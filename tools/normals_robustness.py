@@ -4,7 +4,9 @@ path-traced case with its smooth depth against the same with
     sensor's depth upsampled by nearest neighbour: a staircase, and edges a pixel off);
   * `quantised`: the ray length rounded to whole millimetres (a 16-bit millimetre sensor;
     depths past its 65.535 m are kept as they are, so that only the quantisation is
-    measured, not the sensor's range).
+    measured, not the sensor's range);
+  * `noise 0.5%`: each pixel's depth times 1 + 0.005 N(0, 1) (seeded), a depth sensor's
+    noise at range.
 Relative L1 of each to the smooth depth's output, with each emission profile (isotropic
 does not use normals: it shows what the depth change alone costs).
 
@@ -44,6 +46,14 @@ def quantised(depth: np.ndarray) -> np.ndarray:
     return np.where(depth < 65.535, np.round(depth * 1000.0) / 1000.0, depth).astype(np.float32)
 
 
+def noisy(depth: np.ndarray) -> np.ndarray:
+    rng = np.random.default_rng(40)
+    return (depth * (1.0 + 0.005 * rng.standard_normal(depth.shape))).astype(np.float32)
+
+
+VARIANTS = (("replicated", replicated), ("quantised", quantised), ("noise 0.5%", noisy))
+
+
 def measure(cases) -> list[dict]:
     rows = []
     for case in cases:
@@ -52,7 +62,7 @@ def measure(cases) -> list[dict]:
         for prof in PROFILES:
             cfg = make_config(None, sets=sets + [f"render.emission_profile={prof}"])
             smooth = apply(case["L"], case["depth"], cfg)
-            for name, fn in (("replicated", replicated), ("quantised", quantised)):
+            for name, fn in VARIANTS:
                 row[f"{name} {prof}"] = rel_l1(apply(case["L"], fn(case["depth"]), cfg), smooth)
         rows.append(row)
         print(" ".join(f"{k}={v:.4f}" if isinstance(v, float) else str(v) for k, v in row.items()), flush=True)
@@ -60,13 +70,14 @@ def measure(cases) -> list[dict]:
 
 
 def table(rows: list[dict]) -> str:
-    cols = [f"{n} {p}" for n in ("replicated", "quantised") for p in PROFILES]
+    cols = [f"{n} {p}" for n, _ in VARIANTS for p in PROFILES]
     out = ["| case | " + " | ".join(cols) + " |", "|---" * (len(cols) + 1) + "|"]
     for r in rows:
         out.append(f"| {r['case']} | " + " | ".join(f"{r[c]:.5f}" for c in cols) + " |")
     out.append("| largest | " + " | ".join(f"{max(r[c] for r in rows):.5f}" for c in cols) + " |")
     over = [r["case"] for r in rows if r["replicated lambertian"] > 0.02 or r["quantised lambertian"] > 0.02]
-    out.append(f"\nDefault profile (lambertian) over 0.02: {', '.join(over) or 'none'}.")
+    out.append(f"\nDefault profile (lambertian) over 0.02 with replicated or quantised depth: {', '.join(over) or 'none'}. "
+               f"With 0.5 % noise: {', '.join(r['case'] for r in rows if r['noise 0.5% lambertian'] > 0.02) or 'none'}.")
     return "\n".join(out)
 
 
