@@ -324,13 +324,13 @@ def _view_cosines(cfg, depth, steps=(1, 1)):
     if cfg.camera.depth == "distance":
         lengths = np.asarray(depth, np.float64)
     P = dirs * lengths[..., None]
-    f = {1: cfg.camera.focal(w), 0: cfg.camera.focal(w)}   # square pixels
+    f = cfg.camera.focal(w)          # square pixels: the same along both axes
     out = np.empty((h, w))
 
-    def side(p, a, b, k, n, at, axis):
+    def side(p, a, b, k, n, at):
         fwd = at + k < n and (at < k or abs(a[2] - p[2]) < abs(p[2] - b[2]))
         dz_f, dz_b = a[2] - p[2], p[2] - b[2]
-        lim = ISOLATED_STEEP * k / f[axis] * abs(p[2])
+        lim = ISOLATED_STEEP * k / f * abs(p[2])
         if dz_f * dz_b < 0 and abs(dz_f) > lim and abs(dz_b) > lim:      # (neighbours clamped)
             a, b = a * p[2] / a[2], b * p[2] / b[2]
         return a - p if fwd else p - b
@@ -339,8 +339,8 @@ def _view_cosines(cfg, depth, steps=(1, 1)):
     for j in range(h):
         for i in range(w):
             p = P[j, i]
-            u = side(p, P[j, min(i + sx, w - 1)], P[j, max(i - sx, 0)], sx, w, i, 1)
-            v = side(p, P[min(j + sy, h - 1), i], P[max(j - sy, 0), i], sy, h, j, 0)
+            u = side(p, P[j, min(i + sx, w - 1)], P[j, max(i - sx, 0)], sx, w, i)
+            v = side(p, P[min(j + sy, h - 1), i], P[max(j - sy, 0), i], sy, h, j)
             n = np.cross(u, v)
             c = abs(n @ p) / math.sqrt((n @ n) * (p @ p)) if n @ n > 0 else float("nan")
             out[j, i] = c if c <= 1 else 1.0

@@ -9,7 +9,6 @@ Writes the block between the border-margin markers of docs/physics.md.
 from __future__ import annotations
 
 import argparse
-import importlib.util
 import sys
 import warnings
 from pathlib import Path
@@ -18,15 +17,14 @@ import numpy as np
 
 ROOT = Path(__file__).resolve().parent
 sys.path.insert(0, str(ROOT))
-_spec = importlib.util.spec_from_file_location("gt_bench", ROOT / "groundtruth.py")   # not the package
-G = importlib.util.module_from_spec(_spec)
-_spec.loader.exec_module(G)
+from groundtruth.load import comparison  # noqa: E402
 from docblock import markers, write_block  # noqa: E402
 
 from fogcli import apply  # noqa: E402
 from fogcli.api import make_config  # noqa: E402
 from metrics import rel_l1  # noqa: E402
 
+G = comparison()
 MARGINS = (0.0, 0.25, 0.5, 0.75, 1.5, 3.0)
 BEGIN, END = markers("border-margin")
 

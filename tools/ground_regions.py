@@ -12,7 +12,6 @@ camera).
 from __future__ import annotations
 
 import argparse
-import importlib.util
 import sys
 import warnings
 from pathlib import Path
@@ -21,11 +20,7 @@ import numpy as np
 
 from fogcli import apply
 from fogcli.api import make_config
-from groundtruth.load import cases
-
-_spec = importlib.util.spec_from_file_location("gt_main", Path(__file__).resolve().parent / "groundtruth.py")
-_gt = importlib.util.module_from_spec(_spec)
-_spec.loader.exec_module(_gt)
+from groundtruth.load import cases, comparison
 
 BORDERS = ("open", "extend")
 BANDS = (("sky", 0, None), ("far ground (20 rows)", 0, 20), ("middle ground (40 rows)", 20, 60), ("near ground", 60, None))
@@ -36,8 +31,8 @@ def measure() -> list[tuple]:
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         for case in cases(scene="ground"):
-            sets = _gt.case_sets(case["meta"])
-            gt, direct = case["medium"], _gt.blend(case)
+            sets = comparison().case_sets(case["meta"])
+            gt, direct = case["medium"], comparison().blend(case)
             outs = {b: apply(case["L"], case["depth"], make_config(None, sets=sets + [f"render.border={b}"]))
                     for b in BORDERS}
             col = case["depth"][:, case["depth"].shape[1] // 2]

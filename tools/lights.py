@@ -26,6 +26,7 @@ from fogcli.device.structs import camera_struct  # noqa: E402
 
 sys.path.insert(0, str(ROOT / "tools"))
 from docblock import cpu_name, markers, write_block  # noqa: E402
+from groundtruth.load import comparison  # noqa: E402
 from performance import LAMP, copy_ms  # noqa: E402
 
 DOC = ROOT / "docs" / "lights.md"
@@ -207,16 +208,6 @@ def pk_errors(n_cases: int = 60) -> dict:
     return bins
 
 
-def _groundtruth():
-    """tools/groundtruth.py as a module (its loader, case_sets, blend, blocks)."""
-    import importlib.util
-
-    spec = importlib.util.spec_from_file_location("gt_bench", ROOT / "tools" / "groundtruth.py")
-    G = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(G)
-    return G
-
-
 def path_traced() -> list[tuple]:
     """The path-traced scenes with lamps of tools/groundtruth (emissive discs and spheres,
     nothing else lit): the default pipeline and the same with `lights: [{type: auto}]`."""
@@ -224,7 +215,7 @@ def path_traced() -> list[tuple]:
 
     from metrics import rel_l1, ssim
 
-    G = _groundtruth()
+    G = comparison()
     rows = []
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
@@ -284,7 +275,7 @@ def known_lights() -> list[tuple]:
 
     from metrics import rel_l1, ssim
 
-    G = _groundtruth()
+    G = comparison()
     rows = []
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")

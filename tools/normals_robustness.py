@@ -24,15 +24,8 @@ from pathlib import Path
 
 from fogcli import apply
 from fogcli.api import make_config
-from groundtruth.load import cases as all_cases
+from groundtruth.load import cases as all_cases, comparison
 from metrics import rel_l1
-
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-import importlib.util  # noqa: E402
-_spec = importlib.util.spec_from_file_location("gt_main", Path(__file__).resolve().parent / "groundtruth.py")
-_gt = importlib.util.module_from_spec(_spec)
-_spec.loader.exec_module(_gt)
-case_sets = _gt.case_sets
 
 PROFILES = ("lambertian", "isotropic")
 
@@ -57,7 +50,7 @@ VARIANTS = (("replicated", replicated), ("quantised", quantised), ("noise 0.5%",
 def measure(cases) -> list[dict]:
     rows = []
     for case in cases:
-        sets = case_sets(case["meta"])
+        sets = comparison().case_sets(case["meta"])
         row = {"case": case["name"]}
         for prof in PROFILES:
             cfg = make_config(None, sets=sets + [f"render.emission_profile={prof}"])

@@ -12,6 +12,7 @@ meta: dict (fov = horizontal degrees, width, height, sigma_a, sigma_s, g, outsid
     noise, ...). Camera: origin, looking down -Z, +Y up, +X right; pixel (i, j) (column, row from
     the top) looks along ((i+0.5-W/2)/f, -(j+0.5-H/2)/f, -1), f = (W/2)/tan(fov/2).
 """
+import functools
 import glob
 import json
 import os
@@ -75,6 +76,20 @@ def cases(heldout=None, outside=None, medium=None, scene=None, directory=RENDERS
         if scene is not None and c["scene"] != scene:
             continue
         yield c
+
+
+@functools.lru_cache(maxsize=1)
+def comparison():
+    """tools/groundtruth.py, the comparison against these renders (case_sets, blend, blocks,
+    run_case, gt_load), as a module: its name is this package's, so it cannot be imported
+    by name. Loaded once."""
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location(
+        "gt_bench", os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "groundtruth.py"))
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
 
 
 if __name__ == "__main__":

@@ -48,6 +48,15 @@ def _gain_table() -> dict:
             "ratio": np.where(ok, tab["ratio"] / np.where(ok, carried, 1.0), 1.0)}
 
 
+def optical_distance(cfg: Config, light) -> float:
+    """The optical depth (density units) from the camera to a point or spot light as placed."""
+    pos, _ = placed(cfg, light)
+    cam = np.array(cfg.camera.position, np.float64)
+    dist = float(np.linalg.norm(pos - cam))
+    return float(optical_depth(cam[None], ((pos - cam) / max(dist, 1e-12))[None], np.array([dist]),
+                               cfg)[0]) if dist > 0 else 0.0
+
+
 def gain(cfg: Config, light) -> np.ndarray:
     """Per RGB: the energy of all orders of scattering around a point source at the light's
     optical distance from the camera over what the light model carries (single scattering,
@@ -59,11 +68,7 @@ def gain(cfg: Config, light) -> np.ndarray:
     if light.type == "directional":
         return np.ones(3)
     m = cfg.medium
-    pos, _ = placed(cfg, light)
-    cam = np.array(cfg.camera.position, np.float64)
-    dist = float(np.linalg.norm(pos - cam))
-    P = float(optical_depth(cam[None], ((pos - cam) / max(dist, 1e-12))[None], np.array([dist]),
-                            cfg)[0]) if dist > 0 else 0.0
+    P = optical_distance(cfg, light)
     tab = _gain_table()
     out = np.ones(3)
     for c, (sa, ss) in enumerate(zip(m.absorption, m.scattering)):

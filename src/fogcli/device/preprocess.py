@@ -19,9 +19,9 @@ def pack_rgba(dst: np.ndarray, rgb: np.ndarray, alpha: np.ndarray | None) -> Non
     dst[:, :, 3] = 1.0 if alpha is None else alpha
 
 
-# view_cosines: a pixel whose depth steps to both neighbours are steeper than this many
-# times the lateral spacing (79 degrees from facing the camera), the same way, is narrower
-# than the step (kernels/preprocess.cl isolated)
+# view_cosines: a pixel nearer or farther than both neighbours along an axis, by steps
+# steeper than this many times the lateral spacing (79 degrees from facing the camera), is
+# narrower than the step (kernels/preprocess.cl isolated)
 ISOLATED_STEEP = 5.0
 
 
@@ -32,7 +32,7 @@ def staircase(depth: np.ndarray) -> tuple[int, int]:
     block size when it is at least 60 % of the runs of 1-8 pixels (a quantised sensor's
     flats have every length; sky and walls at one depth have longer runs) and its runs
     cover a quarter of the lines (not a few windows on a fronto wall). A map where
-    most neighbours differ is none early. 0.1-0.3 ms at 2 MPx (every 8th row: 5 ms)."""
+    most neighbours differ is none early. 0.05-0.2 ms at 2 MPx (every 8th row: 5 ms)."""
     d = np.asarray(depth)
 
     def along(lines: np.ndarray) -> int:
@@ -49,11 +49,15 @@ def staircase(depth: np.ndarray) -> tuple[int, int]:
     return along(d[h // 32::max(1, h // 16)]), along(d[:, w // 32::max(1, w // 16)].T)
 
 
+def _upload_depth(plan, depth: np.ndarray, t: Timings) -> None:
+    """The depth copied, and its staircase for the view cosines (only they use it)."""
+    plan.steps = staircase(depth) if plan.lambert else (1, 1)
+    t.add_copy("upload", plan.rt.cl.enqueue_copy(plan.rt.queue, plan.depth, np.ascontiguousarray(depth, np.float32)))
+
+
 def upload(plan, rgba: np.ndarray, depth: np.ndarray, t: Timings) -> None:
-    cl = plan.rt.cl
-    plan.steps = staircase(depth)
-    t.add_copy("upload", cl.enqueue_copy(plan.rt.queue, plan.image, np.ascontiguousarray(rgba, np.float32)))
-    t.add_copy("upload", cl.enqueue_copy(plan.rt.queue, plan.depth, np.ascontiguousarray(depth, np.float32)))
+    t.add_copy("upload", plan.rt.cl.enqueue_copy(plan.rt.queue, plan.image, np.ascontiguousarray(rgba, np.float32)))
+    _upload_depth(plan, depth, t)
 
 
 def upload_rgb(plan, rgb: np.ndarray, alpha, depth: np.ndarray, t: Timings) -> None:
@@ -61,7 +65,6 @@ def upload_rgb(plan, rgb: np.ndarray, alpha, depth: np.ndarray, t: Timings) -> N
     its own memory: no copy after the assembly, which a host array and upload() needed;
     upload 8.3-9.1 -> 1.7 ms at 2 MPx), and the depth copied."""
     cl, q = plan.rt.cl, plan.rt.queue
-    plan.steps = staircase(depth)
     rgba, ev = cl.enqueue_map_buffer(q, plan.image, cl.map_flags.WRITE_INVALIDATE_REGION, 0,
                                      (plan.h, plan.w, 4), np.float32)
     t.add("upload", ev)
@@ -72,7 +75,7 @@ def upload_rgb(plan, rgb: np.ndarray, alpha, depth: np.ndarray, t: Timings) -> N
     finally:
         t.add("upload", rgba.base.release(q))
     del rgba
-    t.add_copy("upload", cl.enqueue_copy(q, plan.depth, np.ascontiguousarray(depth, np.float32)))
+    _upload_depth(plan, depth, t)
 
 
 def optical_depth(plan, t: Timings, depth=None, out=None) -> None:

@@ -6,9 +6,11 @@ from __future__ import annotations
 import numpy as np
 
 from fogcli.config.model import Config
+from fogcli.device.lights import optical_distance
 from fogcli.errors import UserError
 from fogcli.frame.lamps import detect_lamps
 from fogcli.physics.ambient import estimate
+from fogcli.physics.apsf import single_share
 
 
 def for_image(rgb: np.ndarray, depth: np.ndarray, cfg: Config, report: list | None = None,
@@ -55,18 +57,10 @@ def share_lamps(cfg: Config, found: list, labels) -> tuple[list, tuple]:
     light model was up to 0.035 worse in sea water, up to 0.02 better in haze. Returns (the
     lights, their intensities scaled; (flat pixel indices, float32 (n, 4) share of their
     scattered light the pixels keep))."""
-    from fogcli.device.geometry import placed
-    from fogcli.device.lights import optical_depth
-    from fogcli.physics.apsf import single_share
-
     ss = np.asarray(cfg.medium.scattering, np.float64)
-    cam = np.asarray(cfg.camera.position, np.float64)
     keep, shared = np.ones((len(found) + 1, 4), np.float32), []
     for k, light in enumerate(found):
-        pos, _ = placed(cfg, light)
-        dist = float(np.linalg.norm(pos - cam))
-        P = float(optical_depth(cam[None], ((pos - cam) / max(dist, 1e-12))[None], np.array([dist]), cfg)[0])
-        w = single_share(ss * P)
+        w = single_share(ss * optical_distance(cfg, light))
         keep[k + 1, :3] = 1.0 - w
         shared.append(light.model_copy(update={"intensity": tuple(float(v) for v in np.asarray(light.intensity) * w)}))
     idx = np.flatnonzero(labels) if labels is not None else np.zeros(0, np.int64)
