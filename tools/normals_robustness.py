@@ -5,8 +5,9 @@ path-traced case with its smooth depth against the same with
   * `quantised`: the ray length rounded to whole millimetres (a 16-bit millimetre sensor;
     depths past its 65.535 m are kept as they are, so that only the quantisation is
     measured, not the sensor's range);
-  * `noise 0.5%`: each pixel's depth times 1 + 0.005 N(0, 1) (seeded), a depth sensor's
-    noise at range.
+  * `noise 0.5%`, `noise 1%`: each pixel's depth times 1 + 0.005 N(0, 1) (0.01; seeded), a
+    depth sensor's noise at range; fogcli measures it (preprocess.depth_noise) and smooths
+    the depth the normals come from (smooth_depth).
 Relative L1 of each to the smooth depth's output, with each emission profile (isotropic
 does not use normals: it shows what the depth change alone costs).
 
@@ -39,12 +40,13 @@ def quantised(depth: np.ndarray) -> np.ndarray:
     return np.where(depth < 65.535, np.round(depth * 1000.0) / 1000.0, depth).astype(np.float32)
 
 
-def noisy(depth: np.ndarray) -> np.ndarray:
+def noisy(depth: np.ndarray, s: float = 0.005) -> np.ndarray:
     rng = np.random.default_rng(40)
-    return (depth * (1.0 + 0.005 * rng.standard_normal(depth.shape))).astype(np.float32)
+    return (depth * (1.0 + s * rng.standard_normal(depth.shape))).astype(np.float32)
 
 
-VARIANTS = (("replicated", replicated), ("quantised", quantised), ("noise 0.5%", noisy))
+VARIANTS = (("replicated", replicated), ("quantised", quantised), ("noise 0.5%", noisy),
+            ("noise 1%", lambda d: noisy(d, 0.01)))
 
 
 def measure(cases) -> list[dict]:
@@ -70,8 +72,50 @@ def table(rows: list[dict]) -> str:
     out.append("| largest | " + " | ".join(f"{max(r[c] for r in rows):.5f}" for c in cols) + " |")
     over = [r["case"] for r in rows if r["replicated lambertian"] > 0.02 or r["quantised lambertian"] > 0.02]
     out.append(f"\nDefault profile (lambertian) over 0.02 with replicated or quantised depth: {', '.join(over) or 'none'}. "
-               f"With 0.5 % noise: {', '.join(r['case'] for r in rows if r['noise 0.5% lambertian'] > 0.02) or 'none'}.")
+               f"With 0.5 % noise: {', '.join(r['case'] for r in rows if r['noise 0.5% lambertian'] > 0.02) or 'none'}; "
+               f"with 1 %: {', '.join(r['case'] for r in rows if r['noise 1% lambertian'] > 0.02) or 'none'}.")
     return "\n".join(out)
+
+
+def said(smoothing) -> str:
+    return "none" if smoothing is None else f"radius {smoothing[0]} px, tau {100 * smoothing[1]:.2f} %"
+
+
+def smoothing_table() -> str:
+    """What depth_noise finds and the smoothing it sets: on the TUM RGB-D frame (a Kinect's
+    quantised depth) and on a render with the noise above; what the smoothing costs in the
+    whole `apply` (night scene, fog; rounds alternate the smooth and the noisy depth, median
+    of 5 rounds)."""
+    import cv2
+
+    from fogcli.device.preprocess import depth_noise, depth_smoothing, staircase
+    from hdr_scenes import scene
+
+    rows = ["| depth | noise found | smoothing (radius px, tau) |", "|---|---|---|"]
+    tum = Path(__file__).resolve().parents[2] / "shared" / "data" / "tum_depth.png"
+    if tum.exists():
+        d = cv2.imread(str(tum), cv2.IMREAD_UNCHANGED).astype(np.float32) / 5000
+        d = np.where(d > 0, d, np.nan)
+        n = depth_noise(d, staircase(d))
+        rows.append(f"| TUM RGB-D frame, 640x480, f 525 px | {100 * n:.2f} % | {said(depth_smoothing(n, 525.0))} |")
+    cost = ["| frame | apply, smooth depth (ms) | with 0.5 % noise (ms) | smoothing radius |", "|---|---|---|---|"]
+    for w, h in ((640, 480), (1920, 1080)):
+        rgb, z, fov = scene(w, h, seed=1, night=True)
+        cfg = make_config("fog", sets=[f"camera.fov={fov}"])
+        zn = noisy(z)
+        n = depth_noise(zn)
+        sm = depth_smoothing(n, cfg.camera.focal(w))
+        rows.append(f"| night scene {w}x{h} with 0.5 % noise, f {cfg.camera.focal(w):.0f} px | {100 * n:.2f} % | "
+                    f"{said(sm)} |")
+        times = {"smooth": [], "noisy": []}
+        apply(rgb, z, cfg), apply(rgb, zn, cfg)
+        for _ in range(5):
+            for key, d in (("smooth", z), ("noisy", zn)):
+                t0 = time.perf_counter()
+                apply(rgb, d, cfg)
+                times[key].append(1000 * (time.perf_counter() - t0))
+        cost.append(f"| {w}x{h} | {np.median(times['smooth']):.0f} | {np.median(times['noisy']):.0f} | {sm[0]} px |")
+    return "\n".join(rows) + "\n\n" + "\n".join(cost)
 
 
 def main(argv=None) -> int:
@@ -80,7 +124,7 @@ def main(argv=None) -> int:
     args = ap.parse_args(argv)
     t0 = time.time()
     rows = measure(all_cases())
-    text = table(rows)
+    text = table(rows) + "\n\n" + smoothing_table()
     print(text)
     if args.doc:
         from docblock import cpu_name, markers, write_block

@@ -414,3 +414,46 @@ def optical_depth_quadrature(c, w, D, prims):
         wts = (half[:, None] * GL12_WEIGHTS[None, :]).ravel()
         total += (wts * primitive_density(c + t[:, None] * w, prims)).sum()
     return total
+
+
+def smooth_depth(depth, along_y: bool, radius: int, tau: float, far) -> np.ndarray:
+    """kernels/preprocess.cl smooth_depth in float64: along one axis, each pixel's depth
+    replaced by the value at it of a line fitted to the run of neighbours (its mean when the
+    run is radius pixels or fewer; up to radius on
+    each side) whose every step is this pixel's slope within 2 tau z and whose offset from
+    the slope's line is within tau z (1 + o / 2); the slope is the central difference where
+    the two one-sided steps agree within tau z, else the smaller step. far (h, w): the
+    depth at which each pixel's ray reaches max_depth; a pixel there or past it (the sky)
+    is not smoothed, and a neighbour there or past the centre's is not taken."""
+    z = np.asarray(depth, np.float64)
+    far = np.asarray(far, np.float64)
+    if along_y:
+        return smooth_depth(z.T, False, radius, tau, far.T).T
+    out = z.copy()
+    h, w = z.shape
+    for j in range(h):
+        for i in range(w):
+            zc = z[j, i]
+            if not zc < far[j, i]:
+                continue
+            lim = tau * zc
+            ef = z[j, min(i + 1, w - 1)] - zc
+            eb = zc - z[j, max(i - 1, 0)]
+            c = 0.5 * (ef + eb) if abs(ef - eb) <= lim else (ef if abs(ef) < abs(eb) else eb)
+            offs, vals = [0.0], [0.0]
+            for side in (-1, 1):
+                prev = 0.0
+                for o in range(1, radius + 1):
+                    k = i + side * o
+                    if not 0 <= k < w or not z[j, k] < far[j, i]:
+                        break
+                    zn = z[j, k] - zc
+                    if not (abs(zn - prev - side * c) <= 2 * lim and abs(zn - o * side * c) <= lim * (1 + 0.5 * o)):
+                        break
+                    offs.append(side * o)
+                    vals.append(zn)
+                    prev = zn
+            o, v = np.array(offs), np.array(vals)
+            a = np.polyfit(o, v, 1)[1] if len(o) > radius else np.mean(v)
+            out[j, i] = zc + a
+    return out

@@ -275,6 +275,7 @@ class Plan:
             self.lut = B(4 * self.lut_floats()) if self.apsf else B(16)
             self._lut_key = None
             self.steps = (1, 1)          # the depth's staircase (preprocess.staircase), set at upload
+            self.smoothing = None        # the view cosines' depth smoothing (preprocess.depth_smoothing), likewise
             self.edge_off = [0] * len(self.sizes)
             self.edge = B(16)
             self.cons_off = [0] * (len(self.sizes) + 1)

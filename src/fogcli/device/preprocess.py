@@ -49,9 +49,66 @@ def staircase(depth: np.ndarray) -> tuple[int, int]:
     return along(d[h // 32::max(1, h // 16)]), along(d[:, w // 32::max(1, w // 16)].T)
 
 
+# A depth whose noise (relative to the depth) times the focal length in pixels reaches this
+# is smoothed for the view cosines (smooth_depth): their one-pixel slopes are then off by
+# 0.35 and more (a surface at 45 degrees has 1). Renders and quantised depths in
+# tools/normals_robustness.py measure 0.001-0.05 (a street's curvature), 0.5 % sensor noise
+# at 222 px 1.1, the TUM Kinect frame 0.9
+NOISY_SLOPE = 0.25
+# ... over as many pixels as bring the slopes' noise to this (0.03-0.1 tried on
+# tools/normals_robustness.py's noisy renders: smaller smooths away street walls' edges,
+# larger leaves the skyline's far ground noisy)
+SMOOTHED_SLOPE = 0.07
+# the radius's cost: ~50 ms per pass at 2 MPx at 8 (docs/physics.md)
+SMOOTH_RADIUS_MAX = 8
+
+
+def depth_noise(depth: np.ndarray, steps: tuple[int, int] = (1, 1)) -> float:
+    """The depth's noise relative to itself (a standard deviation), from the second
+    differences over the staircase's steps along 16 rows and 16 columns: per line the root
+    mean square of the smallest 90 % (depth edges are the rest) over 0.623 (what a Gaussian
+    keeps of it so) and 6 (white noise's second difference has 6 times its variance); the
+    median over the lines (some lines are mostly edges); the smaller of rows' and columns'
+    (a surface's curvature, a ground's depth down a column, is not noise). A sensor's
+    quantised flats count: their steps are its noise."""
+    d = np.asarray(depth)
+    h, w = d.shape[:2]
+    found = []
+    for lines, k in ((d[h // 32::max(1, h // 16)], steps[0]), (d[:, w // 32::max(1, w // 16)].T, steps[1])):
+        if lines.shape[1] < 2 * k + 10:
+            continue
+        mid = lines[:, k:-k]
+        with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
+            r = np.abs((lines[:, :-2 * k] - 2.0 * mid + lines[:, 2 * k:]) / mid).astype(np.float64)
+        per_line = []
+        for row in r:
+            row = row[np.isfinite(row)]
+            if row.size >= 10:
+                kept = np.partition(row, int(0.9 * row.size))[:int(0.9 * row.size)]
+                per_line.append(np.sqrt(np.mean(np.square(kept)) / 0.623 / 6.0))
+        if per_line:
+            found.append(float(np.median(per_line)))
+    return min(found, default=0.0)
+
+
+def depth_smoothing(noise: float, focal: float) -> tuple[int, float] | None:
+    """(radius, tau) of smooth_depth for a depth of this noise, None when it needs none.
+    A one-pixel slope's error is noise x focal x sqrt(2); the difference of two box means of
+    (2r + 1)^2 pixels one pixel apart has (2r + 1)^1.5 times less, brought to SMOOTHED_SLOPE.
+    tau = 5 noise: a noisy neighbour of the same surface is within it (a difference of two
+    is 3.5 of its standard deviations), a depth edge of more is not averaged over."""
+    if noise * focal < NOISY_SLOPE:
+        return None
+    side = (np.sqrt(2.0) * noise * focal / SMOOTHED_SLOPE) ** (2.0 / 3.0)
+    return int(np.clip(np.ceil((side - 1.0) / 2.0), 1, SMOOTH_RADIUS_MAX)), float(5.0 * noise)
+
+
 def _upload_depth(plan, depth: np.ndarray, t: Timings) -> None:
-    """The depth copied, and its staircase for the view cosines (only they use it)."""
+    """The depth copied, and for the view cosines (only they use it) its staircase and
+    whether it is smoothed for them."""
     plan.steps = staircase(depth) if plan.lambert else (1, 1)
+    plan.smoothing = depth_smoothing(depth_noise(depth, plan.steps), plan.cfg.camera.focal(plan.w)) \
+        if plan.lambert else None
     t.add_copy("upload", plan.rt.cl.enqueue_copy(plan.rt.queue, plan.depth, np.ascontiguousarray(depth, np.float32)))
 
 
@@ -133,20 +190,41 @@ def upload_lut(plan, t: Timings, table: dict | None = None) -> np.ndarray | None
     return plan.lut_host
 
 
+def view_cosines(plan, t: Timings) -> None:
+    """The view cosine of every pixel into `cosines` (emission_profile lambertian), from
+    the depth, or from the depth smoothed for them (plan.smoothing: into `chain`, which
+    preprocess writes next)."""
+    whole, checked = plan.k_pre_whole, plan.k_pre_prog
+    depth = plan.depth
+    cam = camera_struct(plan.cfg, plan.w, plan.h)
+    lx, ly = plan.rt.local2d
+    if plan.smoothing is not None:     # x into `cosines`, y into `chain`
+        r, tau = plan.smoothing
+        nx, ny = (plan.w - 2 * r) // lx * lx, (plan.h - 2 * r) // ly * ly
+        for src, dst, along_y, inner, region in (
+                (plan.depth, plan.cosines, 0, whole.smooth_depth_x_inner, (r, r + nx, 0, plan.h // ly * ly)),
+                (plan.cosines, plan.chain, 1, whole.smooth_depth_y_inner, (0, plan.w // lx * lx, r, r + ny))):
+            plan.launch_inner(t, "preprocess", region if region[1] > region[0] and region[3] > region[2] else None,
+                              inner, (whole.smooth_depth, checked.smooth_depth), plan.w, plan.h,
+                              dict(src=src, dst=dst, width=np.int32(plan.w), height=np.int32(plan.h),
+                                   along_y=np.int32(along_y), radius=np.int32(r), tau=np.float32(tau), cam=cam))
+        depth = plan.chain
+    # the interior: pixels whose four neighbours are in the image
+    sx, sy = plan.steps
+    nx, ny = (plan.w - 2 * sx) // lx * lx, (plan.h - 2 * sy) // ly * ly
+    plan.launch_inner(t, "preprocess", (sx, sx + nx, sy, sy + ny) if nx > 0 and ny > 0 else None,
+                      whole.view_cosines_inner, (whole.view_cosines, checked.view_cosines), plan.w, plan.h,
+                      dict(depth=depth, cosv=plan.cosines, width=np.int32(plan.w), height=np.int32(plan.h),
+                           cam=cam, sx=np.int32(sx), sy=np.int32(sy), steep=np.float32(ISOLATED_STEEP)))
+
+
 def preprocess(plan, t: Timings) -> None:
     eps = plan.cfg.render.resolved()[1]
     upload_lut(plan, t)
     optical_depth(plan, t)
     whole, checked = plan.k_pre_whole, plan.k_pre_prog
     if plan.lambert:
-        lx, ly = plan.rt.local2d         # the interior: pixels whose four neighbours are in the image
-        sx, sy = plan.steps
-        nx, ny = (plan.w - 2 * sx) // lx * lx, (plan.h - 2 * sy) // ly * ly
-        plan.launch_inner(t, "preprocess", (sx, sx + nx, sy, sy + ny) if nx > 0 and ny > 0 else None,
-                           whole.view_cosines_inner, (whole.view_cosines, checked.view_cosines), plan.w, plan.h,
-                          dict(depth=plan.depth, cosv=plan.cosines, width=np.int32(plan.w), height=np.int32(plan.h),
-                               cam=camera_struct(plan.cfg, plan.w, plan.h), sx=np.int32(sx), sy=np.int32(sy),
-                               steep=np.float32(ISOLATED_STEEP)))
+        view_cosines(plan, t)
     t.add("preprocess",
           plan.rt.launch2d((whole.preprocess, checked.preprocess), plan.w, plan.h, image=plan.image, depth=plan.depth,
                            direct=plan.direct, scat0=plan.chain, spread0=plan.spread, medium_term=plan.medium,

@@ -77,6 +77,91 @@ __attribute__((always_inline)) inline float view_cosine(const camera_t *c, __glo
     return (cosv == cosv && cosv <= 1.0f) ? cosv : 1.0f;   /* NaN (sky, flat zero) */
 }
 
+/* Stage 1a' (a noisy depth, preprocess.depth_noise): the depth the view cosines read,
+ * averaged along one axis over the pixels within `radius` whose depth is within tau times
+ * this pixel's (run along x, then along y). A sensor's noise of 0.5 % turns one-pixel
+ * differences into random grazing normals (the Lambertian weight then multiplies whole
+ * surfaces that face the camera); the average leaves depth edges and one-pixel lamps (their
+ * neighbours are outside tau) as they are. A pixel whose depth is not finite has no
+ * neighbour within tau and keeps it. */
+/* The smoothed depth of the pixel at idx: its position `at` along a line of n pixels
+ * `stride` apart. inner (a constant): the radius pixels on each side are inside the line,
+ * so the reads go unclamped (linear in the work-item: vector loads, not gathers). */
+__attribute__((always_inline)) inline float smoothed(__global const float *src, int idx, int at, int n, int stride,
+                                                     int inner, int radius, float tau, float dist, float max_depth)
+{
+    float z = src[idx];
+    float lim = dist < max_depth ? tau * z : -1.0f;
+    /* the sky (max_depth and beyond) is neither smoothed nor a neighbour: it stays the sky
+     * that view_cosines gives a cosine of 1, and its stand-in depth is no surface's. far:
+     * the depth at which this pixel's ray reaches max_depth, for the neighbours too (their
+     * rays are within radius pixels of it; a root per neighbour cost 5x) */
+    float far = z * (max_depth / dist) - z;
+    float zf = src[idx + (inner ? 1 : clampi_(at + 1, 0, n - 1) - at) * stride];
+    float zb = src[idx - (inner ? 1 : at - clampi_(at - 1, 0, n - 1)) * stride];
+    float ef = zf - z, eb = z - zb;
+    float c = absf_(ef - eb) <= lim ? 0.5f * (ef + eb) : (absf_(ef) < absf_(eb) ? ef : eb);
+    /* outwards on each side while every step is the centre's slope within 2 lim and the
+     * offset from its line within lim (1 + o / 2): a ramp (a grazing surface) goes on, noise
+     * does, a depth edge ends the run (with the line's test alone a small lamp took in the
+     * wall behind it at 1 % noise; with the steps' alone a Kinect's quantised far floor
+     * stopped at every step) */
+    float s0 = lim >= 0.0f ? 1.0f : 0.0f, s1 = 0.0f, s2 = 0.0f, t0 = 0.0f, t1 = 0.0f;
+    for (int side = -1; side <= 1; side += 2) {
+        float prev = 0.0f, step = side * c;
+        int go = lim >= 0.0f;
+        for (int o = 1; o <= radius; ++o) {
+            int k = at + side * o;
+            go = go && (inner || (k >= 0 && k < n));
+            float zn = src[idx + (inner ? side * o : clampi_(k, 0, n - 1) - at) * stride] - z;
+            go = go && absf_(zn - prev - step) <= 2.0f * lim && absf_(zn - o * step) <= lim * (1.0f + 0.5f * o)
+                 && zn < far;
+            float fo = (float)(side * o), wn = (float)go;
+            s0 += wn; s1 += wn * fo; s2 += wn * fo * fo;
+            t0 += go ? zn : 0.0f; t1 += go ? zn * fo : 0.0f;    /* not wn * zn: zn is inf past the sky */
+            prev = go ? zn : prev;
+        }
+    }
+    /* a run shorter than radius + 1 (a lamp, a pole a few pixels wide) has no slope the
+     * noise leaves: its mean, flat, faces the camera (as an isolated pixel does) */
+    float det = s0 * s2 - s1 * s1;
+    float a = det > 0.5f && s0 > radius + 0.5f ? (t0 * s2 - t1 * s1) / det : (s0 > 0.0f ? t0 / s0 : 0.0f);
+    return z + a;
+}
+
+__kernel void smooth_depth(__global const float *src, __global float *dst, const int width, const int height,
+                           const int along_y, const int radius, const float tau, const camera_t cam)
+{
+    int i = get_global_id(0), j = get_global_id(1);
+    if (OUTSIDE(i, j, width, height)) return;
+    int idx = j * width + i;
+    float wx, wy, wz;
+    float dist = pixel_ray(&cam, i, j, src[idx], &wx, &wy, &wz);
+    dst[idx] = smoothed(src, idx, along_y ? j : i, along_y ? height : width, along_y ? width : 1, 0, radius, tau,
+                        dist, cam.max_depth);
+}
+
+/* smooth_depth's interior along x (along y), on whole work-groups of the rectangle
+ * preprocess.py gives (Plan.launch_inner): the pixels radius or more from the left and
+ * right (top and bottom) edges */
+__kernel void smooth_depth_x_inner(__global const float *src, __global float *dst, const int width, const int height,
+                                   const int along_y, const int radius, const float tau, const camera_t cam)
+{
+    int i = get_global_id(0), j = get_global_id(1), idx = j * width + i;
+    float wx, wy, wz;
+    float dist = pixel_ray(&cam, i, j, src[idx], &wx, &wy, &wz);
+    dst[idx] = smoothed(src, idx, i, width, 1, 1, radius, tau, dist, cam.max_depth);
+}
+
+__kernel void smooth_depth_y_inner(__global const float *src, __global float *dst, const int width, const int height,
+                                   const int along_y, const int radius, const float tau, const camera_t cam)
+{
+    int i = get_global_id(0), j = get_global_id(1), idx = j * width + i;
+    float wx, wy, wz;
+    float dist = pixel_ray(&cam, i, j, src[idx], &wx, &wy, &wz);
+    dst[idx] = smoothed(src, idx, j, height, width, 1, radius, tau, dist, cam.max_depth);
+}
+
 /* Stage 1a (emission_profile: lambertian): the view cosine of every pixel, in a kernel of
  * its own so that the neighbour reads and their branches do not keep the preprocess
  * kernel from being vectorised. */
