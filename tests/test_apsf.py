@@ -508,6 +508,55 @@ def test_the_depth_noise_is_measured_and_a_noisy_plane_keeps_its_normals(rt, rng
     assert cosines(wall)[30:33, 50:53].min() > 0.9
 
 
+@pytest.mark.parametrize("phase", [0, 1])
+def test_a_nearest_neighbour_enlarged_depth_takes_the_edges_of_the_colour(rt, rng, phase):
+    """A depth enlarged 2 x 2 by nearest neighbour (its grid starting at `phase`) of a
+    textured wall with small bright lamps and a box in front, their edges off the grid:
+    block_grid finds the grid, realign_blocks matches its oracle, moves the depth edges to
+    the colour's (pixels more than 5 % off the true depth: at most a third of before; the
+    3 x 3 lamps' pixels within 5 % on 90 % of them: a lamp of one block or less may have
+    left no sample) and leaves the wall's ramp alone."""
+    from fogcli.device.preprocess import REALIGN_TOL, block_grid
+
+    w, h = 2 * LX + 13, 37
+    plan, cfg = plan_for(rt, w, h, "camera.fov=60", "render.psf=apsf", "render.emission_profile=isotropic")
+    yy, xx = np.mgrid[0:h, 0:w]
+    true = 10.0 + 0.2 * xx + 0.01 * yy          # steep: 3 blocks span 12 %, a ramp, no edge
+    img = np.ones((h, w, 4), np.float32)
+    img[..., :3] = 0.3 + 0.05 * rng.uniform(0, 1, (h, w, 3))
+    lamps, wide = np.zeros((h, w), bool), np.zeros((h, w), bool)
+    for y, x, s in ((5, 9, 2), (12, 40, 3), (20, 71, 2), (27, 100, 3), (30, 17, 1)):
+        lamps[y:y + s, x:x + s] = True
+        wide[y:y + s, x:x + s] = s == 3
+    true[lamps] = 6.0
+    img[lamps, :3] = [50.0, 40.0, 30.0]
+    box = (yy >= 9) & (yy < 24) & (xx >= 111) & (xx < 128)
+    true[box] = 7.0
+    img[box, :3] = [0.6, 0.1, 0.1]
+    true = true.astype(np.float32)
+    low = true[phase::2, phase::2]
+    big = np.repeat(np.repeat(low, 2, 0), 2, 1)
+    big = np.pad(big, ((phase, 0), (phase, 0)), mode="edge")[:h, :w]
+    assert block_grid(big) == (2, 2, phase, phase)
+    upload(plan, img, big, Timings())
+    preprocess(plan, Timings())
+    got = download(plan, plan.depth, 1).astype(np.float64)
+    want = oracles.realign_blocks(big, img, 2, 2, phase, phase, REALIGN_TOL)
+    assert np.isclose(got, want, rtol=1e-6).mean() >= 0.999
+    off = lambda d: np.mean(np.abs(d - true) > 0.05 * true)    # noqa: E731
+    assert off(got) <= off(big) / 3, (off(got), off(big))
+    assert np.mean(np.abs(got - true)[wide] <= 0.05 * true[wide]) >= 0.9   # (one of a block or two can't)
+    near = lamps | box                      # grown by 4 px (a block grid of 2 reaches 3 px)
+    for _ in range(4):
+        grown = near.copy()
+        grown[1:] |= near[:-1]
+        grown[:-1] |= near[1:]
+        near = grown.copy()
+        near[:, 1:] |= grown[:, :-1]
+        near[:, :-1] |= grown[:, 1:]
+    np.testing.assert_array_equal(got[~near], big[~near])
+
+
 def test_grey_media_build_matches_the_per_channel_build(monkeypatch):
     """Fog, haze and smoke have the same coefficients in R, G, B: their programs are built
     with MEDIUM_GREY (one channel's table reads and exponentials serve three). The output is

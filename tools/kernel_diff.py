@@ -37,7 +37,8 @@ LIGHT = "lights=[{type: point, position: [2, 1, -20], intensity: 300}]"
 NOISE = ("medium.density=[{type: homogeneous}, {type: noise, factor: 5, scale: 4, octaves: 2, shape: box, "
          "center: [0, 0, -8], size: [2, 6, 2], seed: 3, edge: 1}]")
 SPOT = ("lights=[{type: spot, position: [-3, 3, -6], direction: [1, -1, -0.6], angle: 30, intensity: 300}]")
-# name: (medium, --set values, options: size (w, h), aovs, alpha, then: the kernels only tests
+# name: (medium, --set values, options: size (w, h), aovs, alpha, enlarged (the depth 2 x 2 by nearest
+# neighbour), then: the kernels only tests
 # launch, after the frame: level 0 of the chains set (run.write_level0), the brute-force
 # reference (reference.brute_force), the transmittance map read at points (noise.probe_map))
 CASES = {
@@ -70,6 +71,8 @@ CASES = {
                                          {"then": "brute force"}),
     "extend border": ("fog", ["render.border=extend"], {}),
     "gaussian, level 0 set": ("fog", ["render.psf=gaussian"], {"then": "level 0"}),
+    # a depth enlarged 2 x 2 by nearest neighbour: its edges realigned to the colour's
+    "depth enlarged 2 x 2": ("fog", [], {"enlarged": True}),
 }
 
 # The largest difference to PoCL each kernel may show, max |a - b| / max |a| of a buffer it
@@ -174,6 +177,8 @@ def run_case(name: str, device: str, simulated: bool = False) -> dict:
     cfg = fogcli.make_config(medium, sets=sets)
     size = opts.get("simulator_size" if simulated else "size", opts.get("size", (W, H)))
     rgb, z = frame(*size)
+    if opts.get("enlarged"):
+        z = np.repeat(np.repeat(z[::2, ::2], 2, 0), 2, 1)[: z.shape[0], : z.shape[1]]
     alpha = None
     if opts.get("alpha"):
         alpha = np.ones(z.shape, np.float32)

@@ -1,7 +1,8 @@
 """Normals that real depth maps carry (issue 40): the default pipeline's output on each
 path-traced case with its smooth depth against the same with
   * `replicated`: every other row and column kept, each repeated 2x2 (a half-resolution
-    sensor's depth upsampled by nearest neighbour: a staircase, and edges a pixel off);
+    sensor's depth upsampled by nearest neighbour: a staircase, and edges a pixel off, which
+    fogcli moves to the colour's: realign_blocks);
   * `quantised`: the ray length rounded to whole millimetres (a 16-bit millimetre sensor;
     depths past its 65.535 m are kept as they are, so that only the quantisation is
     measured, not the sensor's range);

@@ -457,3 +457,45 @@ def smooth_depth(depth, along_y: bool, radius: int, tau: float, far) -> np.ndarr
             a = np.polyfit(o, v, 1)[1] if len(o) > radius else np.mean(v)
             out[j, i] = zc + a
     return out
+
+
+def realign_blocks(depth, rgb, kx: int, ky: int, px: int, py: int, tol: float) -> np.ndarray:
+    """kernels/preprocess.cl realign_blocks in float64: where the 3 x 3 blocks of the grid
+    (kx x ky, starting at px, py) around a pixel span more than 1 + tol in depth and its own
+    block's second difference along x or y (a block past the frame continuing the ramp)
+    exceeds tol of its depth, the pixel takes the depth of the block whose mean colour is
+    nearest its own (relative L1; the own block wins by 1e-3)."""
+    z = np.asarray(depth, np.float64)
+    img = np.asarray(rgb, np.float64)[..., :3]
+    h, w = z.shape
+    out = z.copy()
+
+    def anchor(bj, bi):
+        return z[min(max(bj * ky + py, 0), h - 1), min(max(bi * kx + px, 0), w - 1)]
+
+    for j in range(h):
+        for i in range(w):
+            bi, bj = (i - px) // kx, (j - py) // ky
+            d = np.array([[anchor(bj + dj, bi + di) for di in (-1, 0, 1)] for dj in (-1, 0, 1)])
+            lo, hi = min(d.min(), z[j, i]), max(d.max(), z[j, i])
+            c = d[1, 1]
+            left = 2 * c - d[1, 2] if (bi - 1) * kx + px + kx <= 0 else d[1, 0]
+            right = 2 * c - d[1, 0] if (bi + 1) * kx + px >= w else d[1, 2]
+            up = 2 * c - d[2, 1] if (bj - 1) * ky + py + ky <= 0 else d[0, 1]
+            down = 2 * c - d[0, 1] if (bj + 1) * ky + py >= h else d[2, 1]
+            if not (hi > lo * (1 + tol) and max(abs(left - 2 * c + right), abs(up - 2 * c + down)) > tol * c):
+                continue
+            p = img[j, i]
+            best, best_dist = z[j, i], np.inf
+            for dj in (-1, 0, 1):
+                for di in (-1, 0, 1):
+                    x0, y0 = (bi + di) * kx + px, (bj + dj) * ky + py
+                    block = img[max(y0, 0):min(y0 + ky, h), max(x0, 0):min(x0 + kx, w)]
+                    if block.size == 0:
+                        continue
+                    m = block.reshape(-1, 3).mean(0)
+                    dist = np.abs(p - m).sum() / (np.abs(p).sum() + np.abs(m).sum() + 1e-6) - (1e-3 if di == dj == 0 else 0)
+                    if dist < best_dist:
+                        best, best_dist = d[dj + 1, di + 1], dist
+            out[j, i] = best
+    return out

@@ -276,6 +276,7 @@ class Plan:
             self._lut_key = None
             self.steps = (1, 1)          # the depth's staircase (preprocess.staircase), set at upload
             self.smoothing = None        # the view cosines' depth smoothing (preprocess.depth_smoothing), likewise
+            self.grid = None             # a staircase's block grid (preprocess.block_grid): realign_blocks
             self.edge_off = [0] * len(self.sizes)
             self.edge = B(16)
             self.cons_off = [0] * (len(self.sizes) + 1)

@@ -25,6 +25,37 @@ def pack_rgba(dst: np.ndarray, rgb: np.ndarray, alpha: np.ndarray | None) -> Non
 ISOLATED_STEEP = 5.0
 
 
+def _lines(depth: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The 16 rows and the 16 columns (as rows) across the frame that staircase and
+    depth_noise read."""
+    d = np.asarray(depth)
+    h, w = d.shape[:2]
+    return d[h // 32::max(1, h // 16)], d[:, w // 32::max(1, w // 16)].T
+
+
+def _blocks_along(lines: np.ndarray) -> tuple[int, int | None]:
+    """(block size, phase) along the lines (staircase): the phase is the position, modulo the
+    size, where 60 % of the runs start (a regular grid), None where they do not."""
+    change = lines[:, 1:] != lines[:, :-1]
+    if change.size == 0 or np.count_nonzero(change) > 0.7 * change.size:
+        return 1, None
+    rows, cols = np.nonzero(change)
+    runs = np.diff(cols)[rows[1:] == rows[:-1]]
+    hist = np.bincount(runs[runs <= 8], minlength=9)
+    k = int(hist.argmax())
+    if not (k >= 2 and hist[k] >= 0.6 * hist.sum() and hist[k] * k >= 0.25 * lines.size):
+        return 1, None
+    starts = np.bincount((cols + 1) % k, minlength=k)
+    return k, int(starts.argmax()) if starts.max() >= 0.6 * starts.sum() else None
+
+
+def depth_blocks(depth: np.ndarray) -> tuple[tuple[int, int], tuple[int, int, int, int] | None]:
+    """(staircase(depth), block_grid(depth)) from one reading of the lines."""
+    (kx, px), (ky, py) = (_blocks_along(lines) for lines in _lines(depth))
+    regular = kx * ky > 1 and (kx == 1 or px is not None) and (ky == 1 or py is not None)
+    return (kx, ky), ((kx, ky, px or 0, py or 0) if regular else None)
+
+
 def staircase(depth: np.ndarray) -> tuple[int, int]:
     """(columns, rows) of the blocks of equal depth that nearest-neighbour upsampling leaves
     (a sensor's depth map enlarged elsewhere: 2 x 2 at twice its size), 1 where there are
@@ -33,20 +64,14 @@ def staircase(depth: np.ndarray) -> tuple[int, int]:
     flats have every length; sky and walls at one depth have longer runs) and its runs
     cover a quarter of the lines (not a few windows on a fronto wall). A map where
     most neighbours differ is none early. 0.05-0.2 ms at 2 MPx (every 8th row: 5 ms)."""
-    d = np.asarray(depth)
+    return depth_blocks(depth)[0]
 
-    def along(lines: np.ndarray) -> int:
-        change = lines[:, 1:] != lines[:, :-1]
-        if change.size == 0 or np.count_nonzero(change) > 0.7 * change.size:
-            return 1
-        rows, cols = np.nonzero(change)
-        runs = np.diff(cols)[rows[1:] == rows[:-1]]
-        hist = np.bincount(runs[runs <= 8], minlength=9)
-        k = int(hist.argmax())
-        return k if k >= 2 and hist[k] >= 0.6 * hist.sum() and hist[k] * k >= 0.25 * lines.size else 1
 
-    h, w = d.shape[:2]
-    return along(d[h // 32::max(1, h // 16)]), along(d[:, w // 32::max(1, w // 16)].T)
+def block_grid(depth: np.ndarray) -> tuple[int, int, int, int] | None:
+    """(kx, ky, px, py): the staircase's blocks and where their grid starts (a block's first
+    column is px modulo kx), when the depth is one (larger than 1 along an axis) on a
+    regular grid; else None."""
+    return depth_blocks(depth)[1]
 
 
 # A depth whose noise (relative to the depth) times the focal length in pixels reaches this
@@ -71,10 +96,8 @@ def depth_noise(depth: np.ndarray, steps: tuple[int, int] = (1, 1)) -> float:
     median over the lines (some lines are mostly edges); the smaller of rows' and columns'
     (a surface's curvature, a ground's depth down a column, is not noise). A sensor's
     quantised flats count: their steps are its noise."""
-    d = np.asarray(depth)
-    h, w = d.shape[:2]
     found = []
-    for lines, k in ((d[h // 32::max(1, h // 16)], steps[0]), (d[:, w // 32::max(1, w // 16)].T, steps[1])):
+    for lines, k in zip(_lines(depth), steps):
         if lines.shape[1] < 2 * k + 10:
             continue
         mid = lines[:, k:-k]
@@ -106,7 +129,8 @@ def depth_smoothing(noise: float, focal: float) -> tuple[int, float] | None:
 def _upload_depth(plan, depth: np.ndarray, t: Timings) -> None:
     """The depth copied, and for the view cosines (only they use it) its staircase and
     whether it is smoothed for them."""
-    plan.steps = staircase(depth) if plan.lambert else (1, 1)
+    steps, plan.grid = depth_blocks(depth)
+    plan.steps = steps if plan.lambert else (1, 1)
     plan.smoothing = depth_smoothing(depth_noise(depth, plan.steps), plan.cfg.camera.focal(plan.w)) \
         if plan.lambert else None
     t.add_copy("upload", plan.rt.cl.enqueue_copy(plan.rt.queue, plan.depth, np.ascontiguousarray(depth, np.float32)))
@@ -218,13 +242,32 @@ def view_cosines(plan, t: Timings) -> None:
                            cam=cam, sx=np.int32(sx), sy=np.int32(sy), steep=np.float32(ISOLATED_STEEP)))
 
 
+# realign_blocks: a depth edge is where the 3 x 3 blocks' depths span more than 1 + this, and
+# the own block's second difference exceeds this much of its depth
+REALIGN_TOL = 0.05
+
+
+def realign(plan, t: Timings) -> None:
+    """A nearest-neighbour-enlarged depth's edges moved to the colour's (kernel
+    realign_blocks, through `chain`); the view cosines have read the staircase before."""
+    kx, ky, px, py = plan.grid
+    whole, checked = plan.k_pre_whole, plan.k_pre_prog
+    t.add("preprocess", plan.rt.launch2d(
+        (whole.realign_blocks, checked.realign_blocks), plan.w, plan.h, depth=plan.depth, image=plan.image,
+        out=plan.chain, width=np.int32(plan.w), height=np.int32(plan.h), kx=np.int32(kx), ky=np.int32(ky),
+        px=np.int32(px), py=np.int32(py), tol=np.float32(REALIGN_TOL)))
+    t.add("preprocess", plan.rt.cl.enqueue_copy(plan.rt.queue, plan.depth, plan.chain, byte_count=4 * plan.w * plan.h))
+
+
 def preprocess(plan, t: Timings) -> None:
     eps = plan.cfg.render.resolved()[1]
+    whole, checked = plan.k_pre_whole, plan.k_pre_prog
+    if plan.lambert:          # from the depth as given; then its edges realigned for the rest
+        view_cosines(plan, t)
+    if plan.grid is not None:
+        realign(plan, t)
     upload_lut(plan, t)
     optical_depth(plan, t)
-    whole, checked = plan.k_pre_whole, plan.k_pre_prog
-    if plan.lambert:
-        view_cosines(plan, t)
     t.add("preprocess",
           plan.rt.launch2d((whole.preprocess, checked.preprocess), plan.w, plan.h, image=plan.image, depth=plan.depth,
                            direct=plan.direct, scat0=plan.chain, spread0=plan.spread, medium_term=plan.medium,
