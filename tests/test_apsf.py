@@ -429,8 +429,7 @@ def _far(cfg, depth):
 def test_a_noisy_depth_is_smoothed_for_the_view_cosines_as_the_oracle_does(rt, rng, kind):
     """smooth_depth (along x, then y) against its oracle on a noisy depth of a tilted plane,
     a box in front of it, one-pixel lamps, sky rows and a pixel of infinite depth; then
-    view_cosines on the smoothed depth (the central difference where the steps agree)
-    against theirs. Depth: 1e-5 relative on 99.5 % of pixels (a float32 step within its
+    view_cosines on the smoothed depth against theirs. Depth: 1e-5 relative on 99.5 % of pixels (a float32 step within its
     tolerance can end a run the float64 one continues); cosines 1e-4 where the depths match,
     but for 1.5 % (a line fitted along a column leaves its two one-sided steps equal to the
     rounding: float32 may take the other one, whose chord of a curved surface gives a cosine

@@ -78,15 +78,14 @@ __attribute__((always_inline)) inline float view_cosine(const camera_t *c, __glo
 }
 
 /* Stage 1a' (a noisy depth, preprocess.depth_noise): the depth the view cosines read,
- * averaged along one axis over the pixels within `radius` whose depth is within tau times
- * this pixel's (run along x, then along y). A sensor's noise of 0.5 % turns one-pixel
- * differences into random grazing normals (the Lambertian weight then multiplies whole
- * surfaces that face the camera); the average leaves depth edges and one-pixel lamps (their
- * neighbours are outside tau) as they are. A pixel whose depth is not finite has no
- * neighbour within tau and keeps it. */
-/* The smoothed depth of the pixel at idx: its position `at` along a line of n pixels
- * `stride` apart. inner (a constant): the radius pixels on each side are inside the line,
- * so the reads go unclamped (linear in the work-item: vector loads, not gathers). */
+ * smoothed along one axis (smooth_depth runs along x, then along y). A sensor's noise of
+ * 0.5 % turns one-pixel differences into random grazing normals (the Lambertian weight then
+ * multiplies whole surfaces that face the camera).
+ * smoothed: the depth of the pixel at idx, at position `at` along a line of n pixels
+ * `stride` apart, replaced by a line fitted to the run of its neighbours (below). A pixel
+ * whose depth is not finite, or past max_depth, keeps it. inner (a constant): the radius
+ * pixels on each side are inside the line, so the reads go unclamped (linear in the
+ * work-item: vector loads, not gathers). */
 __attribute__((always_inline)) inline float smoothed(__global const float *src, int idx, int at, int n, int stride,
                                                      int inner, int radius, float tau, float dist, float max_depth)
 {
