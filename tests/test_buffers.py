@@ -48,7 +48,7 @@ def test_planned_bytes_counts_what_a_frame_may_add():
     n, t = 1000, 1333
     base = make_config("fog", sets=["render.border=open"])
     ref = make_config("fog", sets=["render.border=open", "render.method=reference"])
-    ext = make_config("fog")
+    ext = make_config("fog", sets=["render.border=extend"])
     declared = sum(buffer_bytes(n, t, plan_features(base), 25).values())
     assert planned_bytes(n, t, plan_features(base), base, 25) == declared
     assert planned_bytes(n, t, plan_features(ref), ref, 25) == sum(buffer_bytes(n, t, plan_features(ref), 25).values()) + 48 * n

@@ -68,7 +68,7 @@ def test_reference_conserves_scattered_energy():
     rgb[0, 0] = 5000.0   # an HDR pixel in the corner: its Gaussian is mostly outside
     z[0, 0] = 30.0
     cfg = make_config("fog", sets=["render.method=reference", "render.psf=gaussian", "render.border=closed",
-                                   f"camera.fov={fov}"])
+                                   f"camera.fov={fov}", "render.ground=none"])   # a ground's mean leaves its sources
     out, aov = apply(rgb, z, cfg, aovs=("scattered",), return_aovs=True)
     f = (120 / 2) / math.tan(math.radians(fov) / 2)
     cm = cfg.medium

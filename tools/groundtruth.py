@@ -36,6 +36,8 @@ VARIANTS = {
     "apsf open lamb": ["render.psf=apsf", "render.border=open", "render.emission_profile=lambertian"],
     "apsf closed lamb": ["render.psf=apsf", "render.border=closed", "render.emission_profile=lambertian"],
     "apsf extend lamb": ["render.psf=apsf", "render.border=extend", "render.emission_profile=lambertian"],
+    "apsf extend lamb, no ground": ["render.psf=apsf", "render.border=extend", "render.emission_profile=lambertian",
+                                    "render.ground=none"],
 }
 BORDERS = ("open", "closed", "extend")
 

@@ -73,6 +73,8 @@ CASES = {
     "gaussian, level 0 set": ("fog", ["render.psf=gaussian"], {"then": "level 0"}),
     # a depth enlarged 2 x 2 by nearest neighbour: its edges realigned to the colour's
     "depth enlarged 2 x 2": ("fog", [], {"enlarged": True}),
+    # a ground to the horizon under a sky: the slab's table and preprocess with PRE_GROUND
+    "a ground and a sky": ("sea", [], {"ground": True}),
 }
 
 # The largest difference to PoCL each kernel may show, max |a - b| / max |a| of a buffer it
@@ -102,6 +104,17 @@ DECISIONS = {"epi_samples": 0.02}
 
 def tolerance(kernel: str) -> float:
     return DECISIONS.get(kernel) or TOLERANCE.get(kernel, TOLERANCE_DEFAULT)
+
+
+def ground_frame(w: int = W, h: int = H):
+    """A ground plane 1.6 m below a level camera (60 degrees) to the horizon, sky above it."""
+    rng = np.random.default_rng(2)
+    rgb = rng.uniform(0, 1, (h, w, 3)).astype(np.float32)
+    f = (w / 2) / np.tan(np.radians(30.0))
+    down = (np.arange(h) + 0.5 - h / 2) / f             # planar: z = 1.6 / down below the horizon
+    z = np.where(down > 0, 1.6 / np.maximum(down, 1e-9), np.inf)[:, None] * np.ones((1, w))
+    rgb[~np.isfinite(z)] = [1.5, 1.8, 2.4]
+    return rgb, z.astype(np.float32)
 
 
 def frame(w: int = W, h: int = H):
@@ -176,7 +189,7 @@ def run_case(name: str, device: str, simulated: bool = False) -> dict:
     medium, sets, opts = CASES[name]
     cfg = fogcli.make_config(medium, sets=sets)
     size = opts.get("simulator_size" if simulated else "size", opts.get("size", (W, H)))
-    rgb, z = frame(*size)
+    rgb, z = (ground_frame if opts.get("ground") else frame)(*size)
     if opts.get("enlarged"):
         z = np.repeat(np.repeat(z[::2, ::2], 2, 0), 2, 1)[: z.shape[0], : z.shape[1]]
     alpha = None

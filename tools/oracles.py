@@ -84,7 +84,7 @@ def reduce_level(src, spread, taps, thresh, eps, masked=True, source_weights=Fal
                 c += wg * m * v[:3]
                 gsum += wg
                 ssum += wg * spread[sy, sx]
-                lum = LUM @ (m * v[:3] if source_weights else v[:3])
+                lum = LUM @ np.abs(m * v[:3] if source_weights else v[:3])   # light_weight
                 yw += lum * (math.log(max(v[3], 1e-6)) if source_weights else v[3])
                 ysum += lum
                 wsum += math.log(max(v[3], 1e-6)) if source_weights else v[3]
@@ -233,7 +233,7 @@ def apsf_reduce(prep, taps, open_border):
                 wg = taps[tx] * taps[ty] * fx[sx] * fy[sy]
                 c += wg * v[:3]
                 gsum += wg
-                lum = LUM @ v[:3]
+                lum = LUM @ np.abs(v[:3])   # light_weight: a ground's sources have either sign
                 yw += lum * v[3]
                 ysum += lum
                 lsum += v[3]
@@ -499,3 +499,34 @@ def realign_blocks(depth, rgb, kx: int, ky: int, px: int, py: int, tol: float) -
                         best, best_dist = d[dj + 1, di + 1], dist
             out[j, i] = best
     return out
+
+
+def slab_table(ground, sa, ss, g, nmu: int, nu: int) -> np.ndarray:
+    """device/ground.table's (nu, nmu, 3): the slab's light (physics/slab.inscatter, float64)
+    at mu_v = linspace(-1, 1, nmu) and optical length -ln(1 - u), u = linspace(0, 1, nu),
+    weighted by the ground's and the sky's colours."""
+    from fogcli.physics import slab
+
+    mu = np.linspace(-1.0, 1.0, nmu)[None, :] * np.ones((nu, 1))
+    u = np.linspace(0.0, 1.0, nu)
+    with np.errstate(divide="ignore"):
+        t = np.where(u < 1.0, -np.log1p(-np.minimum(u, 1.0 - 1e-300)), np.inf)[:, None] * np.ones((1, nmu))
+    out = np.empty((nu, nmu, 3))
+    for c in range(3):
+        st = sa[c] + ss[c]
+        a, b = slab.inscatter(ss[c] / st, g, st * ground.height, st * (ground.sky_distance + ground.height),
+                              mu, t * 1.0)
+        out[..., c] = ground.colour[c] * a + ground.sky_colour[c] * b
+    return out
+
+
+def slab_lookup(tab: np.ndarray, mu: np.ndarray, u: np.ndarray) -> np.ndarray:
+    """preprocess's slab_light: tab (nu, nmu) bilinear at (mu, u)."""
+    nu, nmu = tab.shape
+    x = np.clip((mu + 1.0) * 0.5 * (nmu - 1), 0, nmu - 1 - 1e-3)
+    y = np.clip(u * (nu - 1), 0, nu - 1 - 1e-3)
+    ix, iy = x.astype(int), y.astype(int)
+    fx, fy = x - ix, y - iy
+    a, b = tab[iy, ix], tab[iy, ix + 1]
+    d, e = tab[iy + 1, ix], tab[iy + 1, ix + 1]
+    return (a + (b - a) * fx) * (1 - fy) + (d + (e - d) * fx) * fy

@@ -277,6 +277,8 @@ class Plan:
             self.steps = (1, 1)          # the depth's staircase (preprocess.staircase), set at upload
             self.smoothing = None        # the view cosines' depth smoothing (preprocess.depth_smoothing), likewise
             self.grid = None             # a staircase's block grid (preprocess.block_grid): realign_blocks
+            self.ground = None           # the frame's ground (device/ground.find), set at upload
+            self.ground_table = None     # its slab's light (device/ground.table), made on first use
             self.edge_off = [0] * len(self.sizes)
             self.edge = B(16)
             self.cons_off = [0] * (len(self.sizes) + 1)
@@ -302,6 +304,7 @@ class Plan:
                    CAM_Z=int(cfg.camera.depth != "distance"))   # planar depth: view_cosines_inner without roots
         self.k_pre_prog = rt.program("preprocess", **pre)
         self.k_pre_whole = rt.program("preprocess", WHOLE_GROUPS=1, **pre)
+        self.pre_defines = pre         # device/ground.py builds its variant (PRE_GROUND) from them
         self.k_density = rt.program("density", **d)
         pyr = rt.program("pyramid", **d)
         self.k_reduce, self.k_reduce_src = pyr.reduce_level, pyr.reduce_level_source

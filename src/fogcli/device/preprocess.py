@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from fogcli.device import ground
 from fogcli.device.noise import noise_args, noise_grid, p_samples
 from fogcli.device.plan import Timings, open_border
 from fogcli.device.structs import camera_struct, medium_struct, primitive_launches
@@ -139,6 +140,7 @@ def _upload_depth(plan, depth: np.ndarray, t: Timings) -> None:
 def upload(plan, rgba: np.ndarray, depth: np.ndarray, t: Timings) -> None:
     t.add_copy("upload", plan.rt.cl.enqueue_copy(plan.rt.queue, plan.image, np.ascontiguousarray(rgba, np.float32)))
     _upload_depth(plan, depth, t)
+    plan.ground = ground.find(plan.cfg, plan.w, plan.h, rgba, depth)
 
 
 def upload_rgb(plan, rgb: np.ndarray, alpha, depth: np.ndarray, t: Timings) -> None:
@@ -157,6 +159,7 @@ def upload_rgb(plan, rgb: np.ndarray, alpha, depth: np.ndarray, t: Timings) -> N
         t.add("upload", rgba.base.release(q))
     del rgba
     _upload_depth(plan, depth, t)
+    plan.ground = ground.find(plan.cfg, plan.w, plan.h, rgb, depth)
 
 
 def optical_depth(plan, t: Timings, depth=None, out=None) -> None:
@@ -268,10 +271,15 @@ def preprocess(plan, t: Timings) -> None:
         realign(plan, t)
     upload_lut(plan, t)
     optical_depth(plan, t)
+    if plan.ground is not None:
+        ground.table(plan, plan.ground, t)
+    whole, checked = ground.programs(plan)
     t.add("preprocess",
           plan.rt.launch2d((whole.preprocess, checked.preprocess), plan.w, plan.h, image=plan.image, depth=plan.depth,
                            direct=plan.direct, scat0=plan.chain, spread0=plan.spread, medium_term=plan.medium,
                            transmittance=plan.trans, width=np.int32(plan.w), height=np.int32(plan.h),
                            m=medium_struct(plan.cfg, plan.w, plan.h), prep0=plan.prep,
                            thresh1=np.float32(plan.threshold(1)), eps=np.float32(eps), sep_chain0=plan.chain2,
-                           sep_prep0=plan.prep2, sep_par=plan.sep_params(), lut=plan.lut, cosines=plan.cosines))
+                           sep_prep0=plan.prep2, sep_par=plan.sep_params(), lut=plan.lut, cosines=plan.cosines,
+                           ground_table=plan.ground_table if plan.ground is not None else plan.lut,
+                           **ground.kernel_args(plan.ground)))

@@ -301,6 +301,18 @@ __kernel void realign_blocks(__global const float *depth, __global const float4 
 #ifndef PRE_SPREAD
 #define PRE_SPREAD 1
 #endif
+/* render.ground found a ground (device/ground.py): its slab's light is added from
+ * ground_table (slab_table, ground.cl: SLAB_MU x SLAB_NU float4 over mu_v and u), and the
+ * ground's (gcolour) and the sky's (scolour; .w: the ray length from which a ray above the
+ * horizon is sky) mean colours leave their pixels' sources. gplane: the ground's unit
+ * normal (world orientation) and the camera's height above it. */
+#ifndef PRE_GROUND
+#define PRE_GROUND 0
+#endif
+
+#if PRE_GROUND
+#include "slab.h"
+#endif
 __kernel void preprocess(__global const float4 *image, __global const float *depth,
                          __global float4 *direct, __global float4 *scat0,
                          __global float *spread0, __global float4 *medium_term,
@@ -309,7 +321,8 @@ __kernel void preprocess(__global const float4 *image, __global const float *dep
                          __global float4 *prep0, const float thresh1,
                          const float eps, __global float4 *sep_chain0, __global float4 *sep_prep0,
                          const float4 sep_par, __global const float *lut,
-                         __global const float *cosines)
+                         __global const float *cosines, __global const float4 *ground_table,
+                         const float4 gplane, const float4 gcolour, const float4 scolour)
 {
     int i = get_global_id(0), j = get_global_id(1);
     if (OUTSIDE(i, j, width, height)) return;
@@ -327,13 +340,27 @@ __kernel void preprocess(__global const float4 *image, __global const float *dep
     float le[3] = {m.emission.x, m.emission.y, m.emission.z};
     float la[3] = {m.ambient.x, m.ambient.y, m.ambient.z};
     float at[3], sc[3], med[3], tr[3];
+#if PRE_GROUND
+    /* a ground pixel (within physics/ground.py's plane_tolerance, below the horizon) or a sky
+     * pixel spreads only what differs from their mean colour, which the slab carries (below).
+     * Selects and products, no branch: PoCL vectorises this kernel across work-items */
+    float mu = gplane.x * wx + gplane.y * wy + gplane.z * wz;
+    float above = dist * mu + gplane.w;
+    float tol = GROUND_TOL_H * gplane.w + (GROUND_TOL_D + GROUND_TOL_PX / m.cam.focal_px) * dist;
+    float on_ground = (above < tol ? 1.0f : 0.0f) * (above > -tol ? 1.0f : 0.0f) * (mu < 0.0f ? 1.0f : 0.0f);
+    float in_sky = (dist >= scolour.w ? 1.0f : 0.0f) * (mu > 0.0f ? 1.0f : 0.0f);
+    float mean[3] = {on_ground * gcolour.x + in_sky * scolour.x, on_ground * gcolour.y + in_sky * scolour.y,
+                     on_ground * gcolour.z + in_sky * scolour.z};
+#else
+    float mean[3] = {0.0f, 0.0f, 0.0f};
+#endif
     for (int c = 0; c < 3; ++c) {
         float st = sa[c] + ss[c];
         float t_all = exp_poly(-st * P);
         tr[c] = t_all;
         at[c] = t_all * L[c];
         /* exp(-sa P)(1 - exp(-ss P)) = exp(-sa P) - exp(-st P); the thesis form (docs/conventions.md, Per pixel) */
-        sc[c] = (exp_poly(-sa[c] * P) - t_all) * L[c];
+        sc[c] = (exp_poly(-sa[c] * P) - t_all) * (L[c] - mean[c]);
         /* 1 - exp(-st P) by its series in thin media; st -> 0 limits: emission grows as
          * P, ambient vanishes */
         float one_minus = one_minus_exp(st * P);
@@ -341,6 +368,21 @@ __kernel void preprocess(__global const float4 *image, __global const float *dep
         float amb_w = st > 0.0f ? ss[c] / st * one_minus : 0.0f;
         med[c] = m.has_medium_light ? le[c] * em_w + la[c] * amb_w : 0.0f;
     }
+#if PRE_GROUND
+    {
+        /* the slab's light along this ray */
+        float g0, g1, g2;
+#ifdef MEDIUM_GREY
+        /* one u for the three channels: one bilinear position */
+        slab_light3(ground_table, mu, one_minus_exp((sa[0] + ss[0]) * P), &g0, &g1, &g2);
+#else
+        g0 = slab_light(ground_table, mu, one_minus_exp((sa[0] + ss[0]) * P), 0);
+        g1 = slab_light(ground_table, mu, one_minus_exp((sa[1] + ss[1]) * P), 1);
+        g2 = slab_light(ground_table, mu, one_minus_exp((sa[2] + ss[2]) * P), 2);
+#endif
+        med[0] += g0; med[1] += g1; med[2] += g2;
+    }
+#endif
 
     float sigma = spread_px(P, dist, m.sa.w, m.ss.w, m.g, m.spread_scale, m.cam.focal_px,
                             (float)width);

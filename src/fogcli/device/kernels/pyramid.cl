@@ -35,7 +35,7 @@ __kernel void reduce_level(__global float4 *chain, __global float *spread_chain,
             acc_g += wg;
             acc_s += wg * ssrc[s];
             /* Eq. 8-9: box average of W weighted by the luminance of level k-1. */
-            float yl = luminance(v.xyz);
+            float yl = light_weight(v.xyz);
             acc_yw += yl * v.w;
             acc_y += yl;
             acc_w += v.w;
@@ -92,7 +92,7 @@ __kernel void reduce_level_source(REDUCE_SOURCE_ARGS)
                 float4 p = row[tx];
                 float wg = filter_w[tx] * filter_w[ty];
                 acc_c += wg * p.xyz;
-                float yl = luminance(p.xyz);
+                float yl = light_weight(p.xyz);
                 acc_yw += yl * p.w;
                 acc_y += yl;
                 acc_lw += p.w;
@@ -114,7 +114,7 @@ __kernel void reduce_level_source(REDUCE_SOURCE_ARGS)
 #endif
             acc_c += wg * p.xyz;
             acc_g += wg;
-            float yl = luminance(p.xyz);
+            float yl = light_weight(p.xyz);
             acc_yw += yl * p.w;
             acc_y += yl;
             acc_lw += p.w;
@@ -173,7 +173,7 @@ __kernel void reduce_source_inner(REDUCE_SOURCE_ARGS, const int px0, const int p
             a0 += wg * p0;
             a1 = AFTER(a1 + wg * p1, a0);
             a2 = AFTER(a2 + wg * p2, a1);
-            float yl = 0.2126f * p0 + 0.7152f * p1 + 0.0722f * p2;
+            float yl = 0.2126f * ABS_(p0) + 0.7152f * ABS_(p1) + 0.0722f * ABS_(p2);   /* light_weight */
             ayw = AFTER(ayw + yl * pw, a2);
             ay = AFTER(ay + yl, ayw);
             alw = AFTER(alw + pw, ay);
@@ -372,7 +372,7 @@ __kernel void border_sources(__global const float4 *chain0, const int w, const i
             int xc = ex < 0 ? 0 : (ex == nxi ? w - 1 : x0 + ex);
             float k = (float)(cy * cx);
             float4 v = chain0[yc * w + xc];
-            float yl = k * luminance(v.xyz);
+            float yl = k * light_weight(v.xyz);
             c += k * v.xyz;
             yw += yl * v.w;
             ys += yl;
