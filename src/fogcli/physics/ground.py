@@ -23,6 +23,7 @@ SKY_FAR = 99.0           # the frame's far end: this percentile of the ray lengt
 TOL_HEIGHT = 0.05         # plane_tolerance's share of the camera's height
 TOL_DIST = 0.002          # and of the distance
 TOL_PIXELS = 1.5          # and of the height one pixel's angle spans there (preprocess.cl gets all three)
+HORIZON_PX = 3.0          # rows this close to the horizon do not count in the ground's colour
 ITERATIONS = 96
 SCORED = 1024
 
@@ -153,10 +154,17 @@ def find(dist: np.ndarray, dirs: np.ndarray, colour: np.ndarray, max_depth: floa
     reach = np.sqrt((q * q).sum(1)).max() if inl.any() else 0.0
     if share < MIN_GROUND or reach < MIN_REACH * h:
         return None
-    dg = dlen[inl]
-    area = dg * dg / np.maximum(np.abs(_dot(dirs[valid][inl], n)), 1e-3)
+    # the colour leaves out the rows within HORIZON_PX of the horizon: their area weight is
+    # the largest, and a far surface standing there (a sky dome past the ground's end) is
+    # within the tolerance's pixel term
+    cos_in = np.abs(_dot(dirs[valid], n))
+    col = inl & (cos_in > HORIZON_PX / focal)
+    if not col.any():
+        col = inl
+    dg = dlen[col]
+    area = dg * dg / cos_in[col]
     wgt = area * np.exp(-extinction * (dg - dg.min()))      # relative to the nearest: no underflow
-    ground_colour = (colour[valid][inl] * wgt[:, None]).sum(0) / wgt.sum()
+    ground_colour = (colour[valid][col] * wgt[:, None]).sum(0) / wgt.sum()
     # the sky: the farthest samples above the ground's horizon (clamped depth included)
     far = np.where(np.isfinite(dist), np.minimum(dist, max_depth), max_depth)
     sky_from = SKY_NEAR * np.percentile(far, SKY_FAR)
