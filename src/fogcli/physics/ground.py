@@ -87,6 +87,40 @@ def _fit(points):
     return n, -float(_dot(c, n))
 
 
+def _plane(P, dlen, cand, up):
+    """RANSAC over planes through three of the candidates (below the camera), scored on
+    SCORED samples with the tight tolerance, then least squares on the inliers of all,
+    twice: (unit normal facing up, camera height) or None."""
+    rng = np.random.default_rng(0)
+    sub = rng.choice(P.shape[0], SCORED, replace=False) if P.shape[0] > SCORED else slice(None)
+    Ps, ds = P[sub], dlen[sub]
+    tri = P[cand[rng.integers(0, cand.size, (ITERATIONS, 3))]]          # (I, 3 points, xyz)
+    n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    ln = np.linalg.norm(n, axis=1)
+    ok = ln > 1e-12
+    n = n[ok] / ln[ok, None]
+    n = np.where((_dot(n, up) < 0)[:, None], -n, n)
+    h = -(n * tri[ok, 0]).sum(-1)
+    ok = (np.arccos(np.clip(_dot(n, up), -1, 1)) <= MAX_TILT) & (h > 0)
+    n, h = n[ok], h[ok]
+    if not h.size:
+        return None
+    heights = Ps[:, 0:1] * n[:, 0] + Ps[:, 1:2] * n[:, 1] + Ps[:, 2:3] * n[:, 2] + h
+    k = int(np.argmax((np.abs(heights) < fit_tolerance(h[None, :], ds[:, None])).sum(0)))
+    n, h = n[k], float(h[k])
+    for _ in range(2):
+        inl = np.abs(_dot(P, n) + h) < fit_tolerance(h, dlen)
+        if inl.sum() < 3:
+            return None
+        n2, h2 = _fit(P[inl])
+        if _dot(n2, up) < 0:
+            n2, h2 = -n2, -h2
+        if h2 <= 0 or np.arccos(np.clip(_dot(n2, up), -1, 1)) > MAX_TILT:
+            break
+        n, h = n2, h2
+    return n, h
+
+
 def find(dist: np.ndarray, dirs: np.ndarray, colour: np.ndarray, max_depth: float, focal: float,
          extinction: float = 0.0, up=(0.0, 1.0, 0.0)) -> Ground | None:
     """dist: ray lengths of the samples (m; +inf or >= max_depth is sky), dirs their unit
@@ -111,39 +145,11 @@ def find(dist: np.ndarray, dirs: np.ndarray, colour: np.ndarray, max_depth: floa
     cand = np.flatnonzero(below)
     if cand.size < 16:
         return None
-    rng = np.random.default_rng(0)
-    best = None
     dlen = dist[valid]
-    # planes are scored on SCORED samples, refined on all
-    sub = rng.choice(P.shape[0], SCORED, replace=False) if P.shape[0] > SCORED else slice(None)
-    Ps, ds = P[sub], dlen[sub]
-    tri = P[cand[rng.integers(0, cand.size, (ITERATIONS, 3))]]          # (I, 3 points, xyz)
-    n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
-    ln = np.linalg.norm(n, axis=1)
-    ok = ln > 1e-12
-    n = n[ok] / ln[ok, None]
-    n = np.where((_dot(n, up) < 0)[:, None], -n, n)
-    h = -(n * tri[ok, 0]).sum(-1)
-    ok = (np.arccos(np.clip(_dot(n, up), -1, 1)) <= MAX_TILT) & (h > 0)
-    n, h = n[ok], h[ok]
-    if h.size:
-        heights = Ps[:, 0:1] * n[:, 0] + Ps[:, 1:2] * n[:, 1] + Ps[:, 2:3] * n[:, 2] + h
-        counts = (np.abs(heights) < fit_tolerance(h[None, :], ds[:, None])).sum(0)
-        k = int(np.argmax(counts))
-        best = (n[k], float(h[k]))
-    if best is None:
+    plane = _plane(P, dlen, cand, up)
+    if plane is None:
         return None
-    n, h = best
-    for _ in range(2):          # least squares on the inliers, twice
-        inl = np.abs(_dot(P, n) + h) < fit_tolerance(h, dlen)
-        if inl.sum() < 3:
-            return None
-        n2, h2 = _fit(P[inl])
-        if _dot(n2, up) < 0:
-            n2, h2 = -n2, -h2
-        if h2 <= 0 or np.arccos(np.clip(_dot(n2, up), -1, 1)) > MAX_TILT:
-            break
-        n, h = n2, h2
+    n, h = plane
     # ground pixels: near the plane and below the horizon (the sky just above a far horizon
     # is within the pixel term of the tolerance)
     inl = (np.abs(_dot(P, n) + h) < plane_tolerance(h, dlen, focal)) & (_dot(dirs[valid], n) < 0)
