@@ -46,13 +46,14 @@ def find(cfg, width: int, height: int, colour: np.ndarray, depth: np.ndarray) ->
 
 
 def table(plan, g: gmod.Ground, t: Timings) -> None:
-    """The slab's light per (mu_v, u) into plan.ground_table (float4: RGB) for ground g."""
+    """The slab's light per (mu_v, u) into plan.ground_table[0] (float4: RGB) for ground g."""
     cfg, rt = plan.cfg, plan.rt
     m = cfg.medium
     sa = np.asarray(m.absorption, np.float64) * m.homogeneous
     ss = np.asarray(m.scattering, np.float64) * m.homogeneous
     st = sa + ss
-    grey = bool(np.all(st == st[0]) and np.all(ss == ss[0]))
+    d = defines(cfg)
+    grey = "MEDIUM_GREY" in d          # the preprocess build's own test: one u for R, G, B
     psi, lam, ref = [], [], []
     for c in range(1 if grey else 3):
         om = ss[c] / st[c] if st[c] > 0 else 0.0
@@ -69,17 +70,17 @@ def table(plan, g: gmod.Ground, t: Timings) -> None:
     bufs = [cl.Buffer(rt.ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=a) for a in (psi, lam, ref)]
     tau_h = np.array([*(st * g.height), 0.0], np.float32)
     tau_H = np.array([*(st * (g.sky_distance + g.height)), 0.0], np.float32)
-    if plan.ground_table is None:
-        plan.ground_table = cl.Buffer(rt.ctx, mf.READ_WRITE, 16 * slab.MU_GRID * NU)
-    k = rt.program("ground", **defines(cfg)).slab_table
-    u = np.arange(NU) / (NU - 1.0)
-    with np.errstate(divide="ignore"):
-        t_nodes = np.ascontiguousarray(np.where(u < 1.0, -np.log(np.maximum(1.0 - u, 1e-300)), np.inf), np.float32)
-    t_buf = cl.Buffer(rt.ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=t_nodes)
+    if plan.ground_table is None:      # the table, and the optical lengths of its u nodes
+        u = np.arange(NU) / (NU - 1.0)
+        with np.errstate(divide="ignore"):
+            t_nodes = np.where(u < 1.0, -np.log(np.maximum(1.0 - u, 1e-300)), np.inf).astype(np.float32)
+        plan.ground_table = (cl.Buffer(rt.ctx, mf.READ_WRITE, 16 * slab.MU_GRID * NU),
+                             cl.Buffer(rt.ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=t_nodes))
+    k = rt.program("ground", **d).slab_table
     t.add("preprocess", k(rt.queue, (slab.MU_GRID, NU), None, psi=bufs[0], lam=bufs[1], ref=bufs[2],
-                          tau_h4=tau_h, tau_H4=tau_H, t_nodes=t_buf, nmu=np.int32(slab.MU_GRID), nu=np.int32(NU),
+                          tau_h4=tau_h, tau_H4=tau_H, t_nodes=plan.ground_table[1], nmu=np.int32(slab.MU_GRID), nu=np.int32(NU),
                           nm=np.int32(nm), grey=np.int32(grey), gcol=np.array([*g.colour, 0.0], np.float32),
-                          scol=np.array([*g.sky_colour, 0.0], np.float32), out=plan.ground_table))
+                          scol=np.array([*g.sky_colour, 0.0], np.float32), out=plan.ground_table[0]))
 
 
 def programs(plan):

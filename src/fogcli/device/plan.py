@@ -278,7 +278,7 @@ class Plan:
             self.smoothing = None        # the view cosines' depth smoothing (preprocess.depth_smoothing), likewise
             self.grid = None             # a staircase's block grid (preprocess.block_grid): realign_blocks
             self.ground = None           # the frame's ground (device/ground.find), set at upload
-            self.ground_table = None     # its slab's light (device/ground.table), made on first use
+            self.ground_table = None     # its slab's light and u nodes (device/ground.table), made on first use
             self.edge_off = [0] * len(self.sizes)
             self.edge = B(16)
             self.cons_off = [0] * (len(self.sizes) + 1)

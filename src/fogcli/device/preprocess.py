@@ -264,7 +264,6 @@ def realign(plan, t: Timings) -> None:
 
 def preprocess(plan, t: Timings) -> None:
     eps = plan.cfg.render.resolved()[1]
-    whole, checked = plan.k_pre_whole, plan.k_pre_prog
     if plan.lambert:          # from the depth as given; then its edges realigned for the rest
         view_cosines(plan, t)
     if plan.grid is not None:
@@ -281,5 +280,5 @@ def preprocess(plan, t: Timings) -> None:
                            m=medium_struct(plan.cfg, plan.w, plan.h), prep0=plan.prep,
                            thresh1=np.float32(plan.threshold(1)), eps=np.float32(eps), sep_chain0=plan.chain2,
                            sep_prep0=plan.prep2, sep_par=plan.sep_params(), lut=plan.lut, cosines=plan.cosines,
-                           ground_table=plan.ground_table if plan.ground is not None else plan.lut,
+                           ground_table=plan.ground_table[0] if plan.ground is not None else plan.lut,
                            **ground.kernel_args(plan.ground)))

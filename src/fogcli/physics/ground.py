@@ -150,12 +150,13 @@ def find(dist: np.ndarray, dirs: np.ndarray, colour: np.ndarray, max_depth: floa
     if plane is None:
         return None
     n, h = plane
+    off, mu = np.abs(_dot(P, n) + h), _dot(dirs[valid], n)
     # ground pixels: near the plane and below the horizon (the sky just above a far horizon
     # is within the pixel term of the tolerance)
-    inl = (np.abs(_dot(P, n) + h) < plane_tolerance(h, dlen, focal)) & (_dot(dirs[valid], n) < 0)
+    inl = (off < plane_tolerance(h, dlen, focal)) & (mu < 0)
     # the share with the fit's tight tolerance: the pixel term of a small frame would let a
     # plane through random depths collect a tenth of them
-    share = float(((np.abs(_dot(P, n) + h) < fit_tolerance(h, dlen)) & (_dot(dirs[valid], n) < 0)).mean())
+    share = float(((off < fit_tolerance(h, dlen)) & (mu < 0)).mean())
     q = P[inl] - _dot(P[inl], n)[:, None] * n
     reach = np.sqrt((q * q).sum(1)).max() if inl.any() else 0.0
     if share < MIN_GROUND or reach < MIN_REACH * h:
@@ -163,7 +164,7 @@ def find(dist: np.ndarray, dirs: np.ndarray, colour: np.ndarray, max_depth: floa
     # the colour leaves out the rows within HORIZON_PX of the horizon: their area weight is
     # the largest, and a far surface standing there (a sky dome past the ground's end) is
     # within the tolerance's pixel term
-    cos_in = np.abs(_dot(dirs[valid], n))
+    cos_in = -mu
     col = inl & (cos_in > HORIZON_PX / focal)
     if not col.any():
         col = inl
