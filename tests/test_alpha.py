@@ -6,11 +6,12 @@ import numpy as np
 import pytest
 
 import fogcli
+from fogcli.physics.luminance import LUMA
 from helpers import read, run, write_img
 from oracles import optical_depth_quadrature as _quadrature
 
 H, W = 72, 96
-LUM = np.array([0.2126, 0.7152, 0.0722])
+LUM = np.array(LUMA)
 
 
 def _render():

@@ -74,7 +74,7 @@ def test_oclgrind_is_there_and_never_the_default():
 
 @pytest.mark.parametrize("name", ["intel", "oclgrind"])
 def test_every_kernel_matches_pocl_within_its_tolerance(name, request):
-    """tools/kernel_diff.py: every kernel of kernels/*.cl launched (18 tiny frames: every
+    """tools/kernel_diff.py: every kernel of kernels/*.cl launched (the tiny frames of its CASES: every
     stage, light, shadow, medium, border and reference option; the brute-force reference and
     the map probe that only tests launch), each buffer it writes read back after it and
     compared to PoCL's; Oclgrind reports no invalid access and no race on any of it."""

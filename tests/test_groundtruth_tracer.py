@@ -23,15 +23,29 @@ def eq():
         sys.path.remove(str(GT))
 
 
-def test_furnace_is_exactly_one(eq):
+@pytest.mark.parametrize("analog", [False, True])
+def test_furnace_is_exactly_one(eq, analog):
     """A closed sphere emitting 1 inward, filled with a medium that only scatters: every
     pixel sees exactly 1 whatever the optical depth (forced scattering, RR and HG sampling
-    all enter)."""
+    all enter), with either roulette (--analog: survival = the walk's weight)."""
     dome = dict(kind="sphere", pos=[0, 0, 0], scale=10.0, radiance=[1.0, 1.0, 1.0], flip=True)
     tr = eq.Tracer("yard", shapes=[dome], lights=[])
     for ss, g in [(0.2, 0.85), (0.05, 0.0)]:
-        img = tr.render(16, 3, ss, ss, g) / 16
+        img = tr.render(16, 3, ss, ss, g, **eq.roulette(analog)) / 16
         assert abs(img.mean() - 1.0) < 5e-3, (ss, g, img.mean())
+
+
+def test_a_disc_is_seen_as_mitsuba_places_it(eq):
+    """A disc (scenes.py's `disk`: radius 1 in its z = 0 plane, emitting towards +z) of
+    radius 2 at 10 m facing the camera covers pi (2 f / 10)^2 pixels of radiance 1, and
+    nothing shows from behind."""
+    S = eq.S
+    disc = dict(kind="disk", pos=[0.0, 0.0, -10.0], scale=2.0, radiance=[1.0, 1.0, 1.0])
+    img = eq.Tracer("yard", shapes=[disc], lights=[]).render(64, 5, 0.0, 0.0, 0.0) / 64
+    want = np.pi * (2.0 * S.FOCAL / 10.0) ** 2
+    assert abs(img[..., 0].sum() / want - 1) < 0.01, (img[..., 0].sum(), want)
+    back = dict(disc, rot=[("y", 180)])
+    assert eq.Tracer("yard", shapes=[back], lights=[]).render(4, 5, 0.0, 0.0, 0.0).max() == 0.0
 
 
 def test_single_scattering_matches_quadrature(eq):

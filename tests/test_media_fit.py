@@ -6,12 +6,13 @@ import numpy as np
 import pytest
 
 import fogcli
+from fogcli.physics.luminance import LUMA
 from fogcli.config.presets import presets
 from fogcli.frame.scene import median_depth
 from hdr_scenes import room
 from helpers import SAMPLE, run
 
-LUM = np.array([0.2126, 0.7152, 0.0722], np.float32)
+LUM = np.array(LUMA, np.float32)
 
 
 def _apply(rgb, z, cfg):

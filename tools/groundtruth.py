@@ -14,7 +14,6 @@ import argparse
 import importlib.util
 import json
 import platform
-import sys
 import time
 from pathlib import Path
 

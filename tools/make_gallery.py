@@ -19,10 +19,11 @@ sys.path.insert(0, str(ROOT / "src"))
 
 import fogcli  # noqa: E402
 from fogcli.io.colour import linear_to_srgb  # noqa: E402
+from fogcli.physics.luminance import LUMA  # noqa: E402
 from fogcli.config.presets import presets  # noqa: E402
 from hdr_scenes import room  # noqa: E402
 
-LUM = np.array([0.2126, 0.7152, 0.0722], np.float32)
+LUM = np.array(LUMA, np.float32)
 BAND = (0.05, 1.5)       # output mean luminance / input's: neither hidden nor washed out
 RELATIVE = "200%"
 OUT = ROOT / "docs" / "images"

@@ -82,7 +82,7 @@ def capture(folder: Path, cases=None) -> dict:
 
     runtime._Kernel.__call__ = recording
     try:
-        for name in cases or kernel_diff.CASES:
+        for name in cases or kernel_diff.cases_for("oclgrind"):
             kernel_diff.run_case(name, "oclgrind", simulated=True)
     finally:
         runtime._Kernel.__call__ = call
@@ -178,7 +178,7 @@ def main() -> int:
     keep = next((a.split("=", 1)[1] for a in sys.argv if a.startswith("--keep=")), None)
     with tempfile.TemporaryDirectory() as d:
         d = keep or d
-        cases = [c for c in kernel_diff.CASES if any(c.startswith(a) for a in sys.argv[1:] if not a.startswith("--"))]
+        cases = [c for c in kernel_diff.cases_for("oclgrind") if any(c.startswith(a) for a in sys.argv[1:] if not a.startswith("--"))]
         saved = capture(Path(d), cases)
         results = {k: check(p) for k, p in sorted(saved.items())}
     if "--doc" in sys.argv:

@@ -5,7 +5,9 @@ import math
 
 import numpy as np
 
-LUM = np.array([0.2126, 0.7152, 0.0722])
+from fogcli.physics.luminance import LUMA
+
+LUM = np.array(LUMA)
 
 
 def spread_w(s, sa, ss, g):

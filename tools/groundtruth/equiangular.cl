@@ -29,7 +29,8 @@ inline float rnd(rng_t *r) {
 }
 
 // Object space: a shape's world->object affine map A x + b is stored row-major in shp[0..11];
-// shp[12] kind (0 rectangle z=0 |x|,|y|<=1, 1 unit sphere, 2 cube [-1,1]^3), shp[13] flip,
+// shp[12] kind (0 rectangle z=0 |x|,|y|<=1, 1 unit sphere, 2 cube [-1,1]^3, 3 disc z=0 r<=1),
+// shp[13] flip,
 // shp[14] texture index (-1: no emission).
 inline float3 to_obj_p(__global const float *m, float3 p) {
     return (float3)(m[0] * p.x + m[1] * p.y + m[2] * p.z + m[3],
@@ -49,11 +50,12 @@ inline float3 to_obj_v(__global const float *m, float3 v) {
 inline float hit_shape(__global const float *m, float3 o, float3 d, float tmax) {
     int kind = (int)m[12];
     float3 oo = to_obj_p(m, o), dd = to_obj_v(m, d);
-    if (kind == 0) {
+    if (kind == 0 || kind == 3) {
         if (fabs(dd.z) < 1e-12f) return INFINITY;
         float t = -oo.z / dd.z;
         if (t <= T_EPS || t >= tmax) return INFINITY;
         float3 p = oo + t * dd;
+        if (kind == 3) return p.x * p.x + p.y * p.y <= 1.0f ? t : INFINITY;
         return (fabs(p.x) <= 1.0f && fabs(p.y) <= 1.0f) ? t : INFINITY;
     }
     if (kind == 1) {
@@ -103,6 +105,11 @@ inline float3 emission(__global const float *m, __global const float *tex,
     if (kind == 0) {
         n = (float3)(0.0f, 0.0f, 1.0f);
         u = 0.5f * p.x + 0.5f; v = 0.5f * p.y + 0.5f;
+    } else if (kind == 3) {                  // disk.cpp: (r, phi / 2 pi)
+        n = (float3)(0.0f, 0.0f, 1.0f);
+        u = sqrt(p.x * p.x + p.y * p.y);
+        v = atan2(p.y, p.x) * (0.5f / PI_F);
+        if (v < 0.0f) v += 1.0f;
     } else if (kind == 1) {
         n = p;
         float phi = atan2(p.y, p.x);

@@ -1,4 +1,6 @@
-"""Low-noise reference renders of the night scenes with point lights (renders-lights/).
+"""Low-noise reference renders: the night scenes with point lights (renders-lights/), and with
+--analog the scenes of renders/ where Mitsuba's roulette leaves fog's long walks out (README.md,
+"Analog walks").
 
 Mitsuba's volpath finds a point light's in-scattering by free-flight sampling, whose variance
 near the light grows as 1/R^3: after 10000-20000 spp the held-out renders still had noise
@@ -10,6 +12,7 @@ survival at most 0.7.
 
     python tools/groundtruth/equiangular.py --check          # against Mitsuba's renders
     python tools/groundtruth/equiangular.py --only yard --budget 900 --write
+    python tools/groundtruth/equiangular.py --analog --only ground-fog --budget 360 --target 0.025 --write
 
 --check renders every case for --budget seconds and compares with the stored Mitsuba image
 (`medium_mitsuba` once --write has replaced `medium`) on 8 x 8 pixel blocks, where Mitsuba's
@@ -35,6 +38,11 @@ from load import NOISE_DEF, alternate_halves  # noqa: E402
 from metrics import rel_l1  # noqa: E402
 
 RENDERS = HERE / "renders-lights"
+
+
+def renders(scene):
+    """Where a scene's renders live: renders-lights/ for the night scenes, renders/ for the rest."""
+    return RENDERS if S.SCENES[scene].get("lights") else HERE / "renders"
 PASS_SPP = 16
 _PROGRAMS = {}      # one build of equiangular.cl per context and process
 
@@ -68,7 +76,7 @@ def _bitmap(r):
     return np.ascontiguousarray(np.asarray(arr, np.float32)[::-1]), tuple(rep)
 
 
-KINDS = {"rectangle": 0, "sphere": 1, "cube": 2}
+KINDS = {"rectangle": 0, "sphere": 1, "cube": 2, "disk": 3}
 
 
 def scene_buffers(name, shapes=None, lights=None):
@@ -125,6 +133,19 @@ class Tracer:
         return host.reshape(S.HEIGHT, S.WIDTH, 3).astype(np.float64)
 
 
+def roulette(analog):
+    """Tracer.render's Russian roulette: from depth 3 with survival at most 0.7 (the night
+    scenes' renders), or analog: survival = the walk's weight, which is then 1 again, so no
+    weight ever grows. In fog (albedo 0.999) light from hundreds of metres away takes
+    thousands of steps; with capped survival such a path is one in 0.7^-n with weight 0.7^-n, so
+    the image is unbiased but its typical sample misses that light (Mitsuba's rr_depth 5 does
+    the same at 0.95 per step: measured on ground-fog, its sky 17 % below the analog walk's)."""
+    # Analog walks end at 2^20 steps: a float32 walk that once went NaN (about one in 1e8
+    # paths of signs-sea) never meets the roulette again and would loop; no walk of these
+    # media lives that long (fog: 0.999^(2^20) = e^-1049).
+    return dict(rr_depth=1, rr_q=1.0, max_depth=1 << 20) if analog else dict(rr_depth=3, rr_q=0.7, max_depth=-1)
+
+
 def grey_parts(m):
     """[(sigma_s, sigma_t, channel or None)]: one launch when the medium is grey, else one per
     channel. Stricter than render.grey_parts (grey sigma_t), since a launch takes a scalar
@@ -135,7 +156,7 @@ def grey_parts(m):
     return [(s[c], s[c] + a[c], c) for c in range(3)]
 
 
-def render_medium(tr, medium, budget, target, seed0, max_spp, log=print, start=None):
+def render_medium(tr, medium, budget, target, seed0, max_spp, log=print, start=None, analog=False):
     """Two halves A, B alternating passes; stops at the budget, the noise target or max_spp.
     start: (mean A, mean B, spp A, spp B) of an earlier run to continue (--resume); B None:
     an earlier image without halves, which becomes half A while the new passes fill half B up to
@@ -151,7 +172,7 @@ def render_medium(tr, medium, budget, target, seed0, max_spp, log=print, start=N
     def one_pass(k):
         img = np.zeros((S.HEIGHT, S.WIDTH, 3))
         for ss, st, c in parts:
-            part = tr.render(PASS_SPP, seed0 + 7919 * k + (c or 0) * 104729, ss, st, m["g"])
+            part = tr.render(PASS_SPP, seed0 + 7919 * k + (c or 0) * 104729, ss, st, m["g"], **roulette(analog))
             if c is None:
                 img = part
             else:
@@ -172,7 +193,7 @@ def blocks(img, b=8):
 
 
 def compare(name, medium, img, noise, log=print):
-    z = np.load(RENDERS / f"{name}-{medium}.npz")
+    z = np.load(renders(name) / f"{name}-{medium}.npz")
     ref = z["medium_mitsuba"] if "medium_mitsuba" in z else z["medium"]
     meta = json.loads(str(z["meta"]))
     mit_noise = meta.get("mitsuba_noise", float(z["noise"]))
@@ -188,7 +209,7 @@ def compare(name, medium, img, noise, log=print):
 def vacuum_check(name, log=print):
     tr = Tracer(name)
     img = tr.render(256, 12345, 0.0, 0.0, 0.0) / 256
-    z = np.load(RENDERS / f"{name}-fog.npz")
+    z = np.load(renders(name) / f"{name}-fog.npz")
     L = z["L"].astype(np.float64)
     e = rel_l1(img, L)
     log(f"  {name} vacuum: rel L1 vs Mitsuba's L {e:.4f} (both 256 spp), energy "
@@ -203,11 +224,10 @@ def write_table():
     """The renders' noise, spp and time, and their energy over Mitsuba's, into README.md."""
     rows = ["| case | spp | noise | seconds | Mitsuba spp | Mitsuba noise | Mitsuba seconds | energy / Mitsuba's (R, G, B) |",
             "| --- | --- | --- | --- | --- | --- | --- | --- |"]
-    for path in sorted(RENDERS.glob("*.npz")):
+    for path in sorted([*RENDERS.glob("*.npz"), *(HERE / "renders").glob("*.npz")]):
         with np.load(path) as z:
             meta = json.loads(str(z["meta"]))
-            if "medium_mitsuba" not in z:
-                rows.append(f"| {path.stem} | Mitsuba only: {meta['spp']} | {meta['noise']:.3f} | | | | | |")
+            if "medium_mitsuba" not in z:      # Mitsuba's own: render.py's table lists it
                 continue
             e = z["medium"].astype(np.float64).sum((0, 1)) / z["medium_mitsuba"].astype(np.float64).sum((0, 1))
         rows.append(f"| {path.stem} | {meta['spp']} | {meta['noise']:.3f} | {meta['seconds_medium']:.0f} | "
@@ -226,13 +246,14 @@ def main():
     ap.add_argument("--max-spp", type=int, default=1 << 20)
     ap.add_argument("--check", action="store_true", help="compare with the Mitsuba renders, write nothing")
     ap.add_argument("--write", action="store_true", help="store the renders as `medium` in renders-lights/")
-    ap.add_argument("--out", default=str(RENDERS), help="where --write stores (default renders-lights/)")
+    ap.add_argument("--out", default=None, help="where --write stores (default: the scene's renders-lights/ or renders/)")
+    ap.add_argument("--analog", action="store_true", help="Russian roulette by the walk's own weight only, which never grows (for fog's walks of thousands of steps, where roulette with weight growth is heavy-tailed)")
     ap.add_argument("--resume", action="store_true", help="add samples to the halves stored by an earlier --write")
     ap.add_argument("--table", action="store_true", help="rewrite the README table from the renders")
     args = ap.parse_args()
     if args.table:
         return write_table()
-    names = [(s, m) for s in S.SCENES if S.SCENES[s].get("lights") for m in S.MEDIA]
+    names = [(s, m) for s in S.SCENES for m in S.MEDIA]
     sel = [(s, m) for s, m in names for tok in args.only.split(",") if tok in (s, m, f"{s}-{m}")]
     for scene in dict.fromkeys(s for s, _ in sel):
         vacuum_check(scene)
@@ -242,7 +263,7 @@ def main():
         print(f"{scene}-{medium}:")
         start, el0 = None, 0.0
         if args.resume:
-            with np.load(RENDERS / f"{scene}-{medium}.npz") as z:
+            with np.load(renders(scene) / f"{scene}-{medium}.npz") as z:
                 m0 = json.loads(str(z["meta"]))
                 if "half_a" in z:
                     start = (z["half_a"].astype(np.float64), z["half_b"].astype(np.float64), *m0["spp_halves"])
@@ -251,11 +272,11 @@ def main():
                 if start is not None:
                     el0 = m0["seconds_medium"]
         img, noise, spp, el, halves = render_medium(tr, medium, args.budget, args.target, seed0,
-                                                    args.max_spp, start=start)
+                                                    args.max_spp, start=start, analog=args.analog)
         el += el0
         compare(scene, medium, img, noise)
         if args.write and not args.check:
-            path = RENDERS / f"{scene}-{medium}.npz"
+            path = renders(scene) / f"{scene}-{medium}.npz"
             with np.load(path) as z:
                 d = {k: z[k] for k in z.files}
             meta = json.loads(str(d["meta"]))
@@ -265,11 +286,11 @@ def main():
                 meta["mitsuba_seconds"] = meta.get("seconds_medium")
             meta.update(integrator="equiangular (tools/groundtruth/equiangular.py)", spp=spp,
                         noise=noise, noise_definition=NOISE_DEF, seconds_medium=round(el, 1),
-                        seed0=seed0, rr_depth=3, rr_survival_max=0.7, max_depth=-1,
+                        seed0=seed0, **roulette(args.analog),
                         spp_halves=[int(halves[2]), int(halves[3])])
             d["medium"], d["noise"], d["meta"] = img.astype(np.float32), np.float64(noise), json.dumps(meta)
             d["half_a"], d["half_b"] = halves[0].astype(np.float32), halves[1].astype(np.float32)
-            path = Path(args.out) / path.name
+            path = Path(args.out or path.parent) / path.name
             path.parent.mkdir(parents=True, exist_ok=True)
             tmp = path.with_suffix(".tmp.npz")
             np.savez_compressed(tmp, **d)

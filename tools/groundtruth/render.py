@@ -267,17 +267,18 @@ def table():
         d = z["depth"]
         st = np.asarray(m["sigma_s"]) + np.asarray(m["sigma_a"])
         fin = d[np.isfinite(d)]
-        rows.append((m["scene"], m["medium"], m["outside"], m["heldout"], m["spp"], m["noise"],
-                     m["seconds"], float(fin.min()), float(np.percentile(fin, 99)),
+        ours = m.get("integrator", "").startswith("equiangular")    # README.md, Analog walks
+        rows.append((m["scene"], m["medium"], m["outside"], m["heldout"], "analog walk" if ours else "Mitsuba",
+                     m["spp"], m["noise"], m["seconds_medium"] if ours else m["seconds"], float(fin.min()), float(np.percentile(fin, 99)),
                      float(st.mean() * np.percentile(fin, 5)), float(st.mean() * np.median(fin))))
     order = {s: i for i, s in enumerate(S.SCENES)}
     morder = {s: i for i, s in enumerate(S.MEDIA)}
     rows.sort(key=lambda r: (order.get(r[0], 99), morder.get(r[1], 9)))
-    lines = ["| case | outside | heldout | spp | noise | seconds | depth min / p99 (m) | tau p5 / median |",
-             "| --- | --- | --- | --- | --- | --- | --- | --- |"]
+    lines = ["| case | outside | heldout | medium by | spp | noise | seconds | depth min / p99 (m) | tau p5 / median |",
+             "| --- | --- | --- | --- | --- | --- | --- | --- | --- |"]
     for r in rows:
-        lines.append(f"| {r[0]}-{r[1]} | {str(r[2]).lower()} | {str(r[3]).lower()} | {r[4]} | {r[5]:.3f} | "
-                     f"{r[6]:.0f} | {r[7]:.1f} / {r[8]:.0f} | {r[9]:.2f} / {r[10]:.1f} |")
+        lines.append(f"| {r[0]}-{r[1]} | {str(r[2]).lower()} | {str(r[3]).lower()} | {r[4]} | {r[5]} | {r[6]:.3f} | "
+                     f"{r[7]:.0f} | {r[8]:.1f} / {r[9]:.0f} | {r[10]:.2f} / {r[11]:.1f} |")
     return "\n".join(lines)
 
 

@@ -11,6 +11,7 @@ import numpy as np
 from fogcli.device.plan import Timings, defines
 from fogcli.device.geometry import rotation
 from fogcli.physics import ground as gmod
+from fogcli.physics import pixel_rays
 from fogcli.physics import slab
 
 NU = 32      # table entries over u = 1 - exp(-t) of the ray's optical length (129 x 32: within 0.1 % on average of a 1025 x 257 table)
@@ -37,8 +38,8 @@ def find(cfg, width: int, height: int, colour: np.ndarray, depth: np.ndarray) ->
     rot = rotation(cam.yaw, cam.pitch, cam.roll)
     dirs = gmod.rays(cols, rows, f, fy, cx, cy, rot)
     raw = np.asarray(depth)[rows, cols].astype(np.float64)     # the sample first: the frame is 2 MPx
-    if cam.depth != "distance":      # planar depth: z |d| with d = (x / f, y / f, -1)
-        raw = raw * np.sqrt(((cols + 0.5 - cx) / f) ** 2 + ((rows + 0.5 - cy) / fy) ** 2 + 1.0)
+    if cam.depth != "distance":
+        raw = raw * pixel_rays.length(pixel_rays.directions(cols, rows, f, fy, cx, cy))
     # directions in world orientation: camera.pitch and roll say where up is
     m = cfg.medium
     ext = float(np.mean(np.asarray(m.absorption) + np.asarray(m.scattering))) * m.homogeneous

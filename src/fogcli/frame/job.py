@@ -13,6 +13,7 @@ from fogcli.io import images as inputs
 from fogcli.device import memory
 from fogcli.io import outputs
 from fogcli.config.model import Config
+from fogcli.physics.luminance import luminance
 from fogcli.errors import UserError
 from fogcli.config.presets import visibility_m
 from fogcli.device.plan import Timings
@@ -173,9 +174,8 @@ def write_lamps(path: Path, lamps: list) -> None:
 
 def mean_luminance(rgb) -> float:
     """Mean luminance of a frame, from a grid of about 256 rows of it."""
-    lum = np.array([0.2126, 0.7152, 0.0722], np.float32)
     step = max(1, rgb.shape[0] // 256)
-    return float((rgb[::step, ::step, :3] @ lum).mean())
+    return float(luminance(rgb[::step, ::step]).mean())
 
 
 def hidden_warning(l_in: float, rgb_out, cfg: Config, depth) -> str | None:

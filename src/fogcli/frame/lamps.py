@@ -9,6 +9,8 @@ import math
 import numpy as np
 
 from fogcli.config.model import Config
+from fogcli.physics import pixel_rays
+from fogcli.physics.luminance import luminance
 
 
 def detect_lamps(rgb: np.ndarray, depth: np.ndarray, cfg: Config, spec) -> tuple[list, np.ndarray, list[str]]:
@@ -28,13 +30,12 @@ def detect_lamps(rgb: np.ndarray, depth: np.ndarray, cfg: Config, spec) -> tuple
     cam = cfg.camera.for_size(w, h)
     f, fy = cam.focal(w), cam.focal_y(w)
     cx, cy = cam.centre(w, h)
-    y = rgb @ np.array([0.2126, 0.7152, 0.0722], np.float32)
+    y = luminance(rgb)
     hdr = float(y.max()) > 1.5
     thr = spec.threshold if spec.threshold != "auto" else (10.0 * float(np.percentile(y, 99)) if hdr else 0.98)
     n, labels, stats, _ = cv2.connectedComponentsWithStats((y > thr).astype(np.uint8), connectivity=8)
     jj, ii = np.mgrid[0:h, 0:w]
-    dx, dy = (ii + 0.5 - cx) / f, -(jj + 0.5 - cy) / fy
-    dlen = np.sqrt(dx * dx + dy * dy + 1.0)
+    dlen = pixel_rays.length(pixel_rays.directions(ii, jj, f, fy, cx, cy))
     ray = depth * (dlen if cam.depth == "z" else 1.0)
     lights, notes = [], []
     mask = np.zeros((h, w), np.int32)
@@ -58,8 +59,8 @@ def detect_lamps(rgb: np.ndarray, depth: np.ndarray, cfg: Config, spec) -> tuple
         dist = float(np.median(t))
         wgt = y[core]
         px, py = float((ii[core] * wgt).sum() / wgt.sum()) + 0.5, float((jj[core] * wgt).sum() / wgt.sum()) + 0.5
-        d = np.array([(px - cx) / f, -(py - cy) / fy, -1.0])
-        d /= np.linalg.norm(d)
+        d = pixel_rays.directions(px - 0.5, py - 0.5, f, fy, cx, cy)
+        d /= pixel_rays.length(d)
         # the core and a 2 px ring; a ring pixel two lamps share goes to the nearer one
         blob = ((cv2.dilate(core.astype(np.uint8), kernel) > 0) & ~claimed) | core
         claimed |= blob

@@ -12,6 +12,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from fogcli.physics import pixel_rays
+
 SAMPLES = 2048
 MAX_TILT = np.radians(35.0)
 MIN_GROUND = 0.10        # share of the valid samples on the plane
@@ -72,8 +74,8 @@ def sample_grid(width: int, height: int) -> tuple[np.ndarray, np.ndarray]:
 
 def rays(cols, rows, focal, focal_y, cx, cy, rot) -> np.ndarray:
     """Unit ray directions in world orientation (docs/conventions.md, Geometry), (..., 3)."""
-    d = np.stack([(cols + 0.5 - cx) / focal, -(rows + 0.5 - cy) / focal_y, -np.ones(cols.shape)], -1)
-    d = d / np.sqrt((d * d).sum(-1))[..., None]
+    d = pixel_rays.directions(cols, rows, focal, focal_y, cx, cy)
+    d = d / pixel_rays.length(d)[..., None]
     rot = np.asarray(rot, np.float64)
     return np.stack([_dot(d, rot[0]), _dot(d, rot[1]), _dot(d, rot[2])], -1)
 

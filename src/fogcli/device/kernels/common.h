@@ -114,12 +114,18 @@ inline void store4(__global float4 *buf, int idx, float a, float b, float c, flo
     f[0] = a; f[1] = b; f[2] = c; f[3] = d;
 }
 
-/* Rec.709 luminance (docs/conventions.md, The reference and the pyramid). */
-inline float luminance(float3 c) { return 0.2126f * c.x + 0.7152f * c.y + 0.0722f * c.z; }
+/* Rec.709 luminance weights (docs/conventions.md, The reference and the pyramid); the host's
+ * are physics/luminance.py's LUMA (tests/test_luminance.py holds the two together). */
+#define LUMA_R 0.2126f
+#define LUMA_G 0.7152f
+#define LUMA_B 0.0722f
+
+/* Rec.709 luminance. */
+inline float luminance(float3 c) { return LUMA_R * c.x + LUMA_G * c.y + LUMA_B * c.z; }
 /* the weight of a colour in the pyramid's light-weighted P: its luminance, of each channel's
  * magnitude (a ground's sources, its colour minus its mean (PRE_GROUND), have either sign;
  * a signed sum's cancellation would leave a weight of rounding) */
-inline float light_weight(float3 c) { return 0.2126f * ABS_(c.x) + 0.7152f * ABS_(c.y) + 0.0722f * ABS_(c.z); }
+inline float light_weight(float3 c) { return LUMA_R * ABS_(c.x) + LUMA_G * ABS_(c.y) + LUMA_B * ABS_(c.z); }
 
 /* Elek eq. 2 (Premoze): std-dev W of the beam after travel s.
  * Written as W^2 = 0.5 s^3 k / (2/3 sa s^2 k + 4), k = ss (1 - g), which is the printed

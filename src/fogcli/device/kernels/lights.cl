@@ -82,7 +82,7 @@ __kernel void airlight_pk(__global const float *depth, __global float4 *a_dir, _
     float3 sc = dir * ratio;
     sc += (L.gain.xyz - 1.0f) * (dir + sc);
     float P = m.homogeneous * sf;
-    float4 od = (float4)(dir, 0.0f), os = (float4)(sc, (0.2126f * sc.x + 0.7152f * sc.y + 0.0722f * sc.z) * P);
+    float4 od = (float4)(dir, 0.0f), os = (float4)(sc, (LUMA_R * sc.x + LUMA_G * sc.y + LUMA_B * sc.z) * P);
     a_dir[idx] = od;
     a_sc[idx] = os;
 }
@@ -332,7 +332,7 @@ ALWAYS_INLINE float8 al_pixel_ray(const camera_t *c, int i0, int j, float8 dep, 
     s1 = AFTER(s1 + (gn1 - 1.0f) * (d1r + s1), s0);                                         \
     s2 = AFTER(s2 + (gn2 - 1.0f) * (d2r + s2), s1);                                         \
     lanef sstar = hf * (0.5f * (d1 + LANE_ABS(d1)) - 0.5f * ((d1 - D) + LANE_ABS(d1 - D)));          \
-    lanef wp = sstar * (0.2126f * s0 + 0.7152f * s1 + 0.0722f * s2);                             \
+    lanef wp = sstar * (LUMA_R * s0 + LUMA_G * s1 + LUMA_B * s2);                             \
     AL_PUT
 
 /* The uniforms both table kernels read by name in the macros above (al_table_t). */
@@ -413,7 +413,7 @@ __kernel void airlight_sun(__global const float *depth, __global float4 *a_dir, 
     SUN_CHANNEL(y, d1, s1, c1)
     SUN_CHANNEL(z, d2, s2, c2)
 #undef SUN_CHANNEL
-    float wp = 0.2126f * c0 + 0.7152f * c1 + 0.0722f * c2;
+    float wp = LUMA_R * c0 + LUMA_G * c1 + LUMA_B * c2;
     store4(a_dir, idx, d0, d1, d2, 0.0f);
     store4(a_sc, idx, s0, s1, s2, wp);
 }
@@ -434,8 +434,8 @@ __kernel void airlight_to_chain(__global const float4 *a_sc, __global float4 *ch
     float ar, ag, ab, aw, cr, cg, cb, cw;
     load4(a_sc, idx, &ar, &ag, &ab, &aw);
     load4(chain0, idx, &cr, &cg, &cb, &cw);
-    float ya = 0.2126f * ar + 0.7152f * ag + 0.0722f * ab;
-    float yc = 0.2126f * cr + 0.7152f * cg + 0.0722f * cb;
+    float ya = LUMA_R * ar + LUMA_G * ag + LUMA_B * ab;
+    float yc = LUMA_R * cr + LUMA_G * cg + LUMA_B * cb;
     float pa = ya > 0.0f ? aw / ya : 1e-30f;
     float lpa = log_pos(pa > 1e-30f ? pa : 1e-30f);
     float lp = (yc + ya) > 0.0f ? (yc * cw + ya * lpa) / (yc + ya) : lpa;

@@ -418,7 +418,7 @@ __kernel void preprocess(__global const float4 *image, __global const float *dep
         /* Iser eq. 4.25: bright (luminance of L above sep_par.x, width .y) and near (D' = P
          * below .z, width .w) pixels get a chain of their own */
         float ms = smoothstep_(sep_par.x, sep_par.x + sep_par.y,
-                               0.2126f * L[0] + 0.7152f * L[1] + 0.0722f * L[2])
+                               LUMA_R * L[0] + LUMA_G * L[1] + LUMA_B * L[2])
                  * (1.0f - smoothstep_(sep_par.z - sep_par.w, sep_par.z, P));
         float l0 = ms * sc[0], l1 = ms * sc[1], l2 = ms * sc[2];
         sc[0] -= l0; sc[1] -= l1; sc[2] -= l2;
@@ -467,7 +467,7 @@ __kernel void coverage(__global float4 *direct, __global const float *P_empty, c
     float dist = pixel_ray(&m.cam, i, j, empty_depth, &wx, &wy, &wz);
     float P = m.homogeneous * dist + (has_p ? P_empty[idx] : 0.0f);
     MEDIUM_RATES(m, sa, ss);
-    float lum[3] = {0.2126f, 0.7152f, 0.0722f};
+    float lum[3] = {LUMA_R, LUMA_G, LUMA_B};
     float r[3] = {1.0f, 1.0f, 1.0f};
 #ifdef PSF_APSF
     float lp = log_pos(P > 1e-30f ? P : 1e-30f);

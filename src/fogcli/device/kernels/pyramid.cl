@@ -173,7 +173,7 @@ __kernel void reduce_source_inner(REDUCE_SOURCE_ARGS, const int px0, const int p
             a0 += wg * p0;
             a1 = AFTER(a1 + wg * p1, a0);
             a2 = AFTER(a2 + wg * p2, a1);
-            float yl = 0.2126f * ABS_(p0) + 0.7152f * ABS_(p1) + 0.0722f * ABS_(p2);   /* light_weight */
+            float yl = LUMA_R * ABS_(p0) + LUMA_G * ABS_(p1) + LUMA_B * ABS_(p2);   /* light_weight */
             ayw = AFTER(ayw + yl * pw, a2);
             ay = AFTER(ay + yl, ayw);
             alw = AFTER(alw + pw, ay);

@@ -410,7 +410,7 @@ ALWAYS_INLINE void apply_shares(__global float4 *a_dir, __global float4 *a_sc, i
     c0 = c0 > 0.0f ? c0 : 0.0f;
     c1 = c1 > 0.0f ? c1 : 0.0f;
     c2 = c2 > 0.0f ? c2 : 0.0f;
-    float y0 = 0.2126f * s0 + 0.7152f * s1 + 0.0722f * s2, y1 = 0.2126f * c0 + 0.7152f * c1 + 0.0722f * c2;
+    float y0 = LUMA_R * s0 + LUMA_G * s1 + LUMA_B * s2, y1 = LUMA_R * c0 + LUMA_G * c1 + LUMA_B * c2;
     store4(a_dir, idx, n0, n1, n2, dw);
     store4(a_sc, idx, c0, c1, c2, y0 > 0.0f ? sw * (y1 / y0) : 0.0f);
 }
