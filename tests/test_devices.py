@@ -107,11 +107,14 @@ def test_no_kernel_reads_an_uninitialised_value_where_oclgrind_can_tell():
     assert list(tool.limits().values()) == ["stops: segmentation fault", "stops: llvm.fabs", "vector literal"]
 
 
-@pytest.mark.parametrize("name", ["intel", "pocl-64"])
+# Not on Intel's runtime: there every kernel is held to PoCL's output within its tolerance
+# (test_every_kernel_matches_pocl_within_its_tolerance), and PoCL's to the oracles by the suite
+# itself; the run took 4-5 of CI's 20 minutes on an AVX2 EPYC with cold caches.
+@pytest.mark.parametrize("name", ["pocl-64"])
 def test_the_kernel_tests_pass(name, request):
-    """The kernel tests, each kernel against its numpy oracle, on Intel's CPU runtime and on
-    PoCL with work-groups capped at 64 work-items (the work-group shapes then come from the
-    device's limit: runtime.fit_work_group). The run's header names its device and shape."""
+    """The kernel tests, each kernel against its numpy oracle, on PoCL with work-groups capped
+    at 64 work-items (the work-group shapes then come from the device's limit:
+    runtime.fit_work_group). The run's header names its device and shape."""
     env, device = implementation(name, request.getfixturevalue("intel") if name == "intel" else None)
     env = dict(env, FOGCLI_DEVICE=device)
     r = subprocess.run([sys.executable, "-m", "pytest", "-p", "no:cacheprovider", *KERNEL_TESTS],
