@@ -17,7 +17,7 @@ def rng():
 
 
 def pytest_report_header(config):
-    """The OpenCL device the run's kernels go to (tests/test_devices.py runs the kernel tests
-    on each implementation and checks this line)."""
+    """The OpenCL device the run's kernels go to, and the work-group shape they launch with
+    (FOGCLI_DEVICE picks another; tests/test_devices.py covers the other implementations)."""
     rt = get_runtime(None)
     return f"fogcli device: {rt.info.label()}, work-group {rt.local2d[0]} x {rt.local2d[1]}"

@@ -6,12 +6,11 @@ import numpy as np
 import pytest
 
 import fogcli
-from fogcli.physics.luminance import LUMA
+from fogcli.physics.luminance import luminance
 from helpers import read, run, write_img
 from oracles import optical_depth_quadrature as _quadrature
 
 H, W = 72, 96
-LUM = np.array(LUMA)
 
 
 def _render():
@@ -81,7 +80,7 @@ def test_coverage_kernel_against_quadrature():
             d = np.array([(i + 0.5 - w / 2) / f, -(j + 0.5 - h / 2) / f, -1.0])
             D = 30.0 * np.linalg.norm(d)
             P = _quadrature(np.zeros(3), d / np.linalg.norm(d), D, prims)
-            te = float(LUM @ np.exp(-sa * P))
+            te = float(luminance(np.exp(-sa * P)))
             want = 1 - (1 - a[j, i]) * te
             assert abs(out[j, i, 3] - want) < 2e-4, (i, j, out[j, i, 3], want)
     assert out[1, 1, 3] == 1.0 and math.isclose(a[0, 0], 0.0)

@@ -9,7 +9,7 @@ import oracles
 from helpers import plan_for
 from fogcli import apply
 from fogcli.api import make_config
-from fogcli.physics.luminance import LUMA
+from fogcli.physics.luminance import luminance
 from metrics import rel_l1
 from fogcli.device.plan import EXT_LEVEL, Timings, border_margin
 from fogcli.device.run import read_chain
@@ -63,7 +63,7 @@ def test_border_kernels_match_oracle(rt, rng):
     past = ((ys < -my) | (ys >= h + my))[:, None] | ((xs < -mx) | (xs >= w + mx))[None, :]
     keep = (~inside & ~past)[..., None]
     col = (src[..., :3] * keep).reshape(ph, s, pw, s, 3).sum(axis=(1, 3)) / s ** 2
-    lum = (np.abs(src[..., :3]) @ np.array(LUMA))[..., None] * keep   # light_weight
+    lum = luminance(np.abs(src))[..., None] * keep   # light_weight
     lp = ((lum * src[..., 3:]).reshape(ph, s, pw, s).sum(axis=(1, 3))
           / np.maximum(lum.reshape(ph, s, pw, s).sum(axis=(1, 3)), 1e-30))
     got = np.empty((ph, pw, 4), np.float32)

@@ -5,9 +5,9 @@ every memory access of every work-item, and with OCLGRIND_DATA_RACES every pair 
 for a race, reporting on stderr), and PoCL offering work-groups of at most 64 and 256
 work-items, as GPUs do (POCL_MAX_WORK_GROUP_SIZE).
 
-- every kernel against PoCL's, launch by launch, within its stated tolerance
-  (tools/kernel_diff.py; its buffers start as NaN, so a value not written shows);
-- the kernel tests (each kernel against its numpy oracle) on Intel's runtime and capped PoCL;
+- every kernel against PoCL's, launch by launch, within its stated tolerance, on Intel's
+  runtime, Oclgrind and PoCL capped at 64 (tools/kernel_diff.py; its buffers start as NaN,
+  so a value not written shows); the suite itself holds PoCL to the numpy oracles;
 - the bundled sample and the lights sample, through the command line, within 1e-4 relative L1
   of PoCL's output."""
 import json
@@ -25,9 +25,6 @@ from helpers import ROOT, SAMPLE, read
 KERNELS = sorted(ln.split("void", 1)[1].split("(", 1)[0].strip()
                  for f in (ROOT / "src" / "fogcli" / "device" / "kernels").glob("*.cl")
                  for ln in f.read_text().splitlines() if ln.startswith("__kernel"))
-# the tests of kernels (each against a numpy oracle) run again on each implementation
-KERNEL_TESTS = ["test_kernels.py", "test_lights.py", "test_shadows.py", "test_noise.py", "test_density.py",
-                "test_border_extend.py", "test_apsf.py", "test_buffers.py", "test_structs.py", "test_runtime.py"]
 LIGHTS = ROOT / "samples" / "harbour-lights.yaml"
 
 
@@ -72,34 +69,62 @@ def test_oclgrind_is_there_and_never_the_default():
     assert not choose(devices, None)[0].simulator
 
 
-@pytest.mark.parametrize("name", ["intel", "oclgrind"])
-def test_every_kernel_matches_pocl_within_its_tolerance(name, request):
+@pytest.fixture(scope="session")
+def oclgrind_launches(tmp_path_factory) -> Path:
+    """The folder where kernel_diff's run on Oclgrind saved each kernel's first launch: one
+    run under the simulator serves both the comparison and the uninitialised-value replay."""
+    return tmp_path_factory.mktemp("oclgrind-launches")
+
+
+@pytest.fixture(scope="session")
+def pocl_records(tmp_path_factory) -> Path:
+    """The folder where a kernel_diff run saved PoCL's (uncapped) records of each case, for
+    PoCL capped at 64 work-items a group, which has to be another process."""
+    return tmp_path_factory.mktemp("pocl-records")
+
+
+def kernel_diff_run(device: str, env: dict, *extra: str) -> dict:
+    r = subprocess.run([sys.executable, str(ROOT / "tools" / "kernel_diff.py"), device, "--json", *extra],
+                       env=env, capture_output=True, text=True, timeout=1200)
+    assert r.returncode == 0, r.stderr[-3000:]
+    assert r.stderr.strip() == "", r.stderr[:3000]      # Oclgrind's reports (and anything else) go here
+    return json.loads(r.stdout.strip().splitlines()[-1])
+
+
+@pytest.mark.parametrize("name", ["intel", "oclgrind", "pocl-64"])
+def test_every_kernel_matches_pocl_within_its_tolerance(name, request, oclgrind_launches, pocl_records):
     """tools/kernel_diff.py: every kernel of kernels/*.cl launched (the tiny frames of its CASES: every
     stage, light, shadow, medium, border and reference option; the brute-force reference and
     the map probe that only tests launch), each buffer it writes read back after it and
-    compared to PoCL's; Oclgrind reports no invalid access and no race on any of it."""
+    compared to PoCL's; Oclgrind reports no invalid access and no race on any of it. PoCL with
+    work-groups capped at 64 work-items (as GPUs limit them; the shapes then come from the
+    device's limit: runtime.fit_work_group) is compared with the records the uncapped PoCL
+    left in Intel's run (made here when that run did not happen)."""
     import kernel_diff
 
     env, device = implementation(name, request.getfixturevalue("intel") if name == "intel" else None)
-    r = subprocess.run([sys.executable, str(ROOT / "tools" / "kernel_diff.py"), device, "--json"], env=env,
-                       capture_output=True, text=True, timeout=1200)
-    assert r.returncode == 0, r.stderr[-3000:]
-    assert r.stderr.strip() == "", r.stderr[:3000]      # Oclgrind's reports (and anything else) go here
-    worst = json.loads(r.stdout.strip().splitlines()[-1])
+    extra = {"intel": ["--save-reference", str(pocl_records)], "oclgrind": ["--capture", str(oclgrind_launches)],
+             "pocl-64": ["--reference", str(pocl_records)]}[name]
+    if name == "pocl-64" and not any(pocl_records.glob("*.pkl")):
+        kernel_diff_run("portable", implementation("pocl")[0], "--save-reference", str(pocl_records))
+    worst = kernel_diff_run(device, env, *extra)
     assert sorted(worst) == KERNELS
     over = {k: v for k, v in worst.items() if v[0] is not None and not v[0] <= kernel_diff.tolerance(k)}
     assert not over, over
 
 
-def test_no_kernel_reads_an_uninitialised_value_where_oclgrind_can_tell():
-    """tools/oclgrind_uninitialized.py: each kernel replayed alone under Oclgrind's
-    uninitialised-value plugin. None may be reported for a reason other than the plugin's
-    documented limits (docs/devices.md), and each limit's smallest kernel still shows it (when
-    an Oclgrind release lifts one, this fails: the kernels it stopped can then be checked)."""
+def test_no_kernel_reads_an_uninitialised_value_where_oclgrind_can_tell(oclgrind_launches):
+    """tools/oclgrind_uninitialized.py: each kernel's first launch in kernel_diff's run on
+    Oclgrind (the test above) replayed alone under Oclgrind's uninitialised-value plugin. None
+    may be reported for a reason other than the plugin's documented limits (docs/devices.md),
+    and each limit's smallest kernel still shows it (when an Oclgrind release lifts one, this
+    fails: the kernels it stopped can then be checked)."""
     import oclgrind_uninitialized as tool
 
-    r = subprocess.run([sys.executable, str(ROOT / "tools" / "oclgrind_uninitialized.py"), "--json"],
-                       capture_output=True, text=True, timeout=1800)
+    if not any(oclgrind_launches.glob("*.pkl")):      # run alone: capture first
+        kernel_diff_run("oclgrind", implementation("oclgrind")[0], "--capture", str(oclgrind_launches))
+    r = subprocess.run([sys.executable, str(ROOT / "tools" / "oclgrind_uninitialized.py"), "--json",
+                        "--from", str(oclgrind_launches)], capture_output=True, text=True, timeout=1800)
     assert r.returncode == 0, r.stdout[-3000:] + r.stderr[-3000:]
     verdicts = {k: v for k, (v, _) in json.loads(r.stdout.strip().splitlines()[-1]).items()}
     assert sorted(verdicts) == KERNELS
@@ -107,40 +132,41 @@ def test_no_kernel_reads_an_uninitialised_value_where_oclgrind_can_tell():
     assert list(tool.limits().values()) == ["stops: segmentation fault", "stops: llvm.fabs", "vector literal"]
 
 
-# Not on Intel's runtime: there every kernel is held to PoCL's output within its tolerance
-# (test_every_kernel_matches_pocl_within_its_tolerance), and PoCL's to the oracles by the suite
-# itself; the run took 4-5 of CI's 20 minutes on an AVX2 EPYC with cold caches.
-@pytest.mark.parametrize("name", ["pocl-64"])
-def test_the_kernel_tests_pass(name, request):
-    """The kernel tests, each kernel against its numpy oracle, on PoCL with work-groups capped
-    at 64 work-items (the work-group shapes then come from the device's limit:
-    runtime.fit_work_group). The run's header names its device and shape."""
-    env, device = implementation(name, request.getfixturevalue("intel") if name == "intel" else None)
-    env = dict(env, FOGCLI_DEVICE=device)
-    r = subprocess.run([sys.executable, "-m", "pytest", "-p", "no:cacheprovider", *KERNEL_TESTS],
-                       cwd=ROOT / "tests", env=env, capture_output=True, text=True, timeout=1800)
-    assert r.returncode == 0, r.stdout[-4000:] + r.stderr[-2000:]
-    header = next(ln for ln in r.stdout.splitlines() if ln.startswith("fogcli device:"))
-    assert ("Intel(R) OpenCL" if name == "intel" else "Portable Computing Language") in header, header
-    if name == "pocl-64":
-        assert "work-group 64 x 1" in header, header
-
-
 SHAPES = "from fogcli.device.runtime import get_runtime; rt = get_runtime('portable'); print(rt.local2d, rt.local1d)"
 
 
-def test_work_groups_capped_at_256_launch_as_the_suite_does():
+def test_work_group_shapes_follow_the_device_limit():
     """With PoCL offering at most 256 work-items a group (a common GPU limit), every launch
     takes the shapes it takes uncapped (64 x 4 and 256 on a CPU): the whole suite, run on
-    PoCL, is that run (the kernel tests are not run a second time)."""
+    PoCL, is that run. At most 64, the shapes kernel_diff's pocl-64 run (above) launches with
+    are 64 x 1 and 64 (runtime.fit_work_group)."""
     shapes = []
-    for cap in (None, "256"):
+    for cap in (None, "256", "64"):
         env, _ = implementation("pocl")
         env = dict(env, **({"POCL_MAX_WORK_GROUP_SIZE": cap} if cap else {}))
         r = subprocess.run([sys.executable, "-c", SHAPES], env=env, capture_output=True, text=True, timeout=300)
         assert r.returncode == 0, r.stderr[-2000:]
         shapes.append(r.stdout.strip())
-    assert shapes[0] == shapes[1] == "(64, 4) 256", shapes
+    assert shapes == ["(64, 4) 256", "(64, 4) 256", "(64, 1) 64"], shapes
+
+
+IMPORTS = """
+import os, sys
+sys.path.insert(0, sys.argv[1])
+before = dict(os.environ)
+import kernel_diff, oclgrind_uninitialized
+print(sorted(set(os.environ.items()) ^ set(before.items())))
+"""
+
+
+def test_importing_the_device_tools_leaves_the_environment_alone():
+    """kernel_diff builds from source in its own process (argument info); set on import, the
+    switch outlived this file's tests and every later test of the suite built every program
+    from source (and on a fresh clone, whose paths PoCL's cache keys, compiled it anew)."""
+    r = subprocess.run([sys.executable, "-c", IMPORTS, str(ROOT / "tools")], capture_output=True, text=True,
+                       timeout=300)
+    assert r.returncode == 0, r.stderr[-2000:]
+    assert r.stdout.strip() == "[]", r.stdout
 
 
 def _sample(tmp: Path, source: Path, name: str, env: dict, device: str, lights: bool) -> np.ndarray:

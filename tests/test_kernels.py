@@ -12,6 +12,7 @@ from fogcli.device import pyramid
 from fogcli.api import make_config
 from fogcli.physics.calibration import FILTERS
 from fogcli.device.plan import Timings
+from fogcli.physics.luminance import luminance
 from fogcli.device.run import read_chain, write_level0
 from fogcli.device.reference import brute_force
 from fogcli.device.runtime import LOCAL_CPU
@@ -331,7 +332,7 @@ def test_separation_mask_matches_oracle(rt, rng):
     m = cfg.medium
     _, sc, sigma, _, P = oracles.preprocess(img, depth, m.absorption, m.scattering, m.asymmetry,
                                             cfg.camera.focal(w), z=False)
-    y = img[:, :, :3] @ oracles.LUM
+    y = luminance(img)
     ms = oracles.smoothstep(2, 5, y) * (1 - oracles.smoothstep(50, 150, P))
     assert 0.1 < ms.mean() < 0.9
     np.testing.assert_allclose(sep[:, :, :3], ms[..., None] * sc, rtol=2e-4, atol=1e-6)

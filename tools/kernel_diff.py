@@ -14,8 +14,14 @@ NaN against a number counts as infinite.
     python tools/kernel_diff.py oclgrind     # table of the largest difference per kernel
     python tools/kernel_diff.py intel        # (with Intel's ICD set up: docs/devices.md)
     python tools/kernel_diff.py --doc        # both, as the block of docs/devices.md (sets the ICD up)
+    python tools/kernel_diff.py oclgrind --capture DIR   # also save each kernel's first launch
+                                             # on the device (tools/oclgrind_uninitialized.py)
+    python tools/kernel_diff.py intel --save-reference DIR   # and PoCL's records of each case;
+    POCL_MAX_WORK_GROUP_SIZE=64 python tools/kernel_diff.py portable --reference DIR
+                                             # PoCL capped as GPUs are, against those records
 
-tests/test_devices.py runs this for Intel's CPU runtime and Oclgrind against TOLERANCE.
+tests/test_devices.py runs this for Intel's CPU runtime, Oclgrind and PoCL capped at 64
+work-items a group, against TOLERANCE.
 """
 from __future__ import annotations
 
@@ -28,9 +34,6 @@ from pathlib import Path
 
 import numpy as np
 
-# programs built from source hold argument info (which parameters are const); one from a
-# binary may not (Intel's CPU runtime)
-os.environ["FOGCLI_KERNEL_CACHE"] = "0"
 
 H, W = 36, 64
 
@@ -136,10 +139,12 @@ def frame(w: int = W, h: int = H):
 
 
 class Recorder:
-    """Wraps runtime._Kernel.__call__ and pyopencl.Buffer for one run."""
+    """Wraps runtime._Kernel.__call__ and pyopencl.Buffer for one run; with a capture folder,
+    also saves each kernel's first launch there as it was right before it (save_launch)."""
 
-    def __init__(self):
+    def __init__(self, capture: Path | None = None):
         self.records: dict[tuple, np.ndarray] = {}
+        self.capture = capture
 
     def __enter__(self):
         import pyopencl as cl
@@ -162,6 +167,8 @@ class Recorder:
                     cl.enqueue_fill_buffer(q, self, np.float32(np.nan), 0, size).wait()
 
         def recorded(kern, queue, gsize, lsize, /, *, global_offset=None, **named):
+            if rec.capture is not None and not (rec.capture / f"{kern._name}.pkl").exists():
+                save_launch(rec.capture / f"{kern._name}.pkl", kern, queue, gsize, lsize, global_offset, named)
             ev = call(kern, queue, gsize, lsize, global_offset=global_offset, **named)
             ev.wait()
             name = kern._name
@@ -189,8 +196,32 @@ class Recorder:
         runtime._Kernel.__call__, cl.Buffer = self._saved
 
 
-def run_case(name: str, device: str, simulated: bool = False) -> dict:
-    """The records of one case on one device (simulated: at the case's simulator size)."""
+def save_launch(path: Path, kern, queue, gsize, lsize, offset, named: dict) -> None:
+    """One launch as it is about to run: its program, build options, sizes, every scalar and
+    every buffer's contents (tools/oclgrind_uninitialized.py replays it alone)."""
+    import pickle
+
+    import pyopencl as cl
+
+    args = []
+    for p in kern.params:
+        a = named[p]
+        if isinstance(a, cl.Buffer):
+            host = np.empty(a.size, np.uint8)
+            cl.enqueue_copy(queue, host, a)
+            args.append(("buffer", host))
+        else:
+            args.append(("value", a))
+    with open(path, "wb") as f:
+        pickle.dump({"program": kern._owner._source, "options": list(kern._owner._options),
+                     "kernel": kern._name, "args": args,
+                     "global": tuple(gsize), "local": tuple(lsize) if lsize else None,
+                     "offset": tuple(offset) if offset else None}, f)
+
+
+def run_case(name: str, device: str, simulated: bool = False, capture: Path | None = None) -> dict:
+    """The records of one case on one device (simulated: at the case's simulator size);
+    capture: a folder for each kernel's first launch (Recorder)."""
     import fogcli
     from fogcli.device import plan
 
@@ -206,7 +237,7 @@ def run_case(name: str, device: str, simulated: bool = False) -> dict:
         alpha[:, : z.shape[1] // 5] = 0.0
     aovs = opts.get("aovs", ())
     plan._PLANS.clear()         # a plan's buffers are made inside the recorder (NaN-filled)
-    with Recorder() as rec, lanes(device, opts.get("lanes")):
+    with Recorder(capture) as rec, lanes(device, opts.get("lanes")):
         fogcli.apply(rgb, z, cfg, alpha=alpha, aovs=aovs, return_aovs=bool(aovs), device=device)
         if opts.get("then") == "brute force":
             from fogcli.device.plan import Timings
@@ -274,19 +305,41 @@ def record_difference(key: tuple, a: np.ndarray, b: np.ndarray) -> float:
     return float(off.reshape(-1, 4).any(axis=1).mean())
 
 
+def simulated(device: str) -> bool:
+    """The device spec names Oclgrind (its cases run at their simulator size, CPU-only ones not)."""
+    return "oclgrind" in device.lower()
+
+
 def cases_for(device: str) -> list[str]:
     """The cases a device runs: all but the CPU-only ones under the simulator."""
-    return [n for n in CASES if not ("oclgrind" in device.lower() and CASES[n][2].get("cpu_only"))]
+    return [n for n in CASES if not (simulated(device) and CASES[n][2].get("cpu_only"))]
 
 
-def compare(device: str, cases=None) -> dict:
+def compare(device: str, cases=None, capture: Path | None = None, save_reference: Path | None = None,
+            reference: Path | None = None) -> dict:
     """{kernel: (largest difference, its case, its parameter)} over the cases. A kernel both
     devices ran on different buffers counts as an infinite difference; one that only one
-    device's plan runs (PoCL's whole-group kernels) is left out of that case."""
+    device's plan runs (PoCL's whole-group kernels) is left out of that case. capture: a
+    folder for each kernel's first launch on the device (Recorder). save_reference: a folder
+    for PoCL's records of each case; reference: such a folder, read instead of running PoCL
+    here (PoCL with its work-groups capped is another process's PoCL: POCL_MAX_WORK_GROUP_SIZE
+    is read once)."""
+    import pickle
+
     worst: dict[str, tuple] = {}
-    sim = "oclgrind" in device.lower()
-    for name in cases or cases_for(device):
-        ref, got = run_case(name, "portable", sim), run_case(name, device, sim)
+    sim = simulated(device)
+    for i, name in enumerate(cases or cases_for(device)):
+        saved = f"{i:02d}-{'sim' if sim else 'cpu'}.pkl"
+        if reference is not None:
+            with open(reference / saved, "rb") as f:
+                case_name, ref = pickle.load(f)
+            assert case_name == name, (case_name, name)
+        else:
+            ref = run_case(name, "portable", sim)
+        if save_reference is not None:
+            with open(save_reference / saved, "wb") as f:
+                pickle.dump((name, ref), f)
+        got = run_case(name, device, sim, capture)
         for key in ref.keys() | got.keys():
             k = key[0]
             if partial(k):
@@ -336,14 +389,24 @@ def table(results: dict) -> list[str]:
 
 
 def write_doc() -> int:
-    """Intel's CPU runtime and Oclgrind against PoCL, as a block of docs/devices.md."""
+    """Intel's CPU runtime, PoCL capped at 64 work-items a group and Oclgrind against PoCL, as
+    a block of docs/devices.md."""
     from docblock import cpu_kind, cpu_name, markers, write_block
 
     import pyopencl as cl
 
+    import subprocess
+
     results = {}
-    if INTEL_SPEC in " ".join(p.name.lower() for p in cl.get_platforms()):
-        results["Intel CPU runtime"] = compare(INTEL_SPEC)
+    with tempfile.TemporaryDirectory(prefix="fogcli-pocl-records-") as ref:
+        intel = INTEL_SPEC in " ".join(p.name.lower() for p in cl.get_platforms())
+        worst = compare(INTEL_SPEC if intel else "portable", save_reference=Path(ref))
+        if intel:
+            results["Intel CPU runtime"] = worst
+        env = dict(os.environ, POCL_MAX_WORK_GROUP_SIZE="64")
+        r = subprocess.run([sys.executable, __file__, "portable", "--json", "--reference", ref], env=env,
+                           capture_output=True, text=True, check=True)
+        results["PoCL, 64 a group"] = {k: tuple(v) for k, v in json.loads(r.stdout.splitlines()[-1]).items()}
     results["Oclgrind"] = compare("oclgrind")
     over = [k for r in results.values() for k, v in r.items() if v[0] is not None and v[0] > tolerance(k)]
     versions = "; ".join(f"{p.name.strip()} {p.version.strip()}" for p in cl.get_platforms())
@@ -357,19 +420,36 @@ def write_doc() -> int:
     return 1 if over else 0
 
 
+def source_builds() -> None:
+    """Programs built from source in this process: they hold argument info (which parameters
+    are const: Recorder), one from a binary may not (Intel's CPU runtime). For the scripts'
+    own processes only: set on import it would outlive a test that imports this module, and
+    every later test in that pytest process would build from source."""
+    os.environ["FOGCLI_KERNEL_CACHE"] = "0"
+
+
 def main(argv=None) -> int:
+    import argparse
     import warnings
 
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("device", nargs="?", default="intel", help="device spec (runtime.choose)")
+    ap.add_argument("--json", action="store_true", help="one JSON line {kernel: [difference, case, parameter]}")
+    ap.add_argument("--doc", action="store_true", help="Intel's and Oclgrind's tables into docs/devices.md")
+    ap.add_argument("--capture", type=Path, help="save each kernel's first launch on the device here")
+    ap.add_argument("--save-reference", type=Path, help="save PoCL's records of each case here")
+    ap.add_argument("--reference", type=Path, help="PoCL's records saved by --save-reference, not run here")
+    args = ap.parse_args(argv)
     warnings.simplefilter("ignore")     # the lamps case's note: stderr is Oclgrind's report
-    args = argv or sys.argv[1:]
-    if "--doc" in args:
+    source_builds()
+    if args.doc:
         with tempfile.TemporaryDirectory(prefix="fogcli-icd-") as icd:
             if "OCL_ICD_VENDORS" not in os.environ and intel_icd(Path(icd)):
                 os.environ["OCL_ICD_VENDORS"] = icd      # before pyopencl's first platform query
             return write_doc()
-    device = (args or ["intel"])[0]
-    worst = compare(device)
-    if "--json" in args:
+    worst = compare(args.device, capture=args.capture, save_reference=args.save_reference,
+                    reference=args.reference)
+    if args.json:
         print(json.dumps({k: list(v) for k, v in worst.items()}))
         return 0
     print(f"{'kernel':24s} {'largest difference':>18s} {'tolerance':>9s}  case (parameter)")

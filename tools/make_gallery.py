@@ -19,11 +19,10 @@ sys.path.insert(0, str(ROOT / "src"))
 
 import fogcli  # noqa: E402
 from fogcli.io.colour import linear_to_srgb  # noqa: E402
-from fogcli.physics.luminance import LUMA  # noqa: E402
+from fogcli.physics.luminance import luminance  # noqa: E402
 from fogcli.config.presets import presets  # noqa: E402
 from hdr_scenes import room  # noqa: E402
 
-LUM = np.array(LUMA, np.float32)
 BAND = (0.05, 1.5)       # output mean luminance / input's: neither hidden nor washed out
 RELATIVE = "200%"
 OUT = ROOT / "docs" / "images"
@@ -40,12 +39,12 @@ def run(rgb, z, preset, sets):
         warnings.simplefilter("always")
         out = fogcli.apply(rgb, z, fogcli.make_config(preset, sets=sets))
     said = [str(w.message) for w in caught if "hides the scene" in str(w.message)]
-    return out, float((out @ LUM).mean() / (rgb @ LUM).mean()), said
+    return out, float(luminance(out).mean() / luminance(rgb).mean()), said
 
 
 def sheet(images, width=240):
     """A grid, 4 across, of display-referred thumbnails (exposure by the first image)."""
-    scale = 1.0 / max(float(np.percentile(images[0] @ LUM, 95)), 1e-6)
+    scale = 1.0 / max(float(np.percentile(luminance(images[0]), 95)), 1e-6)
     thumbs = []
     for img in images:
         step = max(1, img.shape[1] // width)

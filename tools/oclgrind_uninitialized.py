@@ -13,25 +13,24 @@ limit, with its last words.
 
     python tools/oclgrind_uninitialized.py          # kernel: what the plugin said
     python tools/oclgrind_uninitialized.py --doc    # the same, as the block of docs/devices.md
+    python tools/oclgrind_uninitialized.py --from DIR   # replay what `kernel_diff.py oclgrind
+                                                    # --capture DIR` saved (no capture run)
 """
 from __future__ import annotations
 
 import json
 import os
-import pickle
 import subprocess
 import sys
 import tempfile
 from pathlib import Path
 
-import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-import kernel_diff  # noqa: E402  (it turns the binary cache off: programs with argument info)
+import kernel_diff  # noqa: E402
 
 CHILD = r"""
 import pickle, sys
-import numpy as np
 import pyopencl as cl
 from fogcli.device.runtime import KERNEL_DIR
 rec = pickle.load(open(sys.argv[1], "rb"))
@@ -52,41 +51,16 @@ print("ran")
 
 
 def capture(folder: Path, cases=None) -> dict:
-    """{kernel: path of its first launch's record}, over kernel_diff's cases on Oclgrind."""
-    import pyopencl as cl
+    """{kernel: path of its first launch's record}, over kernel_diff's cases on Oclgrind
+    (kernel_diff.save_launch; `kernel_diff.py oclgrind --capture DIR` saves the same while it
+    compares, and `--from DIR` here replays those)."""
+    for name in cases or kernel_diff.cases_for("oclgrind"):
+        kernel_diff.run_case(name, "oclgrind", simulated=True, capture=folder)
+    return saved_launches(folder)
 
-    from fogcli.device import runtime
 
-    saved: dict[str, Path] = {}
-    call = runtime._Kernel.__call__
-
-    def recording(kern, queue, gsize, lsize, /, *, global_offset=None, **named):
-        if kern._name not in saved:
-            args = []
-            for p in kern.params:
-                a = named[p]
-                if isinstance(a, cl.Buffer):
-                    host = np.empty(a.size, np.uint8)
-                    cl.enqueue_copy(queue, host, a)
-                    args.append(("buffer", host))
-                else:
-                    args.append(("value", a))
-            path = folder / f"{kern._name}.pkl"
-            with open(path, "wb") as f:
-                pickle.dump({"program": kern._owner._source, "options": list(kern._owner._options),
-                             "kernel": kern._name, "args": args,
-                             "global": tuple(gsize), "local": tuple(lsize) if lsize else None,
-                             "offset": tuple(global_offset) if global_offset else None}, f)
-            saved[kern._name] = path
-        return call(kern, queue, gsize, lsize, global_offset=global_offset, **named)
-
-    runtime._Kernel.__call__ = recording
-    try:
-        for name in cases or kernel_diff.cases_for("oclgrind"):
-            kernel_diff.run_case(name, "oclgrind", simulated=True)
-    finally:
-        runtime._Kernel.__call__ = call
-    return saved
+def saved_launches(folder: Path) -> dict:
+    return {p.stem: p for p in sorted(folder.glob("*.pkl"))}
 
 
 # Oclgrind's limits, each as the smallest kernel that shows it (docs/devices.md)
@@ -175,11 +149,17 @@ def main() -> int:
     import warnings
 
     warnings.simplefilter("ignore")
+    kernel_diff.source_builds()
     keep = next((a.split("=", 1)[1] for a in sys.argv if a.startswith("--keep=")), None)
+    saved_in = sys.argv[sys.argv.index("--from") + 1] if "--from" in sys.argv else None
     with tempfile.TemporaryDirectory() as d:
-        d = keep or d
-        cases = [c for c in kernel_diff.cases_for("oclgrind") if any(c.startswith(a) for a in sys.argv[1:] if not a.startswith("--"))]
-        saved = capture(Path(d), cases)
+        if saved_in:
+            saved = saved_launches(Path(saved_in))
+        else:
+            d = keep or d
+            cases = [c for c in kernel_diff.cases_for("oclgrind")
+                     if any(c.startswith(a) for a in sys.argv[1:] if not a.startswith("--"))]
+            saved = capture(Path(d), cases)
         results = {k: check(p) for k, p in sorted(saved.items())}
     if "--doc" in sys.argv:
         write_doc(results, limits())

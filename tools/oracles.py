@@ -5,9 +5,7 @@ import math
 
 import numpy as np
 
-from fogcli.physics.luminance import LUMA
-
-LUM = np.array(LUMA)
+from fogcli.physics.luminance import luminance
 
 
 def spread_w(s, sa, ss, g):
@@ -86,7 +84,7 @@ def reduce_level(src, spread, taps, thresh, eps, masked=True, source_weights=Fal
                 c += wg * m * v[:3]
                 gsum += wg
                 ssum += wg * spread[sy, sx]
-                lum = LUM @ np.abs(m * v[:3] if source_weights else v[:3])   # light_weight
+                lum = luminance(np.abs(m * v[:3] if source_weights else v[:3]))   # light_weight
                 yw += lum * (math.log(max(v[3], 1e-6)) if source_weights else v[3])
                 ysum += lum
                 wsum += math.log(max(v[3], 1e-6)) if source_weights else v[3]
@@ -235,7 +233,7 @@ def apsf_reduce(prep, taps, open_border):
                 wg = taps[tx] * taps[ty] * fx[sx] * fy[sy]
                 c += wg * v[:3]
                 gsum += wg
-                lum = LUM @ np.abs(v[:3])   # light_weight: a ground's sources have either sign
+                lum = luminance(np.abs(v[:3]))   # light_weight: a ground's sources have either sign
                 yw += lum * v[3]
                 ysum += lum
                 lsum += v[3]

@@ -332,8 +332,10 @@ class Plan:
         self.k_comp_sep = rt.program("composite", **d).composite_separated
         self.k_border_src = pyr.border_sources if self.apsf else None
         self.k_border_inject = pyr.border_inject if self.apsf else None
+        # pixels of a row per work-item (LANES, kernels/lanes.h: the light tables) and the
+        # pyramid's choice of interior kernel follow it: read once, here
+        self.lanes = rt.lanes
         if cfg.lights:
-            self.lanes = rt.lanes      # pixels of a row per work-item of the table kernels (LANES, kernels/lanes.h)
             self.k_lights = rt.program("lights", **d, **DEFINES, LANES=self.lanes)
         else:
             self.k_lights = None

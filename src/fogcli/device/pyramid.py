@@ -40,7 +40,7 @@ def reduce(plan, t: Timings, masked: bool, second: bool = False) -> None:
             # table reads would be gathers, which it does not emit there), and the
             # per-pixel kernel is the faster scalar code (tools/avx2/run.sh)
             region = reduce_region(int(sw), int(sh), int(dw), int(dh), taps, taps // 2 if plan.apsf else 0,
-                                   plan.rt.local2d) if plan.rt.lanes == 1 else None
+                                   plan.rt.local2d) if plan.lanes == 1 else None
             plan.launch_inner(t, "pyramid", region, plan.k_reduce_inner, (plan.k_reduce_src,) * 2,
                                int(dw), int(dh), args, corner_args=True)
         return
