@@ -302,3 +302,26 @@ def test_frame_larger_than_limits_memory_is_refused_from_its_header(rgbz, tmp_pa
     assert sorted(f.name for f in tmp_path.iterdir()) == ["big.exr", "in.exr"]
     code, _, _ = run("apply", p, "-o", tmp_path / "o.exr", "--set", "limits.memory=50%")
     assert code == 0
+
+
+@pytest.mark.parametrize("wrapped", ["cause", "schema"])
+def test_a_ctrl_c_another_library_wrapped_is_an_interruption(wrapped, capsys):
+    """A Ctrl-C while pydantic builds the config's validators (the models' first import) comes
+    back as a SchemaError holding only its text; one under another exception as its cause.
+    Either is "interrupted", exit 130, not "processing failed" (seen under a loaded CI)."""
+    from pydantic_core import SchemaError
+
+    from fogcli.cli import guarded
+
+    def command():
+        if wrapped == "schema":
+            raise SchemaError('Error building "function-after" validator:\n  KeyboardInterrupt: ')
+        try:
+            raise KeyboardInterrupt
+        except KeyboardInterrupt as exc:
+            raise RuntimeError("while loading") from exc
+
+    with pytest.raises(SystemExit) as stop:
+        guarded(command)()
+    assert stop.value.code == 130
+    assert capsys.readouterr().err.strip() == "fogcli: interrupted"

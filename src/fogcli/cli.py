@@ -43,10 +43,26 @@ def guarded(fn):
                 _fail(f"{name[:80] + '...' if len(name) > 80 else name}: {exc.strerror}", 2)
             raise
         except Exception as exc:  # one line, never a traceback, unless asked
+            if _interrupted(exc):
+                _fail("interrupted", 130)
             if os.environ.get("FOGCLI_DEBUG"):
                 raise
             _fail(f"processing failed: {exc.__class__.__name__}: {exc}", 1)
     return wrapper
+
+
+def _interrupted(exc: BaseException) -> bool:
+    """A Ctrl-C that another library caught and wrapped: in the chain of causes, or in
+    pydantic's SchemaError, which keeps only the text of what stopped the building of a
+    model's validators (a Ctrl-C while the config's models are first imported; fogcli's own
+    schemas fail to build for no other reason)."""
+    seen, e = set(), exc
+    while e is not None and id(e) not in seen:
+        if isinstance(e, KeyboardInterrupt):
+            return True
+        seen.add(id(e))
+        e = e.__cause__ or e.__context__
+    return type(exc).__name__ == "SchemaError" and "KeyboardInterrupt" in str(exc)
 
 
 _PATH_OPTIONS = {"input": "INPUT", "depth_path": "--depth", "medium": "--medium", "config_file": "--config",
