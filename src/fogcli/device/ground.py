@@ -26,9 +26,15 @@ def wanted(cfg) -> bool:
             and not (m.ambient == "auto" or any(m.ambient)))
 
 
-def find(cfg, width: int, height: int, colour: np.ndarray, depth: np.ndarray) -> gmod.Ground | None:
+def find(cfg, width: int, height: int, colour: np.ndarray, depth: np.ndarray,
+         grid: tuple | None = None) -> gmod.Ground | None:
     """The ground of the frame (colour (h, w, >= 3), depth raw as the camera says) from
-    its sample, or None."""
+    its sample, or None. grid: the depth's blocks when it was enlarged by nearest neighbour
+    (preprocess.block_grid: kx, ky, px, py); a block's depth is then taken along the ray
+    through its centre (a sensor's pixel centre), not the sample pixel's own: on a grazing
+    ground a ray one row off moves the point by a row's height, and the plane fitted to a
+    sample on one parity of rows tilted (ground-fog with the depth 2 x 2: 0.005 rad, the camera
+    2 % low)."""
     if not wanted(cfg):
         return None
     cam = cfg.camera
@@ -36,10 +42,15 @@ def find(cfg, width: int, height: int, colour: np.ndarray, depth: np.ndarray) ->
     f, fy = cam.focal(width), cam.focal_y(width)
     cx, cy = cam.centre(width, height)
     rot = rotation(cam.yaw, cam.pitch, cam.roll)
-    dirs = gmod.rays(cols, rows, f, fy, cx, cy, rot)
+    rc, rr = cols, rows
+    if grid is not None:
+        kx, ky, px, py = grid
+        rc = px + (np.floor((cols - px) / kx) + 0.5) * kx - 0.5
+        rr = py + (np.floor((rows - py) / ky) + 0.5) * ky - 0.5
+    dirs = gmod.rays(rc, rr, f, fy, cx, cy, rot)
     raw = np.asarray(depth)[rows, cols].astype(np.float64)     # the sample first: the frame is 2 MPx
     if cam.depth != "distance":
-        raw = raw * pixel_rays.length(pixel_rays.directions(cols, rows, f, fy, cx, cy))
+        raw = raw * pixel_rays.length(pixel_rays.directions(rc, rr, f, fy, cx, cy))
     # directions in world orientation: camera.pitch and roll say where up is
     m = cfg.medium
     ext = float(np.mean(np.asarray(m.absorption) + np.asarray(m.scattering))) * m.homogeneous

@@ -140,7 +140,7 @@ def _upload_depth(plan, depth: np.ndarray, t: Timings) -> None:
 def upload(plan, rgba: np.ndarray, depth: np.ndarray, t: Timings) -> None:
     t.add_copy("upload", plan.rt.cl.enqueue_copy(plan.rt.queue, plan.image, np.ascontiguousarray(rgba, np.float32)))
     _upload_depth(plan, depth, t)
-    plan.ground = ground.find(plan.cfg, plan.w, plan.h, rgba, depth)
+    plan.ground = ground.find(plan.cfg, plan.w, plan.h, rgba, depth, plan.grid)
 
 
 def upload_rgb(plan, rgb: np.ndarray, alpha, depth: np.ndarray, t: Timings) -> None:
@@ -159,7 +159,7 @@ def upload_rgb(plan, rgb: np.ndarray, alpha, depth: np.ndarray, t: Timings) -> N
         t.add("upload", rgba.base.release(q))
     del rgba
     _upload_depth(plan, depth, t)
-    plan.ground = ground.find(plan.cfg, plan.w, plan.h, rgb, depth)
+    plan.ground = ground.find(plan.cfg, plan.w, plan.h, rgb, depth, plan.grid)
 
 
 def optical_depth(plan, t: Timings, depth=None, out=None) -> None:

@@ -227,10 +227,12 @@ __kernel void view_cosines_inner(__global const float *depth, __global float *co
  * grid starts at px, py) puts edges up to a block off: a small lamp's pixels take the wall's
  * depth, and its light the wall's medium (lamps-fog with such a depth: 0.20 relative L1).
  * Where the 3 x 3 blocks around a pixel hold a depth edge (their depths span more than
- * 1 + tol, and its own block's second difference along x or y exceeds tol of its depth: a
- * steep ramp such as a ground's far rows is no edge), the pixel takes the depth of the block
+ * 1 + tol, and its own block's second difference of 1 / depth along x or y exceeds tol of
+ * its 1 / depth: a plane is linear in 1 / depth, so a ground's far rows, steep and curved in
+ * depth, are no edge), the pixel takes the depth of the block
  * among them whose mean colour is nearest its own (relative L1 over R, G, B; its own block
- * wins a tie). The view cosines read the staircase as it is (preprocess.staircase). */
+ * wins a tie). Elsewhere (a surface) the depth goes smoothly between the blocks' centres
+ * (below). The view cosines read the staircase as it is (preprocess.staircase). */
 __kernel void realign_blocks(__global const float *depth, __global const float4 *image, __global float *out,
                              const int width, const int height, const int kx, const int ky, const int px,
                              const int py, const float tol)
@@ -254,9 +256,18 @@ __kernel void realign_blocks(__global const float *depth, __global const float4 
     int yu = (bj - 1) * ky + py + ky <= 0, yd = (bj + 1) * ky + py >= height;
     float l = xl ? 2.0f * c - d[1][2] : d[1][0], r = xr ? 2.0f * c - d[1][0] : d[1][2];
     float u = yu ? 2.0f * c - d[2][1] : d[0][1], v = yd ? 2.0f * c - d[0][1] : d[2][1];
-    float curve = fmax(fabs(l - 2.0f * c + r), fabs(u - 2.0f * c + v));
-    if (!(hi > lo * (1.0f + tol) && curve > tol * c)) {
-        out[idx] = own;
+    float curve = fmax(fabs(1.0f / l - 2.0f / c + 1.0f / r), fabs(1.0f / u - 2.0f / c + 1.0f / v));
+    if (!(hi > lo * (1.0f + tol) && curve > tol / c)) {
+        /* no edge: the surface between the blocks' samples, taken at the blocks' centres (a
+         * sensor's pixel centres), linear in 1 / depth (a plane's is, in planar depth) toward
+         * the nearer neighbour along each axis. On a grazing ground every other row holding the
+         * farther row's depth put ground-fog's Lambertian output 0.029 off the smooth depth's */
+        float fx = ((float)(i - bi * kx - px) + 0.5f) / (float)kx - 0.5f;
+        float fy = ((float)(j - bj * ky - py) + 0.5f) / (float)ky - 0.5f;
+        float nx = fx < 0.0f ? l : r, ny = fy < 0.0f ? u : v;
+        float q = 1.0f / own + fabs(fx) * (1.0f / nx - 1.0f / c) + fabs(fy) * (1.0f / ny - 1.0f / c);
+        float z = 1.0f / q;
+        out[idx] = (z > 0.0f && z < INFINITY) ? z : own;
         return;
     }
     float4 p = image[idx];
