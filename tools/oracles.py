@@ -463,7 +463,7 @@ def realign_blocks(depth, rgb, kx: int, ky: int, px: int, py: int, tol: float) -
     """kernels/preprocess.cl realign_blocks in float64: where the 3 x 3 blocks of the grid
     (kx x ky, starting at px, py) around a pixel span more than 1 + tol in depth and its own
     block's second difference of 1 / depth along x or y (a block past the frame continuing
-    the ramp) exceeds tol of its 1 / depth, the pixel takes the depth of the block whose mean colour is
+    the ramp in 1 / depth) exceeds tol of its 1 / depth, the pixel takes the depth of the block whose mean colour is
     nearest its own (relative L1; the own block wins by 1e-3); elsewhere its depth is linear
     in 1 / depth between its block's centre and the nearer neighbours' along x and y."""
     z = np.asarray(depth, np.float64)
@@ -480,11 +480,12 @@ def realign_blocks(depth, rgb, kx: int, ky: int, px: int, py: int, tol: float) -
             d = np.array([[anchor(bj + dj, bi + di) for di in (-1, 0, 1)] for dj in (-1, 0, 1)])
             lo, hi = min(d.min(), z[j, i]), max(d.max(), z[j, i])
             c = d[1, 1]
-            left = 2 * c - d[1, 2] if (bi - 1) * kx + px + kx <= 0 else d[1, 0]
-            right = 2 * c - d[1, 0] if (bi + 1) * kx + px >= w else d[1, 2]
-            up = 2 * c - d[2, 1] if (bj - 1) * ky + py + ky <= 0 else d[0, 1]
-            down = 2 * c - d[0, 1] if (bj + 1) * ky + py >= h else d[2, 1]
-            curve = max(abs(1 / left - 2 / c + 1 / right), abs(1 / up - 2 / c + 1 / down))
+            # 1 / depth of the neighbours; past the frame, continued in 1 / depth
+            left = 2 / c - 1 / d[1, 2] if (bi - 1) * kx + px + kx <= 0 else 1 / d[1, 0]
+            right = 2 / c - 1 / d[1, 0] if (bi + 1) * kx + px >= w else 1 / d[1, 2]
+            up = 2 / c - 1 / d[2, 1] if (bj - 1) * ky + py + ky <= 0 else 1 / d[0, 1]
+            down = 2 / c - 1 / d[0, 1] if (bj + 1) * ky + py >= h else 1 / d[2, 1]
+            curve = max(abs(left - 2 / c + right), abs(up - 2 / c + down))
             if not (hi > lo * (1 + tol) and curve > tol / c):
                 # a surface: linear in 1 / depth from the own block's centre toward the nearer
                 # neighbour's along each axis
@@ -492,7 +493,7 @@ def realign_blocks(depth, rgb, kx: int, ky: int, px: int, py: int, tol: float) -
                 fy = (j - bj * ky - py + 0.5) / ky - 0.5
                 nx, ny = (left if fx < 0 else right), (up if fy < 0 else down)
                 with np.errstate(divide="ignore", invalid="ignore"):
-                    zz = 1.0 / (1.0 / z[j, i] + abs(fx) * (1.0 / nx - 1.0 / c) + abs(fy) * (1.0 / ny - 1.0 / c))
+                    zz = 1.0 / (1.0 / z[j, i] + abs(fx) * (nx - 1.0 / c) + abs(fy) * (ny - 1.0 / c))
                 out[j, i] = zz if 0 < zz < np.inf else z[j, i]
                 continue
             p = img[j, i]

@@ -250,13 +250,17 @@ __kernel void realign_blocks(__global const float *depth, __global const float4 
     float own = depth[idx], lo = own, hi = own;
     for (int a = 0; a < 3; ++a)
         for (int b = 0; b < 3; ++b) { lo = fmin(lo, d[a][b]); hi = fmax(hi, d[a][b]); }
-    float c = d[1][1];
-    /* a block past the frame's edge continues the ramp (its clamped read is the own block's) */
+    float c = d[1][1], ic = 1.0f / c;
+    /* a block past the frame's edge continues the ramp (its clamped read is the own block's),
+     * in 1 / depth as the test and the interpolation below: continued in depth, a grazing
+     * ground's outermost blocks read as an edge */
     int xl = (bi - 1) * kx + px + kx <= 0, xr = (bi + 1) * kx + px >= width;
     int yu = (bj - 1) * ky + py + ky <= 0, yd = (bj + 1) * ky + py >= height;
-    float l = xl ? 2.0f * c - d[1][2] : d[1][0], r = xr ? 2.0f * c - d[1][0] : d[1][2];
-    float u = yu ? 2.0f * c - d[2][1] : d[0][1], v = yd ? 2.0f * c - d[0][1] : d[2][1];
-    float curve = fmax(fabs(1.0f / l - 2.0f / c + 1.0f / r), fabs(1.0f / u - 2.0f / c + 1.0f / v));
+    float il = xl ? 2.0f * ic - 1.0f / d[1][2] : 1.0f / d[1][0];
+    float ir = xr ? 2.0f * ic - 1.0f / d[1][0] : 1.0f / d[1][2];
+    float iu = yu ? 2.0f * ic - 1.0f / d[2][1] : 1.0f / d[0][1];
+    float iv = yd ? 2.0f * ic - 1.0f / d[0][1] : 1.0f / d[2][1];
+    float curve = fmax(fabs(il - 2.0f * ic + ir), fabs(iu - 2.0f * ic + iv));
     if (!(hi > lo * (1.0f + tol) && curve > tol / c)) {
         /* no edge: the surface between the blocks' samples, taken at the blocks' centres (a
          * sensor's pixel centres), linear in 1 / depth (a plane's is, in planar depth) toward
@@ -264,8 +268,8 @@ __kernel void realign_blocks(__global const float *depth, __global const float4 
          * farther row's depth put ground-fog's Lambertian output 0.029 off the smooth depth's */
         float fx = ((float)(i - bi * kx - px) + 0.5f) / (float)kx - 0.5f;
         float fy = ((float)(j - bj * ky - py) + 0.5f) / (float)ky - 0.5f;
-        float nx = fx < 0.0f ? l : r, ny = fy < 0.0f ? u : v;
-        float q = 1.0f / own + fabs(fx) * (1.0f / nx - 1.0f / c) + fabs(fy) * (1.0f / ny - 1.0f / c);
+        float inx = fx < 0.0f ? il : ir, iny = fy < 0.0f ? iu : iv;
+        float q = 1.0f / own + fabs(fx) * (inx - ic) + fabs(fy) * (iny - ic);
         float z = 1.0f / q;
         out[idx] = (z > 0.0f && z < INFINITY) ? z : own;
         return;
