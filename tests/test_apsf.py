@@ -391,13 +391,17 @@ def test_staircase_finds_the_blocks_of_a_nearest_neighbour_upsampling(rng):
     assert staircase(wall) == (1, 1)
 
 
+ERR = {2: 0.005, 3: 0.008}     # measured 0.0026 and 0.0052 (the staircase's own block-spanning cosines: 0.03)
+
+
 @pytest.mark.parametrize("k", [2, 3])
-def test_view_cosines_of_a_staircase_span_its_blocks(rt, rng, k):
+def test_view_cosines_of_a_staircase_are_those_of_its_realigned_depth(rt, rng, k):
     """A ground plane whose depth was enlarged k x k by nearest neighbour: the view cosines
-    (with the blocks found by staircase) are the oracle's over k pixels, and within 0.03 of
-    the smooth plane's on 95 % of the ground (the one-pixel differences of the staircase
-    were flat or a whole block's rise: cosines of 1 and of about half the true one)."""
-    from fogcli.device.preprocess import staircase
+    are the oracle's on the depth realign_blocks made of it (smooth between the blocks'
+    centres), and within ERR[k] of the smooth plane's on 95 % of the ground (the one-pixel
+    differences of the staircase itself are flat or a whole block's rise: cosines of 1 and
+    of about half the true one)."""
+    from fogcli.device.preprocess import REALIGN_TOL, staircase
 
     w, h = 3 * LX + 7, 40
     plan, cfg = plan_for(rt, w, h, "camera.fov=60", "render.psf=apsf", "render.emission_profile=lambertian",
@@ -408,13 +412,15 @@ def test_view_cosines_of_a_staircase_span_its_blocks(rt, rng, k):
     big = np.repeat(np.repeat(z[::k, ::k], k, 0), k, 1)[:h, :w]
     assert staircase(big) == (1, k)      # planar z of a level ground does not change along a row
     got = []
+    img = rng.uniform(0, 1, (h, w, 4)).astype(np.float32)
     for d in (z, big):
-        upload(plan, rng.uniform(0, 1, (h, w, 4)).astype(np.float32), d, Timings())
+        upload(plan, img, d, Timings())
         preprocess(plan, Timings())
         got.append(download(plan, plan.cosines, 1).astype(np.float64))
-    np.testing.assert_allclose(got[1], _view_cosines(cfg, big, (1, k)), atol=1e-4)
+    smooth = oracles.realign_blocks(big, img, 1, k, 0, 0, REALIGN_TOL).astype(np.float32)
+    np.testing.assert_allclose(got[1], _view_cosines(cfg, smooth, (1, 1)), atol=1e-4)
     err = np.abs(got[1] - got[0])[k:-k, k:-k]
-    assert np.percentile(err, 95) < 0.03, np.percentile(err, 95)
+    assert np.percentile(err, 95) < ERR[k], np.percentile(err, 95)
 
 
 def _far(cfg, depth):
@@ -507,6 +513,21 @@ def test_the_depth_noise_is_measured_and_a_noisy_plane_keeps_its_normals(rt, rng
     assert cosines(wall)[30:33, 50:53].min() > 0.9
 
 
+def _realigned_on_device(plan, img, big, grid):
+    """The depth realign_blocks makes of `big` on the device, after checking block_grid
+    finds `grid` and that the kernel matches its float64 oracle (99.9 % of pixels within
+    1e-5: float32 ties at the colour test may go either way)."""
+    from fogcli.device.preprocess import REALIGN_TOL, block_grid
+
+    assert block_grid(big) == grid
+    upload(plan, img, big, Timings())
+    preprocess(plan, Timings())
+    got = download(plan, plan.depth, 1).astype(np.float64)
+    want = oracles.realign_blocks(big, img, *grid, REALIGN_TOL)
+    assert np.isclose(got, want, rtol=1e-5).mean() >= 0.999
+    return got
+
+
 @pytest.mark.parametrize("phase", [0, 1])
 def test_a_nearest_neighbour_enlarged_depth_takes_the_edges_of_the_colour(rt, rng, phase):
     """A depth enlarged 2 x 2 by nearest neighbour (its grid starting at `phase`) of a
@@ -515,8 +536,6 @@ def test_a_nearest_neighbour_enlarged_depth_takes_the_edges_of_the_colour(rt, rn
     the colour's (pixels more than 5 % off the true depth: at most a third of before; the
     3 x 3 lamps' pixels within 5 % on 90 % of them: a lamp of one block or less may have
     left no sample) and takes the wall's ramp smoothly between the blocks' centres."""
-    from fogcli.device.preprocess import REALIGN_TOL, block_grid
-
     w, h = 2 * LX + 13, 37
     plan, cfg = plan_for(rt, w, h, "camera.fov=60", "render.psf=apsf", "render.emission_profile=isotropic")
     yy, xx = np.mgrid[0:h, 0:w]
@@ -536,12 +555,7 @@ def test_a_nearest_neighbour_enlarged_depth_takes_the_edges_of_the_colour(rt, rn
     low = true[phase::2, phase::2]
     big = np.repeat(np.repeat(low, 2, 0), 2, 1)
     big = np.pad(big, ((phase, 0), (phase, 0)), mode="edge")[:h, :w]
-    assert block_grid(big) == (2, 2, phase, phase)
-    upload(plan, img, big, Timings())
-    preprocess(plan, Timings())
-    got = download(plan, plan.depth, 1).astype(np.float64)
-    want = oracles.realign_blocks(big, img, 2, 2, phase, phase, REALIGN_TOL)
-    assert np.isclose(got, want, rtol=1e-6).mean() >= 0.999
+    got = _realigned_on_device(plan, img, big, (2, 2, phase, phase))
     off = lambda d: np.mean(np.abs(d - true) > 0.05 * true)    # noqa: E731
     assert off(got) <= off(big) / 3, (off(got), off(big))
     assert np.mean(np.abs(got - true)[wide] <= 0.05 * true[wide]) >= 0.9   # (one of a block or two can't)
@@ -574,8 +588,6 @@ def test_a_replicated_ground_is_smooth_to_the_frame_edge(rt):
     at its 2 x 2 blocks' centres and enlarged by nearest neighbour: realign_blocks gives back
     the plane on every row, the first and the last too, where the block past the frame is
     continued (in 1 / depth: continued in depth, the far rows read as an edge, 23 % off)."""
-    from fogcli.device.preprocess import REALIGN_TOL, block_grid
-
     w, h = 2 * LX, 48
     plan, cfg = plan_for(rt, w, h, "camera.fov=60", "render.psf=apsf", "render.emission_profile=isotropic")
     plane = lambda y, x: 1.0 / (0.02 + 0.012 * y + 0.0005 * x)    # noqa: E731
@@ -583,14 +595,39 @@ def test_a_replicated_ground_is_smooth_to_the_frame_edge(rt):
     low = plane(*(np.mgrid[0:h:2, 0:w:2] + 0.5))
     big = np.repeat(np.repeat(low, 2, 0), 2, 1).astype(np.float32)
     img = np.ones((h, w, 4), np.float32)
-    assert block_grid(big) == (2, 2, 0, 0)
-    upload(plan, img, big, Timings())
-    preprocess(plan, Timings())
-    got = download(plan, plan.depth, 1).astype(np.float64)
-    want = oracles.realign_blocks(big, img, 2, 2, 0, 0, REALIGN_TOL)
-    assert np.isclose(got, want, rtol=1e-5).mean() >= 0.999
+    got = _realigned_on_device(plan, img, big, (2, 2, 0, 0))
     assert np.abs(big / true - 1).max() > 0.1
     assert np.abs(got / true - 1).max() < 1e-3, np.abs(got / true - 1).max(1)
+
+
+def test_a_replicated_anti_aliased_edge_goes_to_the_surface_covering_most_of_a_pixel(rt):
+    """A dark steep face (28 m, 2.5 % deeper a pixel) against a bright sky (150 m) along a
+    slanted edge, anti-aliased (a pixel's colour mixes both by how much each covers), its
+    depth sampled at each pixel's centre and then enlarged 2 x 2 by nearest neighbour: a pixel
+    covered at least 60 % by one surface takes that surface's depth (the nearest block mean
+    put half of them on the wrong side: mixed blocks look like mixed pixels), and the face's
+    pixels at the edge keep its slope (0.6 % off on average: the samples sit at the blocks'
+    first pixels, not their centres; a block's depth copied: 1.25 %, every other pixel 2.5 %)."""
+    w, h = 2 * LX, 40
+    plan, cfg = plan_for(rt, w, h, "camera.fov=60", "render.psf=apsf", "render.emission_profile=isotropic")
+    yy, xx = np.mgrid[0:h, 0:w].astype(np.float64)
+    edge = 0.45 * w + 0.37 * yy                        # the face covers x < edge
+    cover = np.clip(edge - xx + 0.5, 0.0, 1.0)          # of the pixel [x - 0.5, x + 0.5]
+    face = 28.0 * (1.0 + 0.025 * xx) * (1.0 + 0.002 * yy)
+    true = np.where(cover >= 0.5, face, 150.0)
+    dark, sky = np.array([0.02, 0.02, 0.02]), np.array([3.0, 3.8, 5.0])
+    img = np.ones((h, w, 4), np.float32)
+    img[..., :3] = cover[..., None] * dark + (1.0 - cover[..., None]) * sky
+    big = np.repeat(np.repeat(true[::2, ::2], 2, 0), 2, 1).astype(np.float32)
+    got = _realigned_on_device(plan, img, big, (2, 2, 0, 0))
+    inside = (xx > 2) & (xx < w - 3) & (yy > 2) & (yy < h - 3)
+    sure = inside & ((cover >= 0.6) | (cover <= 0.4)) & (np.abs(xx - edge) < 3)
+    assert sure.sum() > 50
+    wrong = np.abs(got - true) > 0.05 * true
+    assert wrong[sure].sum() == 0, np.argwhere(wrong & sure)[:5]
+    face_edge = sure & (cover >= 0.6) & (np.abs(xx - edge) < 2)
+    off = np.abs(got / true - 1)[face_edge]
+    assert off.mean() < 0.009 and off.max() < 0.025, (off.mean(), off.max())
 
 
 def test_grey_media_build_matches_the_per_channel_build(monkeypatch):

@@ -463,8 +463,8 @@ def realign_blocks(depth, rgb, kx: int, ky: int, px: int, py: int, tol: float) -
     """kernels/preprocess.cl realign_blocks in float64: where the 3 x 3 blocks of the grid
     (kx x ky, starting at px, py) around a pixel span more than 1 + tol in depth and its own
     block's second difference of 1 / depth along x or y (a block past the frame continuing
-    the ramp in 1 / depth) exceeds tol of its 1 / depth, the pixel takes the depth of the block whose mean colour is
-    nearest its own (relative L1; the own block wins by 1e-3); elsewhere its depth is linear
+    the ramp in 1 / depth) exceeds tol of its 1 / depth, the pixel takes a block by its colour
+    (_pick_by_colour), whose surface is carried on to it (_extend); elsewhere its depth is linear
     in 1 / depth between its block's centre and the nearer neighbours' along x and y."""
     z = np.asarray(depth, np.float64)
     img = np.asarray(rgb, np.float64)[..., :3]
@@ -496,20 +496,79 @@ def realign_blocks(depth, rgb, kx: int, ky: int, px: int, py: int, tol: float) -
                     zz = 1.0 / (1.0 / z[j, i] + abs(fx) * (nx - 1.0 / c) + abs(fy) * (ny - 1.0 / c))
                 out[j, i] = zz if 0 < zz < np.inf else z[j, i]
                 continue
-            p = img[j, i]
-            best, best_dist = z[j, i], np.inf
-            for dj in (-1, 0, 1):
-                for di in (-1, 0, 1):
-                    x0, y0 = (bi + di) * kx + px, (bj + dj) * ky + py
-                    block = img[max(y0, 0):min(y0 + ky, h), max(x0, 0):min(x0 + kx, w)]
-                    if block.size == 0:
-                        continue
-                    m = block.reshape(-1, 3).mean(0)
-                    dist = np.abs(p - m).sum() / (np.abs(p).sum() + np.abs(m).sum() + 1e-6) - (1e-3 if di == dj == 0 else 0)
-                    if dist < best_dist:
-                        best, best_dist = d[dj + 1, di + 1], dist
-            out[j, i] = best
+            (dj, di), mid = _pick_by_colour(img, img[j, i], d, bi, bj, kx, ky, px, py)
+            out[j, i] = _extend(d, dj, di, mid, (i - bi * kx - px + 0.5) / kx - 0.5 - di,
+                                (j - bj * ky - py + 0.5) / ky - 0.5 - dj)
     return out
+
+
+def _extend(d, dj, di, mid, fx, fy):
+    """The chosen block (dj, di of the 3 x 3) carried on to the pixel (fx, fy blocks from its
+    centre), linear in 1 / depth along each axis with the slope toward a neighbour block on
+    its side of mid (the one away from the pixel first)."""
+    ib = 1.0 / d[dj + 1, di + 1]
+    near = ib > mid
+    q = ib
+    for f, axis in ((fx, 1), (fy, 0)):
+        for step in ((-1, 1) if f >= 0 else (1, -1)):
+            a, b = (dj + 1, di + 1 + step) if axis else (dj + 1 + step, di + 1)
+            if not (0 <= a <= 2 and 0 <= b <= 2):
+                continue
+            inn = 1.0 / d[a, b]
+            if (inn > mid) == near:
+                q += f * (inn - ib) * step
+                break
+    z = 1.0 / q
+    return z if 0 < z < np.inf else d[dj + 1, di + 1]
+
+
+# kernels/preprocess.cl realign_blocks' constants
+PURE_TOL, SINGLE_TOL, PAIR_SLACK = 0.2, 0.1, 0.02
+
+
+def _pick_by_colour(img, p, d, bi, bj, kx, ky, px, py):
+    """realign_blocks at an edge: the depth of one of the 3 x 3 blocks by colour. A block is
+    pure where each of its pixels is within PURE_TOL (relative L1) of its mean. The nearest
+    pure block if within SINGLE_TOL; else, if both the blocks nearer than the middle of their
+    1 / depth range and the farther ones hold a pure block, the pixel as a mix
+    a c_near + (1 - a) c_far of a pure pair (a in [0, 1]; relative L1 residual; among pairs
+    within PAIR_SLACK of the best, the one with an end nearest the pixel): the nearer's depth
+    where a >= 1/2, else the farther's; else the nearest block (own block ahead by 1e-3)."""
+    h, w = img.shape[:2]
+    means, deps, pure, own_k, where = [], [], [], -1, []
+    for dj in (-1, 0, 1):
+        for di in (-1, 0, 1):
+            x0, y0 = (bi + di) * kx + px, (bj + dj) * ky + py
+            block = img[max(y0, 0):min(y0 + ky, h), max(x0, 0):min(x0 + kx, w)]
+            if block.size:
+                q = block.reshape(-1, 3)
+                m = q.mean(0)
+                own_k = len(deps) if di == dj == 0 else own_k
+                where.append((dj, di))
+                means.append(m)
+                deps.append(d[dj + 1, di + 1])
+                pure.append((np.abs(q - m).sum(1) / (np.abs(q).sum(1) + np.abs(m).sum() + 1e-6)).max() <= PURE_TOL)
+    pn = np.abs(p).sum() + 1e-6
+    dist = np.array([np.abs(p - m).sum() / (pn + np.abs(m).sum()) for m in means])
+    pure = np.array(pure)
+    inv = 1.0 / np.array(deps)
+    mid = 0.5 * (inv.min() + inv.max())
+    if pure.any() and dist[pure].min() <= SINGLE_TOL:
+        return where[int(np.argmin(np.where(pure, dist, np.inf)))], mid
+    near, far = np.flatnonzero((inv > mid) & pure), np.flatnonzero((inv <= mid) & pure)
+    if not (near.size and far.size):
+        return where[int(np.argmin(dist - 1e-3 * (np.arange(len(deps)) == own_k)))], mid
+    pairs = []
+    for k in near:
+        for m in far:
+            seg = means[k] - means[m]
+            s2 = float(seg @ seg)
+            a = float(np.clip((p - means[m]) @ seg / s2, 0.0, 1.0)) if s2 > 1e-12 else 1.0
+            res = np.abs(p - means[m] - a * seg).sum() / pn
+            end = min(np.abs(p - means[k]).sum(), np.abs(p - means[m]).sum()) / pn
+            pairs.append((res, end, where[k] if a >= 0.5 else where[m]))
+    bound = min(x[0] for x in pairs) + PAIR_SLACK
+    return min((x for x in pairs if x[0] <= bound), key=lambda x: x[1])[2], mid
 
 
 def slab_table(ground, sa, ss, g, nmu: int, nu: int) -> np.ndarray:

@@ -131,9 +131,10 @@ def _upload_depth(plan, depth: np.ndarray, t: Timings) -> None:
     """The depth copied, and for the view cosines (only they use it) its staircase and
     whether it is smoothed for them."""
     steps, plan.grid = depth_blocks(depth)
-    plan.steps = steps if plan.lambert else (1, 1)
-    plan.smoothing = depth_smoothing(depth_noise(depth, plan.steps), plan.cfg.camera.focal(plan.w)) \
+    plan.smoothing = depth_smoothing(depth_noise(depth, steps), plan.cfg.camera.focal(plan.w)) \
         if plan.lambert else None
+    # a grid's depth is realigned (smooth between the blocks) before the cosines read it
+    plan.steps = steps if plan.lambert and plan.grid is None else (1, 1)
     t.add_copy("upload", plan.rt.cl.enqueue_copy(plan.rt.queue, plan.depth, np.ascontiguousarray(depth, np.float32)))
 
 
@@ -251,8 +252,9 @@ REALIGN_TOL = 0.05
 
 
 def realign(plan, t: Timings) -> None:
-    """A nearest-neighbour-enlarged depth's edges moved to the colour's (kernel
-    realign_blocks, through `chain`); the view cosines have read the staircase before."""
+    """A nearest-neighbour-enlarged depth's edges moved to the colour's and its surfaces
+    made smooth between the blocks (kernel realign_blocks, through `chain`), for the view
+    cosines and the rest."""
     kx, ky, px, py = plan.grid
     whole, checked = plan.k_pre_whole, plan.k_pre_prog
     t.add("preprocess", plan.rt.launch2d(
@@ -264,10 +266,10 @@ def realign(plan, t: Timings) -> None:
 
 def preprocess(plan, t: Timings) -> None:
     eps = plan.cfg.render.resolved()[1]
-    if plan.lambert:          # from the depth as given; then its edges realigned for the rest
-        view_cosines(plan, t)
     if plan.grid is not None:
         realign(plan, t)
+    if plan.lambert:
+        view_cosines(plan, t)
     upload_lut(plan, t)
     optical_depth(plan, t)
     if plan.ground is not None:

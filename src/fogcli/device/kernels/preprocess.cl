@@ -47,7 +47,8 @@ __attribute__((always_inline)) inline float isolated(float dz_f, float dz_b, flo
  * so that a depth edge does not tilt the surfaces on either side of it. The differences
  * span sx columns and sy rows: a depth map upsampled by nearest neighbour is a staircase
  * of sx x sy blocks (preprocess.staircase finds them), whose one-pixel steps are flat or
- * a whole block's rise; over a block they are the surface's slope. Sky and anything that
+ * a whole block's rise; over a block they are the surface's slope (on a regular grid of
+ * blocks realign_blocks rebuilds the depth first, and the steps are 1). Sky and anything that
  * is not finite count as facing the camera. inner (a constant): the neighbours sx, sy away
  * are inside the image. */
 __attribute__((always_inline)) inline float view_cosine(const camera_t *c, __global const float *depth, int w, int h,
@@ -229,10 +230,12 @@ __kernel void view_cosines_inner(__global const float *depth, __global float *co
  * Where the 3 x 3 blocks around a pixel hold a depth edge (their depths span more than
  * 1 + tol, and its own block's second difference of 1 / depth along x or y exceeds tol of
  * its 1 / depth: a plane is linear in 1 / depth, so a ground's far rows, steep and curved in
- * depth, are no edge), the pixel takes the depth of the block
- * among them whose mean colour is nearest its own (relative L1 over R, G, B; its own block
- * wins a tie). Elsewhere (a surface) the depth goes smoothly between the blocks' centres
- * (below). The view cosines read the staircase as it is (preprocess.staircase). */
+ * depth, are no edge), the pixel takes the depth of a block among them by its colour: a
+ * uniform block of its colour, or the nearer or the farther of the two uniform blocks whose
+ * colours, mixed, explain its own, carried on along that block's surface (below).
+ * Elsewhere (a surface) the depth goes smoothly between the blocks' centres. The view
+ * cosines are taken from what this writes (preprocess.preprocess). */
+#include "realign.h"
 __kernel void realign_blocks(__global const float *depth, __global const float4 *image, __global float *out,
                              const int width, const int height, const int kx, const int ky, const int px,
                              const int py, const float tol)
@@ -261,38 +264,21 @@ __kernel void realign_blocks(__global const float *depth, __global const float4 
     float iu = yu ? 2.0f * ic - 1.0f / d[2][1] : 1.0f / d[0][1];
     float iv = yd ? 2.0f * ic - 1.0f / d[0][1] : 1.0f / d[2][1];
     float curve = fmax(fabs(il - 2.0f * ic + ir), fabs(iu - 2.0f * ic + iv));
+    /* the pixel's offset from its block's centre, in blocks */
+    float fx = ((float)(i - bi * kx - px) + 0.5f) / (float)kx - 0.5f;
+    float fy = ((float)(j - bj * ky - py) + 0.5f) / (float)ky - 0.5f;
     if (!(hi > lo * (1.0f + tol) && curve > tol / c)) {
         /* no edge: the surface between the blocks' samples, taken at the blocks' centres (a
          * sensor's pixel centres), linear in 1 / depth (a plane's is, in planar depth) toward
          * the nearer neighbour along each axis. On a grazing ground every other row holding the
          * farther row's depth put ground-fog's Lambertian output 0.029 off the smooth depth's */
-        float fx = ((float)(i - bi * kx - px) + 0.5f) / (float)kx - 0.5f;
-        float fy = ((float)(j - bj * ky - py) + 0.5f) / (float)ky - 0.5f;
         float inx = fx < 0.0f ? il : ir, iny = fy < 0.0f ? iu : iv;
         float q = 1.0f / own + fabs(fx) * (inx - ic) + fabs(fy) * (iny - ic);
         float z = 1.0f / q;
         out[idx] = (z > 0.0f && z < INFINITY) ? z : own;
         return;
     }
-    float4 p = image[idx];
-    float pn = fabs(p.x) + fabs(p.y) + fabs(p.z);
-    float best = own, best_dist = INFINITY;
-    for (int dj = -1; dj <= 1; ++dj)
-        for (int di = -1; di <= 1; ++di) {
-            int x0 = (bi + di) * kx + px, y0 = (bj + dj) * ky + py;
-            float r = 0.0f, g = 0.0f, b = 0.0f, n = 0.0f;
-            for (int y = max(y0, 0); y < min(y0 + ky, height); ++y)
-                for (int x = max(x0, 0); x < min(x0 + kx, width); ++x) {
-                    float4 q = image[y * width + x];
-                    r += q.x; g += q.y; b += q.z; n += 1.0f;
-                }
-            if (n == 0.0f) continue;        /* a block wholly outside the frame */
-            r /= n; g /= n; b /= n;
-            float dist = (fabs(p.x - r) + fabs(p.y - g) + fabs(p.z - b)) / (pn + fabs(r) + fabs(g) + fabs(b) + 1e-6f)
-                       - (di == 0 && dj == 0 ? 1e-3f : 0.0f);
-            if (dist < best_dist) { best_dist = dist; best = d[dj + 1][di + 1]; }
-        }
-    out[idx] = best;
+    out[idx] = edge_depth(image, d, image[idx], bi, bj, kx, ky, px, py, width, height, fx, fy);
 }
 
 /* What a plan writes besides direct and scat0 is fixed when it is built (-D PRE_SOURCE,
