@@ -630,6 +630,40 @@ def test_a_replicated_anti_aliased_edge_goes_to_the_surface_covering_most_of_a_p
     assert off.mean() < 0.009 and off.max() < 0.025, (off.mean(), off.max())
 
 
+@pytest.mark.parametrize("scene", ["same colour", "at the frame's edge", "three layers and sky"])
+def test_realign_keeps_edges_where_colour_cannot_tell_and_invents_no_depth(rt, scene):
+    """Replicated depths (blocks of 2 x 2 on the grid) where a simpler rule goes wrong:
+    a grey post in front of a grey wall (equal colours: the own block must win the tie, not
+    the first block scanned); a bright awning along the frame's top over a wall (the second
+    difference at the frame's edge: continued in 1 / depth it is 0 there); a lamp before a
+    100 m wall beside a 300 m wall and the sky (the surface carried on from the 100 m wall
+    must not take the 300 m one's or the sky's slope: it made 600 m and a finite sky)."""
+    w, h = 2 * LX, 24
+    plan, cfg = plan_for(rt, w, h, "camera.fov=60", "render.psf=apsf", "render.emission_profile=isotropic",
+                         "camera.max_depth=1000")
+    yy, xx = np.mgrid[0:h, 0:w]
+    ramp = 1.0 + 0.002 * xx + 0.003 * yy                 # a gentle slope: block_grid finds the blocks
+    true = 100.0 * ramp
+    img = np.ones((h, w, 4), np.float32)
+    img[..., :3] = 0.3
+    if scene == "same colour":
+        true[4:20, 20:22] = 5.0                         # one block wide, on the grid
+    elif scene == "at the frame's edge":
+        true[0:2] = 5.0 * ramp[0:2]                    # an awning, one block tall, along the top
+        img[0:2, :, :3] = 40.0
+    else:
+        true[:, 40:] = 300.0 * ramp[:, 40:]
+        true[:, 60:] = np.inf
+        img[:, 60:, :3] = [0.5, 0.6, 0.9]
+        true[10:14, 36:40] = 5.0
+        img[10:14, 36:40, :3] = 40.0
+    big = np.repeat(np.repeat(true[::2, ::2], 2, 0), 2, 1).astype(np.float32)
+    got = _realigned_on_device(plan, img, big, (2, 2, 0, 0))
+    fin = np.isfinite(true)
+    assert (np.abs(got[fin] - true[fin]) <= 0.05 * true[fin]).all(), np.argwhere(np.abs(got - true) > 0.05 * true)[:5]
+    assert np.isinf(got[~fin]).all()
+
+
 def test_grey_media_build_matches_the_per_channel_build(monkeypatch):
     """Fog, haze and smoke have the same coefficients in R, G, B: their programs are built
     with MEDIUM_GREY (one channel's table reads and exponentials serve three). The output is

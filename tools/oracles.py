@@ -485,7 +485,16 @@ def realign_blocks(depth, rgb, kx: int, ky: int, px: int, py: int, tol: float) -
             right = 2 / c - 1 / d[1, 0] if (bi + 1) * kx + px >= w else 1 / d[1, 2]
             up = 2 / c - 1 / d[2, 1] if (bj - 1) * ky + py + ky <= 0 else 1 / d[0, 1]
             down = 2 / c - 1 / d[0, 1] if (bj + 1) * ky + py >= h else 1 / d[2, 1]
-            curve = max(abs(left - 2 / c + right), abs(up - 2 / c + down))
+            cx, cy = abs(left - 2 / c + right), abs(up - 2 / c + down)
+            xl, xr = (bi - 1) * kx + px + kx <= 0, (bi + 1) * kx + px >= w
+            yu, yd = (bj - 1) * ky + py + ky <= 0, (bj + 1) * ky + py >= h
+            if xl or xr:        # about the inner neighbour: the continued ramp is a plane
+                o = 1 if xl else -1
+                cx = abs(1 / c - 2 / d[1, 1 + o] + 1 / anchor(bj, bi + 2 * o))
+            if yu or yd:
+                o = 1 if yu else -1
+                cy = abs(1 / c - 2 / d[1 + o, 1] + 1 / anchor(bj + 2 * o, bi))
+            curve = max(cx, cy)
             if not (hi > lo * (1 + tol) and curve > tol / c):
                 # a surface: linear in 1 / depth from the own block's centre toward the nearer
                 # neighbour's along each axis
@@ -497,28 +506,32 @@ def realign_blocks(depth, rgb, kx: int, ky: int, px: int, py: int, tol: float) -
                 out[j, i] = zz if 0 < zz < np.inf else z[j, i]
                 continue
             (dj, di), mid = _pick_by_colour(img, img[j, i], d, bi, bj, kx, ky, px, py)
+            inside = lambda a, b: (bi + b - 1) * kx + px + kx > 0 and (bi + b - 1) * kx + px < w and \
+                (bj + a - 1) * ky + py + ky > 0 and (bj + a - 1) * ky + py < h        # noqa: E731
             out[j, i] = _extend(d, dj, di, mid, (i - bi * kx - px + 0.5) / kx - 0.5 - di,
-                                (j - bj * ky - py + 0.5) / ky - 0.5 - dj)
+                                (j - bj * ky - py + 0.5) / ky - 0.5 - dj, inside)
     return out
 
 
-def _extend(d, dj, di, mid, fx, fy):
+def _extend(d, dj, di, mid, fx, fy, inside):
     """The chosen block (dj, di of the 3 x 3) carried on to the pixel (fx, fy blocks from its
-    centre), linear in 1 / depth along each axis with the slope toward a neighbour block on
-    its side of mid (the one away from the pixel first)."""
+    centre), linear in 1 / depth along each axis with the slope toward a neighbour block of
+    the same surface (in the frame: inside(a, b), on its side of mid, 1 / depth within a
+    factor 2 of it; the one away from the pixel first)."""
     ib = 1.0 / d[dj + 1, di + 1]
     near = ib > mid
     q = ib
     for f, axis in ((fx, 1), (fy, 0)):
         for step in ((-1, 1) if f >= 0 else (1, -1)):
             a, b = (dj + 1, di + 1 + step) if axis else (dj + 1 + step, di + 1)
-            if not (0 <= a <= 2 and 0 <= b <= 2):
+            if not (0 <= a <= 2 and 0 <= b <= 2) or not inside(a, b):
                 continue
             inn = 1.0 / d[a, b]
-            if (inn > mid) == near:
+            if (inn > mid) == near and abs(inn - ib) <= 0.5 * ib:
                 q += f * (inn - ib) * step
                 break
-    z = 1.0 / q
+    with np.errstate(divide="ignore"):
+        z = 1.0 / q
     return z if 0 < z < np.inf else d[dj + 1, di + 1]
 
 
@@ -550,6 +563,7 @@ def _pick_by_colour(img, p, d, bi, bj, kx, ky, px, py):
                 pure.append((np.abs(q - m).sum(1) / (np.abs(q).sum(1) + np.abs(m).sum() + 1e-6)).max() <= PURE_TOL)
     pn = np.abs(p).sum() + 1e-6
     dist = np.array([np.abs(p - m).sum() / (pn + np.abs(m).sum()) for m in means])
+    dist = dist - 1e-3 * (np.arange(len(deps)) == own_k)        # the own block wins a tie
     pure = np.array(pure)
     inv = 1.0 / np.array(deps)
     mid = 0.5 * (inv.min() + inv.max())
@@ -557,7 +571,7 @@ def _pick_by_colour(img, p, d, bi, bj, kx, ky, px, py):
         return where[int(np.argmin(np.where(pure, dist, np.inf)))], mid
     near, far = np.flatnonzero((inv > mid) & pure), np.flatnonzero((inv <= mid) & pure)
     if not (near.size and far.size):
-        return where[int(np.argmin(dist - 1e-3 * (np.arange(len(deps)) == own_k)))], mid
+        return where[int(np.argmin(dist))], mid
     pairs = []
     for k in near:
         for m in far:

@@ -263,7 +263,20 @@ __kernel void realign_blocks(__global const float *depth, __global const float4 
     float ir = xr ? 2.0f * ic - 1.0f / d[1][0] : 1.0f / d[1][2];
     float iu = yu ? 2.0f * ic - 1.0f / d[2][1] : 1.0f / d[0][1];
     float iv = yd ? 2.0f * ic - 1.0f / d[0][1] : 1.0f / d[2][1];
-    float curve = fmax(fabs(il - 2.0f * ic + ir), fabs(iu - 2.0f * ic + iv));
+    /* at the frame's edge the continued ramp is a plane by construction: there the second
+     * difference is taken about the inner neighbour (one block further in) */
+    float cx = fabs(il - 2.0f * ic + ir), cy = fabs(iu - 2.0f * ic + iv);
+    if (xl | xr) {
+        int o = xl ? 1 : -1;
+        float f2 = depth[clampi_(bj * ky + py, 0, height - 1) * width + clampi_((bi + 2 * o) * kx + px, 0, width - 1)];
+        cx = fabs(ic - 2.0f / d[1][1 + o] + 1.0f / f2);
+    }
+    if (yu | yd) {
+        int o = yu ? 1 : -1;
+        float f2 = depth[clampi_((bj + 2 * o) * ky + py, 0, height - 1) * width + clampi_(bi * kx + px, 0, width - 1)];
+        cy = fabs(ic - 2.0f / d[1 + o][1] + 1.0f / f2);
+    }
+    float curve = fmax(cx, cy);
     /* the pixel's offset from its block's centre, in blocks */
     float fx = ((float)(i - bi * kx - px) + 0.5f) / (float)kx - 0.5f;
     float fy = ((float)(j - bj * ky - py) + 0.5f) / (float)ky - 0.5f;

@@ -53,8 +53,8 @@ inline int edge_pick(float4 p, const float *mr, const float *mg, const float *mb
     int at_pure = own_k, at_any = own_k;
     for (int k = 0; k < nb; ++k) {
         float dist = (fabs(p.x - mr[k]) + fabs(p.y - mg[k]) + fabs(p.z - mb[k])) / (pn + fabs(mr[k]) + fabs(mg[k]) + fabs(mb[k]));
+        dist -= k == own_k ? 1e-3f : 0.0f;      /* the own block wins a tie */
         if (pure[k] && dist < best_pure) { best_pure = dist; at_pure = k; }
-        dist -= k == own_k ? 1e-3f : 0.0f;
         if (dist < any_best) { any_best = dist; at_any = k; }
         ilo = fmin(ilo, 1.0f / md[k]); ihi = fmax(ihi, 1.0f / md[k]);
     }
@@ -100,7 +100,7 @@ inline float edge_depth(__global const float4 *image, float d[3][3], float4 p, i
     int nb = edge_blocks(image, d, bi, bj, kx, ky, px, py, width, height, mr, mg, mb, md, pure, oi, oj, &own_k);
     int best = edge_pick(p, mr, mg, mb, md, pure, nb, own_k, &mid);
     /* The chosen block's surface carried on to the pixel, linear in 1 / depth with its slope
-     * toward a neighbour block on its side of mid, along each axis: a block's depth copied to
+     * toward a neighbour block of the same surface (below), along each axis: a block's depth copied to
      * the pixels at an edge left flat steps there, which the view cosines (taken after this)
      * read as surfaces facing the camera (a box face at 82 degrees: cosine 0.93, not 0.15) */
     int bdi = oi[best] + 1, bdj = oj[best] + 1;
@@ -114,8 +114,12 @@ inline float edge_depth(__global const float4 *image, float d[3][3], float4 p, i
             int step = (t == 0) == (f >= 0.0f) ? -1 : 1;      /* away from the pixel first */
             int a = axis == 0 ? bdj : bdj + step, b = axis == 0 ? bdi + step : bdi;
             if (a < 0 || a > 2 || b < 0 || b > 2) continue;
+            int x0 = (bi + b - 1) * kx + px, y0 = (bj + a - 1) * ky + py;
+            if (x0 + kx <= 0 || x0 >= width || y0 + ky <= 0 || y0 >= height) continue;   /* past the frame */
             float inb = 1.0f / d[a][b];
-            if ((inb > mid) != near_side) continue;
+            /* the same surface: on the chosen block's side of mid and within a factor 2 of it
+             * (a third layer or the sky on that side is not its continuation) */
+            if ((inb > mid) != near_side || !(fabs(inb - ib) <= 0.5f * ib)) continue;
             q += f * (inb - ib) * (float)step;
             break;
         }
