@@ -480,14 +480,14 @@ def realign_blocks(depth, rgb, kx: int, ky: int, px: int, py: int, tol: float) -
             d = np.array([[anchor(bj + dj, bi + di) for di in (-1, 0, 1)] for dj in (-1, 0, 1)])
             lo, hi = min(d.min(), z[j, i]), max(d.max(), z[j, i])
             c = d[1, 1]
+            inside = lambda a, b: _block_inside(bi + b - 1, kx, px, w) and _block_inside(bj + a - 1, ky, py, h)  # noqa: E731
+            xl, xr, yu, yd = not inside(1, 0), not inside(1, 2), not inside(0, 1), not inside(2, 1)
             # 1 / depth of the neighbours; past the frame, continued in 1 / depth
-            left = 2 / c - 1 / d[1, 2] if (bi - 1) * kx + px + kx <= 0 else 1 / d[1, 0]
-            right = 2 / c - 1 / d[1, 0] if (bi + 1) * kx + px >= w else 1 / d[1, 2]
-            up = 2 / c - 1 / d[2, 1] if (bj - 1) * ky + py + ky <= 0 else 1 / d[0, 1]
-            down = 2 / c - 1 / d[0, 1] if (bj + 1) * ky + py >= h else 1 / d[2, 1]
+            left = 2 / c - 1 / d[1, 2] if xl else 1 / d[1, 0]
+            right = 2 / c - 1 / d[1, 0] if xr else 1 / d[1, 2]
+            up = 2 / c - 1 / d[2, 1] if yu else 1 / d[0, 1]
+            down = 2 / c - 1 / d[0, 1] if yd else 1 / d[2, 1]
             cx, cy = abs(left - 2 / c + right), abs(up - 2 / c + down)
-            xl, xr = (bi - 1) * kx + px + kx <= 0, (bi + 1) * kx + px >= w
-            yu, yd = (bj - 1) * ky + py + ky <= 0, (bj + 1) * ky + py >= h
             if xl or xr:        # about the inner neighbour: the continued ramp is a plane
                 o = 1 if xl else -1
                 cx = abs(1 / c - 2 / d[1, 1 + o] + 1 / anchor(bj, bi + 2 * o))
@@ -495,22 +495,24 @@ def realign_blocks(depth, rgb, kx: int, ky: int, px: int, py: int, tol: float) -
                 o = 1 if yu else -1
                 cy = abs(1 / c - 2 / d[1 + o, 1] + 1 / anchor(bj + 2 * o, bi))
             curve = max(cx, cy)
+            fx = (i - bi * kx - px + 0.5) / kx - 0.5      # from the own block's centre, in blocks
+            fy = (j - bj * ky - py + 0.5) / ky - 0.5
             if not (hi > lo * (1 + tol) and curve > tol / c):
                 # a surface: linear in 1 / depth from the own block's centre toward the nearer
                 # neighbour's along each axis
-                fx = (i - bi * kx - px + 0.5) / kx - 0.5
-                fy = (j - bj * ky - py + 0.5) / ky - 0.5
                 nx, ny = (left if fx < 0 else right), (up if fy < 0 else down)
                 with np.errstate(divide="ignore", invalid="ignore"):
                     zz = 1.0 / (1.0 / z[j, i] + abs(fx) * (nx - 1.0 / c) + abs(fy) * (ny - 1.0 / c))
                 out[j, i] = zz if 0 < zz < np.inf else z[j, i]
                 continue
             (dj, di), mid = _pick_by_colour(img, img[j, i], d, bi, bj, kx, ky, px, py)
-            inside = lambda a, b: (bi + b - 1) * kx + px + kx > 0 and (bi + b - 1) * kx + px < w and \
-                (bj + a - 1) * ky + py + ky > 0 and (bj + a - 1) * ky + py < h        # noqa: E731
-            out[j, i] = _extend(d, dj, di, mid, (i - bi * kx - px + 0.5) / kx - 0.5 - di,
-                                (j - bj * ky - py + 0.5) / ky - 0.5 - dj, inside)
+            out[j, i] = _extend(d, dj, di, mid, fx - di, fy - dj, inside)
     return out
+
+
+def _block_inside(b: int, k: int, p: int, n: int) -> bool:
+    """Block b of a grid of k pixels starting at p has a pixel in 0 .. n - 1."""
+    return b * k + p + k > 0 and b * k + p < n
 
 
 def _extend(d, dj, di, mid, fx, fy, inside):
@@ -540,7 +542,8 @@ PURE_TOL, SINGLE_TOL, PAIR_SLACK = 0.2, 0.1, 0.02
 
 
 def _pick_by_colour(img, p, d, bi, bj, kx, ky, px, py):
-    """realign_blocks at an edge: the depth of one of the 3 x 3 blocks by colour. A block is
+    """realign_blocks at an edge: which of the 3 x 3 blocks ((dj, di), and the middle of their
+    1 / depth range) gives the pixel of colour p its depth. A block is
     pure where each of its pixels is within PURE_TOL (relative L1) of its mean. The nearest
     pure block if within SINGLE_TOL; else, if both the blocks nearer than the middle of their
     1 / depth range and the farther ones hold a pure block, the pixel as a mix
