@@ -256,3 +256,22 @@ def test_a_bright_fog_slab_matches_a_random_walk():
     f_down = 2 * (I_g[half:] * -mu_n[half:] * wt[half:]).sum()
     assert abs(f_down / (down / n) - 1) < 0.01 and abs(f_up / (up / n) - 1) < 0.01, (f_down, down / n, f_up, up / n)
     assert f_down > 0.8           # most of it comes back: the camera sits in a bright diffuse field
+
+
+@pytest.mark.parametrize("medium", ["haze", "sea"])
+def test_a_light_takes_nothing_from_the_grounds_scattered_light(medium):
+    """A light's airlight joins level 0 of the colour chain, where the ground's sources
+    (colour minus the ground's mean) have either sign: a faint light far to the side
+    changes the frame by its own light only (< 1e-5 of it), not by re-weighting the
+    ground pixels' log P (a signed luminance did: +10 % on the path-traced street in fog)."""
+    from fogcli import apply
+    from fogcli.api import make_config
+
+    img, z = _ground_frame(128, 96, rng=np.random.default_rng(3))
+    img[40:60, 50:70, :3] = 4.0
+    z[40:60, 50:70] = 12.0
+    sets = ["camera.fov=60", "camera.depth=z"]
+    base = apply(img[..., :3], z, make_config(medium, sets=sets))
+    lit = apply(img[..., :3], z, make_config(medium, sets=sets + [
+        "lights=[{type: point, position: [400, 0, -5], intensity: [1e-6, 1e-6, 1e-6]}]"]))
+    assert np.abs(lit - base).sum() / np.abs(base).sum() < 1e-5

@@ -434,8 +434,9 @@ __kernel void airlight_to_chain(__global const float4 *a_sc, __global float4 *ch
     float ar, ag, ab, aw, cr, cg, cb, cw;
     load4(a_sc, idx, &ar, &ag, &ab, &aw);
     load4(chain0, idx, &cr, &cg, &cb, &cw);
-    float ya = LUMA_R * ar + LUMA_G * ag + LUMA_B * ab;
-    float yc = LUMA_R * cr + LUMA_G * cg + LUMA_B * cb;
+    /* weights of each channel's magnitude: the ground's sources have either sign */
+    float ya = light_weight((float3)(ar, ag, ab));
+    float yc = light_weight((float3)(cr, cg, cb));
     float pa = ya > 0.0f ? aw / ya : 1e-30f;
     float lpa = log_pos(pa > 1e-30f ? pa : 1e-30f);
     float lp = (yc + ya) > 0.0f ? (yc * cw + ya * lpa) / (yc + ya) : lpa;
