@@ -110,6 +110,7 @@ def test_preprocess_apsf_matches_oracle(rt, rng):
     plan, cfg = plan_for(rt, w, h, *FOG, "render.psf=apsf", "render.emission_profile=isotropic")
     t = Timings()
     upload(plan, img, depth, t)
+    depth = download(plan, plan.depth, 1)       # as light_share_depth left it (its own test)
     preprocess(plan, t)
     chains, _ = read_chain(plan)
     focal = (w / 2) / math.tan(math.radians(70) / 2)
@@ -364,7 +365,8 @@ def test_view_cosines_match_oracle(rt, rng, w, h, kind):
     plan, cfg = plan_for(rt, w, h, "camera.fov=60", "render.psf=apsf", "render.emission_profile=lambertian",
                          f"camera.depth={kind}")
     tm = Timings()
-    upload(plan, rng.uniform(0, 1, (h, w, 4)).astype(np.float32), depth, tm)
+    # one colour: light_share_depth (its own test) moves no pixel
+    upload(plan, np.full((h, w, 4), 0.5, np.float32), depth, tm)
     plan.smoothing = None      # the depth as it is (its checker's and lamps' edges could read as noise)
     preprocess(plan, tm)
     got = download(plan, plan.cosines, 1)
@@ -453,7 +455,7 @@ def test_a_noisy_depth_is_smoothed_for_the_view_cosines_as_the_oracle_does(rt, r
     depth[:3] = 60.5                                     # ... (past max_depth: not its neighbour)
     depth[15, 40] = np.inf
     depth = depth.astype(np.float32)
-    upload(plan, rng.uniform(0, 1, (h, w, 4)).astype(np.float32), depth, Timings())
+    upload(plan, np.full((h, w, 4), 0.5, np.float32), depth, Timings())     # one colour: no light_share_depth
     assert plan.smoothing is not None
     plan.smoothing = radius, tau = 4, 0.025
     from fogcli.device.preprocess import view_cosines
@@ -514,16 +516,18 @@ def test_the_depth_noise_is_measured_and_a_noisy_plane_keeps_its_normals(rt, rng
 
 
 def _realigned_on_device(plan, img, big, grid, rtol=1e-5):
-    """The depth realign_blocks makes of `big` on the device, after checking block_grid
-    finds `grid` and that the kernel matches its float64 oracle (99.9 % of pixels within
-    rtol: float32 ties at the colour test may go either way)."""
+    """The depth realign_blocks makes of `big` on the device (then light_share_depth's),
+    after checking block_grid finds `grid` and that the kernels match their float64
+    oracles (99.9 % of pixels within rtol: float32 ties at the colour test may go either way)."""
+    from fogcli.device.plan import LIGHT_SHARE
     from fogcli.device.preprocess import REALIGN_TOL, block_grid
 
     assert block_grid(big) == grid
     upload(plan, img, big, Timings())
     preprocess(plan, Timings())
     got = download(plan, plan.depth, 1).astype(np.float64)
-    want = oracles.realign_blocks(big, img, *grid, REALIGN_TOL)
+    want = oracles.light_share_depth(oracles.realign_blocks(big, img, *grid, REALIGN_TOL).astype(np.float32), img,
+                                     **LIGHT_SHARE)
     assert np.isclose(got, want, rtol=rtol).mean() >= 0.999
     return got
 

@@ -23,7 +23,7 @@ import pytest
 from helpers import ROOT, SAMPLE, read
 
 KERNELS = sorted(ln.split("void", 1)[1].split("(", 1)[0].strip()
-                 for f in (ROOT / "src" / "fogcli" / "device" / "kernels").glob("*.cl")
+                 for f in sorted((ROOT / "src" / "fogcli" / "device" / "kernels").glob("*.[ch]*"))
                  for ln in f.read_text().splitlines() if ln.startswith("__kernel"))
 LIGHTS = ROOT / "samples" / "harbour-lights.yaml"
 

@@ -5,7 +5,7 @@ import math
 
 import numpy as np
 
-from fogcli.physics.luminance import luminance
+from fogcli.physics.luminance import LUMA, luminance
 
 
 def spread_w(s, sa, ss, g):
@@ -617,3 +617,31 @@ def slab_lookup(tab: np.ndarray, mu: np.ndarray, u: np.ndarray) -> np.ndarray:
     a, b = tab[iy, ix], tab[iy, ix + 1]
     d, e = tab[iy + 1, ix], tab[iy + 1, ix + 1]
     return (a + (b - a) * fx) * (1 - fy) + (d + (e - d) * fx) * fy
+
+
+def light_share_depth(depth, rgb, radius: int, nearer: float, same: float) -> np.ndarray:
+    """kernels/light_share.h: a pixel within `radius` of a nearer surface (depth below `nearer`
+    of its own, the pixel opposite in the frame and on its own surface) whose luminance, read as a c_near + (1 - a) c_far (c_near the brightest nearer
+    pixel, first in row order; c_far the darkest of its own surface's, depth within `same`),
+    is more than half the nearer surface's light takes that pixel's depth. Edge pixels
+    repeat past the frame."""
+    z = np.asarray(depth, np.float64)
+    lum = np.asarray(rgb, np.float64)[..., :3] @ np.array(LUMA)
+    h, w = z.shape
+    zp, yp = np.pad(z, radius, mode="edge"), np.pad(lum, radius, mode="edge")
+    zo = np.pad(z, radius, constant_values=np.nan)       # an opposite pixel past the edge is none
+    near_y, near_z, far_y = np.zeros((h, w)), z.copy(), np.full((h, w), np.inf)
+    with np.errstate(invalid="ignore"):
+        for dj in range(-radius, radius + 1):
+            for di in range(-radius, radius + 1):
+                zn = zp[radius + dj:radius + dj + h, radius + di:radius + di + w]
+                yn = yp[radius + dj:radius + dj + h, radius + di:radius + di + w]
+                zm = zo[radius - dj:radius - dj + h, radius - di:radius - di + w]
+                across = (zm >= (1 - same) * z) & (zm <= (1 + same) * z)
+                take = (zn < nearer * z) & across & (yn > near_y)
+                near_y, near_z = np.where(take, yn, near_y), np.where(take, zn, near_z)
+                own = (zn >= (1 - same) * z) & (zn <= (1 + same) * z)
+                far_y = np.where(own, np.minimum(far_y, yn), far_y)
+        span = near_y - far_y
+        a = np.minimum(np.where(span > 0, (lum - far_y) / np.where(span > 0, span, 1.0), 0.0), 1.0)
+        return np.where((span > 0) & (a * near_y > 0.5 * lum), near_z, z)

@@ -19,6 +19,7 @@ from fogcli.io import depth as depth_mod
 from fogcli.io.colour import srgb_to_linear
 from fogcli.config.model import Config
 from fogcli.errors import UserError
+from fogcli.physics.limits import check_radiance
 from fogcli.io.images import Frame
 from fogcli.config.presets import assemble
 from fogcli.device.plan import Timings
@@ -100,10 +101,9 @@ def _float_image(image, name: str, colour: str | None) -> tuple[np.ndarray, np.n
     elif colour == "srgb":
         a = np.concatenate([srgb_to_linear(np.ascontiguousarray(a[:, :, :3], np.float32)), a[:, :, 3:]], axis=2)
     with np.errstate(invalid="ignore", over="ignore"):
-        a = a.astype(np.float32)
+        a = a.astype(np.float32, copy=False)
     rgb = np.ascontiguousarray(a[:, :, :3])
-    if not np.isfinite(rgb).all():
-        raise UserError(f"{name}: {int((~np.isfinite(rgb)).any(axis=2).sum())} pixel(s) hold NaN or infinite values")
+    check_radiance(rgb, name)       # NaN, infinite, beyond what the float32 kernels carry
     alpha = np.ascontiguousarray(np.clip(np.nan_to_num(a[:, :, 3], nan=1.0), 0, 1)) if a.shape[2] == 4 else None
     return rgb, alpha
 
@@ -122,8 +122,6 @@ def apply(image: np.ndarray, depth: np.ndarray, config: Config | str | None = No
     Returns (h, w, 3) float32, or (h, w, 4) with the output alpha when the input had one;
     with return_aovs, (image, {aov channel: plane}).
     """
-    from fogcli.physics.limits import MAX_RADIANCE
-
     if colour not in (None, "srgb", "linear"):
         raise UserError(f"colour: expected 'srgb', 'linear' or None, got {colour!r}")
     if not isinstance(config, Config):
@@ -134,8 +132,6 @@ def apply(image: np.ndarray, depth: np.ndarray, config: Config | str | None = No
     else:
         cfg = config
     img, a4 = _float_image(image, "image", colour)
-    if float(np.abs(img).max(initial=0.0)) > MAX_RADIANCE:
-        raise UserError(f"image: values above {MAX_RADIANCE:.0e} are not scene radiance")
     if alpha is None:
         alpha = a4
     elif np.shape(alpha) != img.shape[:2]:

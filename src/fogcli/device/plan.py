@@ -165,6 +165,11 @@ BUFFERS = (
 # of the depth; out is written over direct (see above)
 ALIASES = {"up_planes": "depth", "out": "direct"}
 
+# light_share_depth (kernels/light_share.h, built in: its loops unrolled): how far a pixel
+# looks for a nearer surface (pixels), what depth is nearer (below this share of its own),
+# and what is its own surface's (within this share)
+LIGHT_SHARE = {"radius": 2, "nearer": 0.9, "same": 0.05}
+
 # the reference's planes (reference.py), allocated when it runs
 REFERENCE_BUFFERS = (Buffer("src", F4, FRAME), Buffer("tmp", F4, FRAME), Buffer("acc", F4, FRAME))
 
@@ -302,6 +307,8 @@ class Plan:
                    PRE_TRANSMITTANCE=int("transmittance" in self.aovs),
                    PRE_SPREAD=int(not (self.apsf and self.source) or bool(self.aovs)),
                    CAM_Z=int(cfg.camera.depth != "distance"))   # planar depth: view_cosines_inner without roots
+        pre.update(SHARE_RADIUS=LIGHT_SHARE["radius"], SHARE_NEARER=f"{LIGHT_SHARE['nearer']!r}f",
+                   SHARE_SAME=f"{LIGHT_SHARE['same']!r}f")
         self.k_pre_prog = rt.program("preprocess", **pre)
         self.k_pre_whole = rt.program("preprocess", WHOLE_GROUPS=1, **pre)
         self.pre_defines = pre         # device/ground.py builds its variant (PRE_GROUND) from them

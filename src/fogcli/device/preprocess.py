@@ -7,7 +7,7 @@ import numpy as np
 
 from fogcli.device import ground
 from fogcli.device.noise import noise_args, noise_grid, p_samples
-from fogcli.device.plan import Timings, open_border
+from fogcli.device.plan import LIGHT_SHARE, Timings, open_border
 from fogcli.device.structs import camera_struct, medium_struct, primitive_launches
 from fogcli.physics.apsf import build_lut
 from fogcli.physics.limits import check_radiance
@@ -128,14 +128,19 @@ def depth_smoothing(noise: float, focal: float) -> tuple[int, float] | None:
 
 
 def _upload_depth(plan, depth: np.ndarray, t: Timings) -> None:
-    """The depth copied, and for the view cosines (only they use it) its staircase and
-    whether it is smoothed for them."""
+    """The depth copied (after the image) and refined on the device: realigned where it was
+    enlarged by nearest neighbour, its edges moved to where the light is (light_share);
+    while that runs, what the host reads of it for the view cosines (only they use it):
+    its staircase and whether it is smoothed for them."""
     steps, plan.grid = depth_blocks(depth)
+    t.add_copy("upload", plan.rt.cl.enqueue_copy(plan.rt.queue, plan.depth, np.ascontiguousarray(depth, np.float32)))
+    if plan.grid is not None:
+        realign(plan, t)
+    light_share(plan, t)
     plan.smoothing = depth_smoothing(depth_noise(depth, steps), plan.cfg.camera.focal(plan.w)) \
         if plan.lambert else None
     # a grid's depth is realigned (smooth between the blocks) before the cosines read it
     plan.steps = steps if plan.lambert and plan.grid is None else (1, 1)
-    t.add_copy("upload", plan.rt.cl.enqueue_copy(plan.rt.queue, plan.depth, np.ascontiguousarray(depth, np.float32)))
 
 
 def upload(plan, rgba: np.ndarray, depth: np.ndarray, t: Timings) -> None:
@@ -264,10 +269,27 @@ def realign(plan, t: Timings) -> None:
     t.add("preprocess", plan.rt.cl.enqueue_copy(plan.rt.queue, plan.depth, plan.chain, byte_count=4 * plan.w * plan.h))
 
 
+def light_share(plan, t: Timings) -> None:
+    """A pixel at a depth edge whose light is mostly that of the nearer, brighter surface
+    takes its depth (kernels/light_share.h: each row's least depth into `chain`, the least
+    within the radius into `direct`, the depth over it; copied back)."""
+    whole, checked = plan.k_pre_whole, plan.k_pre_prog
+    r, (lx, ly) = LIGHT_SHARE["radius"], plan.rt.local2d
+    frame = dict(width=np.int32(plan.w), height=np.int32(plan.h))
+    nx, ny = (plan.w - 2 * r) // lx * lx, (plan.h - 2 * r) // ly * ly
+    plan.launch_inner(t, "preprocess", (r, r + nx, 0, plan.h // ly * ly) if nx > 0 and plan.h >= ly else None,
+                      whole.light_share_rows_inner, (whole.light_share_rows, checked.light_share_rows),
+                      plan.w, plan.h, dict(depth=plan.depth, rowmin=plan.chain, **frame))
+    plan.launch_inner(t, "preprocess", (0, plan.w // lx * lx, r, r + ny) if ny > 0 and plan.w >= lx else None,
+                      whole.light_share_cols_inner, (whole.light_share_cols, checked.light_share_cols),
+                      plan.w, plan.h, dict(rowmin=plan.chain, out=plan.direct, **frame))
+    t.add("preprocess", plan.rt.launch1d((whole.light_share_pick, checked.light_share_pick), -(-plan.w * plan.h // 8), depth=plan.depth,
+                                         image=plan.image, out=plan.direct, **frame))
+    t.add("preprocess", plan.rt.cl.enqueue_copy(plan.rt.queue, plan.depth, plan.direct, byte_count=4 * plan.w * plan.h))
+
+
 def preprocess(plan, t: Timings) -> None:
     eps = plan.cfg.render.resolved()[1]
-    if plan.grid is not None:
-        realign(plan, t)
     if plan.lambert:
         view_cosines(plan, t)
     upload_lut(plan, t)

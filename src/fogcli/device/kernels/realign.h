@@ -1,4 +1,4 @@
-/* realign_blocks (preprocess.cl) where the 3 x 3 blocks around a pixel hold a depth edge:
+/* The kernel realign_blocks and, where the 3 x 3 blocks around a pixel hold a depth edge,
  * the pixel's depth by its colour. Included by preprocess.cl only. */
 #ifndef REALIGN_H
 #define REALIGN_H
@@ -126,6 +126,75 @@ inline float edge_depth(__global const float4 *image, float d[3][3], float4 p, i
     }
     float z = 1.0f / q;
     return (z > 0.0f && z < INFINITY) ? z : md[best];
+}
+
+/* A depth enlarged by nearest neighbour (preprocess.block_grid: blocks of kx x ky pixels whose
+ * grid starts at px, py) puts edges up to a block off: a small lamp's pixels take the wall's
+ * depth, and its light the wall's medium (lamps-fog with such a depth: 0.20 relative L1).
+ * Where the 3 x 3 blocks around a pixel hold a depth edge (their depths span more than
+ * 1 + tol, and its own block's second difference of 1 / depth along x or y exceeds tol of
+ * its 1 / depth: a plane is linear in 1 / depth, so a ground's far rows, steep and curved in
+ * depth, are no edge), the pixel takes the depth of a block among them by its colour: a
+ * uniform block of its colour, or the nearer or the farther of the two uniform blocks whose
+ * colours, mixed, explain its own, carried on along that block's surface (below).
+ * Elsewhere (a surface) the depth goes smoothly between the blocks' centres. The view
+ * cosines are taken from what this writes (preprocess.preprocess). */
+__kernel void realign_blocks(__global const float *depth, __global const float4 *image, __global float *out,
+                             const int width, const int height, const int kx, const int ky, const int px,
+                             const int py, const float tol)
+{
+    int i = get_global_id(0), j = get_global_id(1);
+    if (OUTSIDE(i, j, width, height)) return;
+    int idx = j * width + i;
+    /* the own block's index (floor division: the grid may start inside the frame) */
+    int bi = (i - px + kx * width) / kx - width, bj = (j - py + ky * height) / ky - height;
+    float d[3][3];
+    for (int dj = -1; dj <= 1; ++dj)
+        for (int di = -1; di <= 1; ++di)
+            d[dj + 1][di + 1] = depth[clampi_((bj + dj) * ky + py, 0, height - 1) * width
+                                      + clampi_((bi + di) * kx + px, 0, width - 1)];
+    float own = depth[idx], lo = own, hi = own;
+    for (int a = 0; a < 3; ++a)
+        for (int b = 0; b < 3; ++b) { lo = fmin(lo, d[a][b]); hi = fmax(hi, d[a][b]); }
+    float c = d[1][1], ic = 1.0f / c;
+    /* a block past the frame's edge continues the ramp (its clamped read is the own block's),
+     * in 1 / depth as the test and the interpolation below: continued in depth, a grazing
+     * ground's outermost blocks read as an edge */
+    int xl = (bi - 1) * kx + px + kx <= 0, xr = (bi + 1) * kx + px >= width;
+    int yu = (bj - 1) * ky + py + ky <= 0, yd = (bj + 1) * ky + py >= height;
+    float il = xl ? 2.0f * ic - 1.0f / d[1][2] : 1.0f / d[1][0];
+    float ir = xr ? 2.0f * ic - 1.0f / d[1][0] : 1.0f / d[1][2];
+    float iu = yu ? 2.0f * ic - 1.0f / d[2][1] : 1.0f / d[0][1];
+    float iv = yd ? 2.0f * ic - 1.0f / d[0][1] : 1.0f / d[2][1];
+    /* at the frame's edge the continued ramp is a plane by construction: there the second
+     * difference is taken about the inner neighbour (one block further in) */
+    float cx = fabs(il - 2.0f * ic + ir), cy = fabs(iu - 2.0f * ic + iv);
+    if (xl | xr) {
+        int o = xl ? 1 : -1;
+        float f2 = depth[clampi_(bj * ky + py, 0, height - 1) * width + clampi_((bi + 2 * o) * kx + px, 0, width - 1)];
+        cx = fabs(ic - 2.0f / d[1][1 + o] + 1.0f / f2);
+    }
+    if (yu | yd) {
+        int o = yu ? 1 : -1;
+        float f2 = depth[clampi_((bj + 2 * o) * ky + py, 0, height - 1) * width + clampi_(bi * kx + px, 0, width - 1)];
+        cy = fabs(ic - 2.0f / d[1 + o][1] + 1.0f / f2);
+    }
+    float curve = fmax(cx, cy);
+    /* the pixel's offset from its block's centre, in blocks */
+    float fx = ((float)(i - bi * kx - px) + 0.5f) / (float)kx - 0.5f;
+    float fy = ((float)(j - bj * ky - py) + 0.5f) / (float)ky - 0.5f;
+    if (!(hi > lo * (1.0f + tol) && curve > tol / c)) {
+        /* no edge: the surface between the blocks' samples, taken at the blocks' centres (a
+         * sensor's pixel centres), linear in 1 / depth (a plane's is, in planar depth) toward
+         * the nearer neighbour along each axis. On a grazing ground every other row holding the
+         * farther row's depth put ground-fog's Lambertian output 0.029 off the smooth depth's */
+        float inx = fx < 0.0f ? il : ir, iny = fy < 0.0f ? iu : iv;
+        float q = 1.0f / own + fabs(fx) * (inx - ic) + fabs(fy) * (iny - ic);
+        float z = 1.0f / q;
+        out[idx] = (z > 0.0f && z < INFINITY) ? z : own;
+        return;
+    }
+    out[idx] = edge_depth(image, d, image[idx], bi, bj, kx, ky, px, py, width, height, fx, fy);
 }
 
 #endif
