@@ -5,7 +5,7 @@ pass left out and with it, and with `lights: [{type: auto}]` the change it makes
 no lights (issue 40 item 4: never worse by more than 0.01). Prints a table; with --doc
 writes the block between the light-share markers of docs/physics.md.
 
-    python tools/light_share_effect.py [--doc docs/physics.md]     # about 40 s
+    python tools/light_share_effect.py [--doc docs/physics.md]     # about 10 s
 """
 from __future__ import annotations
 

@@ -283,8 +283,8 @@ def light_share(plan, t: Timings) -> None:
     plan.launch_inner(t, "preprocess", (0, plan.w // lx * lx, r, r + ny) if ny > 0 and plan.w >= lx else None,
                       whole.light_share_cols_inner, (whole.light_share_cols, checked.light_share_cols),
                       plan.w, plan.h, dict(rowmin=plan.chain, out=plan.direct, **frame))
-    t.add("preprocess", plan.rt.launch1d((whole.light_share_pick, checked.light_share_pick), -(-plan.w * plan.h // 8), depth=plan.depth,
-                                         image=plan.image, out=plan.direct, **frame))
+    t.add("preprocess", plan.rt.launch1d((whole.light_share_pick, checked.light_share_pick), -(-plan.w * plan.h // 8),
+                                         depth=plan.depth, image=plan.image, out=plan.direct, **frame))
     t.add("preprocess", plan.rt.cl.enqueue_copy(plan.rt.queue, plan.depth, plan.direct, byte_count=4 * plan.w * plan.h))
 
 
