@@ -5,7 +5,7 @@ import math
 
 import numpy as np
 
-from fogcli.physics.luminance import LUMA, luminance
+from fogcli.physics.luminance import luminance
 
 
 def spread_w(s, sa, ss, g):
@@ -621,12 +621,12 @@ def slab_lookup(tab: np.ndarray, mu: np.ndarray, u: np.ndarray) -> np.ndarray:
 
 def light_share_depth(depth, rgb, radius: int, nearer: float, same: float) -> np.ndarray:
     """kernels/light_share.h: a pixel within `radius` of a nearer surface (depth below `nearer`
-    of its own, the pixel opposite in the frame and on its own surface) whose luminance, read as a c_near + (1 - a) c_far (c_near the brightest nearer
-    pixel, first in row order; c_far the darkest of its own surface's, depth within `same`),
-    is more than half the nearer surface's light takes that pixel's depth. Edge pixels
-    repeat past the frame."""
+    of its own, the pixel opposite in the frame and on its own surface) whose luminance,
+    read as a c_near + (1 - a) c_far (c_near the brightest nearer pixel, first in row order;
+    c_far the darkest of its own surface's, depth within `same`), is more than half the
+    nearer surface's light takes that pixel's depth. Edge pixels repeat past the frame."""
     z = np.asarray(depth, np.float64)
-    lum = np.asarray(rgb, np.float64)[..., :3] @ np.array(LUMA)
+    lum = luminance(np.asarray(rgb, np.float64))
     h, w = z.shape
     zp, yp = np.pad(z, radius, mode="edge"), np.pad(lum, radius, mode="edge")
     zo = np.pad(z, radius, constant_values=np.nan)       # an opposite pixel past the edge is none

@@ -34,7 +34,7 @@ __attribute__((always_inline)) inline float share_depth(__global const float *de
     int idx = j * width + i;
     float z = depth[idx];
     float4 c = image[idx];
-    float y = LUMA_R * c.x + LUMA_G * c.y + LUMA_B * c.z;
+    float y = luminance((float3)(c.x, c.y, c.z));
     float near_y = 0.0f, near_z = z, far_y = INFINITY;
     float z_near = SHARE_NEARER * z, z_lo = (1.0f - SHARE_SAME) * z, z_hi = (1.0f + SHARE_SAME) * z;
     /* clamped reads at the frame's edge repeat an edge pixel: no change to a strict maximum
@@ -48,7 +48,7 @@ __attribute__((always_inline)) inline float share_depth(__global const float *de
             int k = row + (inner ? i + di : clampi_(i + di, 0, width - 1));
             float zn = depth[k], zm = depth[opp + (inner ? i - di : clampi_(i - di, 0, width - 1))];
             float4 q = image[k];
-            float yn = LUMA_R * q.x + LUMA_G * q.y + LUMA_B * q.z;
+            float yn = luminance((float3)(q.x, q.y, q.z));
             int take = zn < z_near && (inner || (opp_in && i - di >= 0 && i - di < width)) && zm >= z_lo
                        && zm <= z_hi && yn > near_y;
             near_y = take ? yn : near_y;
@@ -64,37 +64,34 @@ __attribute__((always_inline)) inline float share_depth(__global const float *de
     return (span > 0.0f && a * near_y > 0.5f * y) ? near_z : z;
 }
 
-__kernel void light_share_rows(__global const float *depth, __global float *rowmin, const int width,
-                               const int height)
+/* the least of src over the 2 SHARE_RADIUS + 1 pixels `stride` apart centred on position
+ * `at` of a line of n pixels starting at `base` (clamped to the line); inner (a constant):
+ * all of them in the line, so the reads are linear in the work-item */
+__attribute__((always_inline)) inline float least_around(__global const float *src, int base, int at, int n,
+                                                         int stride, int inner)
 {
-    int i = get_global_id(0), j = get_global_id(1);
-    if (OUTSIDE(i, j, width, height)) return;
-    int row = j * width;
-    float zmin = depth[row + i];
-    _Pragma("unroll") for (int di = -SHARE_RADIUS; di <= SHARE_RADIUS; ++di) {
-        float zn = depth[row + clampi_(i + di, 0, width - 1)];
-        zmin = zn < zmin ? zn : zmin;
-    }
-    rowmin[row + i] = zmin;
-}
-
-/* the least of src over the 2 SHARE_RADIUS + 1 pixels `stride` apart centred on idx, all in
- * the frame */
-__attribute__((always_inline)) inline float least_around(__global const float *src, int idx, int stride)
-{
-    float zmin = src[idx];
+    float zmin = src[base + at * stride];
     _Pragma("unroll") for (int d = -SHARE_RADIUS; d <= SHARE_RADIUS; ++d) {
-        float zn = src[idx + d * stride];
+        float zn = src[base + (inner ? at + d : clampi_(at + d, 0, n - 1)) * stride];
         zmin = zn < zmin ? zn : zmin;
     }
     return zmin;
 }
 
+/* each row's least depth around a pixel, into rowmin */
+__kernel void light_share_rows(__global const float *depth, __global float *rowmin, const int width,
+                               const int height)
+{
+    int i = get_global_id(0), j = get_global_id(1);
+    if (OUTSIDE(i, j, width, height)) return;
+    rowmin[j * width + i] = least_around(depth, j * width, i, width, 1, 0);
+}
+
 __kernel void light_share_rows_inner(__global const float *depth, __global float *rowmin, const int width,
                                      const int height)
 {
-    int idx = get_global_id(1) * width + get_global_id(0);
-    rowmin[idx] = least_around(depth, idx, 1);
+    int i = get_global_id(0), j = get_global_id(1);
+    rowmin[j * width + i] = least_around(depth, j * width, i, width, 1, 1);
 }
 
 /* the column's least of rowmin: the least depth within the radius, into out */
@@ -102,19 +99,14 @@ __kernel void light_share_cols(__global const float *rowmin, __global float *out
 {
     int i = get_global_id(0), j = get_global_id(1);
     if (OUTSIDE(i, j, width, height)) return;
-    float zmin = rowmin[j * width + i];
-    _Pragma("unroll") for (int dj = -SHARE_RADIUS; dj <= SHARE_RADIUS; ++dj) {
-        float zn = rowmin[clampi_(j + dj, 0, height - 1) * width + i];
-        zmin = zn < zmin ? zn : zmin;
-    }
-    out[j * width + i] = zmin;
+    out[j * width + i] = least_around(rowmin, i, j, height, width, 0);
 }
 
 __kernel void light_share_cols_inner(__global const float *rowmin, __global float *out, const int width,
                                      const int height)
 {
-    int idx = get_global_id(1) * width + get_global_id(0);
-    out[idx] = least_around(rowmin, idx, width);
+    int i = get_global_id(0), j = get_global_id(1);
+    out[j * width + i] = least_around(rowmin, i, j, height, width, 1);
 }
 
 /* out: the least depth within the radius in, the depth each pixel takes out; eight pixels
