@@ -88,8 +88,8 @@ def test_stereo_single_part_keeps_every_channel_and_view(stereo, tmp_path, view)
     assert (so.full_x, so.full_y, so.full_width, so.full_height) == (0, 0, 80, 50)
     assert tuple(so.getattribute("multiView")) == ("left", "right")
     assert so.getattribute("compression") == "piz" and so.getattribute("studio:shot") == "bb010"
-    prefix = "right." if view == "right" else ""
-    changed = {prefix + c for c in "RGB"}
+    # by default every view is fogged; --view one of them
+    changed = {p + c for p in {None: ("", "right."), "left": ("",), "right": ("right.",)}[view] for c in "RGB"}
     for n in ci:
         if n in changed:
             assert np.abs(co[n] - ci[n]).max() > 1e-3, n         # fogged
@@ -101,6 +101,47 @@ def test_stereo_single_part_keeps_every_channel_and_view(stereo, tmp_path, view)
     assert raw[0].min() > 2 ** 24 and mask >= 0
 
 
+def test_every_view_is_fogged_with_its_own_depth(stereo, tmp_path):
+    """Issue 41: a stereo pair stays a pair. Each view of the default run is what --view
+    gives for it alone (right.Z for the right view: the two depths differ), in one file."""
+    outs = {}
+    for view in (None, "left", "right"):
+        outs[view] = tmp_path / f"out_{view}.exr"
+        code, text, _ = run("apply", stereo, "-o", outs[view], *(["--view", view] if view else []),
+                            "--aov", "transmittance")
+        assert code == 0, text
+        assert "view" not in text, text                     # nothing to warn about
+    (_, both), = _read_all(outs[None])
+    (_, left), = _read_all(outs["left"])
+    (_, right), = _read_all(outs["right"])
+    for c in ("R", "G", "B", "transmittance.R"):
+        np.testing.assert_array_equal(both[c], left[c], err_msg=c)
+        np.testing.assert_array_equal(both["right." + c], right["right." + c], err_msg=c)
+    assert np.abs(both["right.transmittance.R"] - both["transmittance.R"]).max() > 0.05   # its own depth
+
+
+def test_a_view_without_depth_is_named(tmp_path):
+    import OpenImageIO as oiio
+
+    names = [n for n in NAMES if n != "right.Z"]
+    p = tmp_path / "nodepth.exr"
+    spec = _spec(names, _fmt)
+    spec.attribute("multiView", oiio.TypeDesc("string[2]"), ("left", "right"))
+    out = oiio.ImageOutput.create(str(p))
+    assert out.open(str(p), spec) and out.write_image(_data(names))
+    out.close()
+    o = tmp_path / "o.exr"
+    code, text, _ = run("apply", p, "-o", o)
+    assert code == 0, text
+    assert "view right has no depth channel of its own (right.Z); copied unfogged" in text
+    (_, ci), = _read_all(p)
+    (_, co), = _read_all(o)
+    np.testing.assert_array_equal(co["right.R"], ci["right.R"])
+    assert np.abs(co["R"] - ci["R"]).max() > 1e-3
+    code, text, _ = run("apply", p, "-o", tmp_path / "o.png")
+    assert code == 0 and "views left, right: o.png holds one; fogged left (--view NAME picks another)" in text
+
+
 def _uint_channel(path, name):
     inp = oiio.ImageInput.open(str(path))
     c = list(inp.spec().channelnames).index(name)
@@ -109,10 +150,11 @@ def _uint_channel(path, name):
     return px
 
 
-def test_multipart_views_and_tiles(tmp_path):
+@pytest.mark.parametrize("view", [None, "right"])
+def test_multipart_views_and_tiles(tmp_path, view):
     """Two parts (one per view, `view` attributes) and a depth part, tiled (OpenEXR has no
-    scanline access to them): --view right replaces the right part's colour; everything else
-    is copied."""
+    scanline access to them): --view right replaces the right part's colour, by default
+    both views'; everything else is copied."""
     p = tmp_path / "multipart.exr"
     rgbaz = ["R", "G", "B", "A", "Z"]
     specs = []
@@ -135,21 +177,22 @@ def test_multipart_views_and_tiles(tmp_path):
         assert out.write_image(d)
     out.close()
     o = tmp_path / "o.exr"
-    code, text, _ = run("apply", p, "--view", "right", "-o", o, "--aov", "transmittance")
+    code, text, _ = run("apply", p, *(["--view", view] if view else []), "-o", o, "--aov", "transmittance")
     assert code == 0, text
     pin, pout = _read_all(p), _read_all(o)
+    fogged = ("left", "right") if view is None else (view,)
     assert [s.getattribute("name") for s, _ in pout] == ["left", "right", "depth"]
     assert [s.getattribute("view") for s, _ in pout] == ["left", "right", None]
     for (si, ci), (so, co) in zip(pin, pout):
         assert (so.x, so.y, so.width, so.height) == (si.x, si.y, si.width, si.height)
         for n in ci:
             assert _formats(so)[n] == _formats(si)[n]
-            if si.getattribute("name") == "right" and n in "RGB":
+            if si.getattribute("name") in fogged and n in "RGB":
                 assert np.abs(co[n] - ci[n]).max() > 1e-3
             else:
                 np.testing.assert_array_equal(co[n], ci[n], err_msg=f"{si.getattribute('name')}.{n}")
     assert {"transmittance.R", "transmittance.G", "transmittance.B"} <= set(pout[1][1])   # AOVs join the part read
-    assert "transmittance.R" not in pout[0][1]
+    assert ("transmittance.R" in pout[0][1]) == (view is None)
 
 
 def test_drop_channels_and_output_type(stereo, tmp_path):
@@ -166,7 +209,7 @@ def test_drop_channels_and_output_type(stereo, tmp_path):
     code, text, _ = run("apply", stereo, "-o", o2, "--set", "output.type=float")
     assert code == 0, text
     f = _formats(_read_all(o2)[0][0])
-    assert f["R"] == "float" and f["right.R"] == "half" and f["whitebarmask.mask"] == "uint"
+    assert f["R"] == "float" and f["right.R"] == "float" and f["right.forward.u"] == "half" and f["whitebarmask.mask"] == "uint"
 
 
 @pytest.mark.parametrize("names", [["A"], ["Z"], ["depth.Z"], ["A", "Z"]])
@@ -206,7 +249,7 @@ def test_kept_pixels_write_what_a_second_decode_writes(tmp_path, zfmt):
         path = tmp_path / f"out_{kept is None}.exr"
         with warnings.catch_warnings():
             warnings.simplefilter("error")      # no numpy overflow warning on the way
-            write_passthrough(path, str(path), f, rgb, frame.alpha, {}, "auto", "auto")
+            write_passthrough(path, str(path), [(f, rgb, frame.alpha, {})], "auto", "auto")
         files.append(_read_all(path))
     (spec_a, a), (spec_b, b) = files[0][0], files[1][0]
     assert _formats(spec_a) == _formats(spec_b) == {n: zfmt if n == "Z" else "half" for n in names}

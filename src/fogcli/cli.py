@@ -117,7 +117,7 @@ def medium_options(fn):
                      help="Pinhole intrinsics JSON (Open3D intrinsic_matrix, Cityscapes camera, or fx/fy/cx/cy)."),
         click.option("--set", "sets", multiple=True, metavar="KEY=VALUE", help="Override one dotted key, e.g. render.kernel=6."),
         click.option("--layer", metavar="NAME", help="EXR part or channel layer to read (e.g. ViewLayer.Combined)."),
-        click.option("--view", metavar="NAME", help="EXR view to read (multi-view files; default: the first)."),
+        click.option("--view", metavar="NAME", help="EXR view to fog (multi-view files; default: every view, each with its own depth)."),
         click.option("--aov", "aovs", multiple=True, type=click.Choice(AOV_NAMES), help="Extra EXR channels."),
         click.option("--drop-channels", is_flag=True,
                      help="EXR: write only R, G, B, (A) and the AOVs, not the input's other channels, parts and views."),

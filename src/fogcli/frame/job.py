@@ -64,6 +64,7 @@ class Staged:
     planes: dict = field(default_factory=dict)
     lamps: list = field(default_factory=list)
     res: Result = field(default_factory=Result)
+    others: list = field(default_factory=list)      # the other views of a multi-view EXR (Staged each)
 
 
 def run_job(job: Job, cfg: Config, aovs=(), device=None, timings: Timings | None = None) -> Result:
@@ -96,8 +97,7 @@ def load(job: Job, cfg: Config, aovs=()) -> Staged:
         raise UserError(f"--aov needs an .exr output, got {out_path.name}")
 
     t0 = time.perf_counter()
-    frame = inputs.read_image(src, job.layer, job.view,
-                              admit=lambda *size: memory.admit(*size, cfg=cfg, aovs=aovs))
+    frame = _read(job, cfg, aovs, job.view)
     if job.depth:
         raw, dsrc = inputs.read_depth(job.depth), job.depth
     elif frame.depth is not None:
@@ -105,6 +105,20 @@ def load(job: Job, cfg: Config, aovs=()) -> Staged:
     else:
         raise UserError(f"{src}: no depth channel (Z, *.Z or *depth); pass --depth FILE")
     res.io_ms += (time.perf_counter() - t0) * 1e3
+    _clean(st, frame, raw, dsrc, cfg)
+    if job.view is None and frame.view:
+        _other_views(st, cfg, aovs)
+    return st
+
+
+def _read(job: Job, cfg: Config, aovs, view: str | None):
+    return inputs.read_image(Path(job.input), job.layer, view,
+                             admit=lambda *size: memory.admit(*size, cfg=cfg, aovs=aovs))
+
+
+def _clean(st: Staged, frame, raw, dsrc, cfg: Config, first: bool = True) -> None:
+    """The frame's depth made metric and cleaned, with what that did in the warnings."""
+    job, res = st.job, st.res
     h, w = frame.shape
     clean, rep = depth_mod.metric_depth(raw, frame.colour(), cfg.camera, str(dsrc), frame.alpha)
     res.warnings += rep.notes or []
@@ -114,18 +128,51 @@ def load(job: Job, cfg: Config, aovs=()) -> Staged:
     if rep.holes:
         res.warnings.append(f"{dsrc}: {rep.holes} invalid depth pixel(s) (no measurement: NaN, zero "
                             "or negative) filled edge-aware from neighbours")
-    if job.save_depth:
+    if job.save_depth and first:        # of a multi-view file, the first view's
         save_depth(Path(job.save_depth), clean)
     frame.depth = None           # the raw values are not read again (an EXR output copies Z from the file)
     st.frame, st.depth = frame, clean
-    return st
+
+
+def _other_views(st: Staged, cfg: Config, aovs) -> None:
+    """A multi-view EXR: every view is fogged with its own depth (right.Z for the right
+    view), so that a stereo pair stays a pair. A view without a depth of its own is copied
+    as it is, and a warning names it; an output that holds one view (PNG, --drop-channels)
+    gets the first, and a warning says so."""
+    job, src = st.job, st.job.input
+    names = [v for v in inputs.views(src) if v != st.frame.view]
+    if not names:
+        return
+    one = Path(job.output).suffix.lower() != ".exr" or job.drop_channels
+    if one:
+        st.res.warnings.append(f"{src}: views {', '.join([st.frame.view] + names)}: {Path(job.output).name} holds one; "
+                               f"fogged {st.frame.view} (--view NAME picks another)")
+        return
+    for v in names:
+        t0 = time.perf_counter()
+        frame = _read(job, cfg, aovs, v)
+        st.res.io_ms += (time.perf_counter() - t0) * 1e3
+        if frame.depth is None or frame.view != v:
+            st.res.warnings.append(f"{src}: view {v} has no depth channel of its own ({v}.Z); copied unfogged")
+            continue
+        other = Staged(job, res=st.res)
+        _clean(other, frame, frame.depth, f"{src} (view {v}, Z channel)", cfg, first=False)
+        st.others.append(other)
 
 
 def compute(st: Staged, cfg: Config, aovs=(), device=None, timings: Timings | None = None,
             mapped: bool = False) -> Staged:
     """The device run (the only stage that touches OpenCL). The frame's colour is handed to
     the device and dropped here (its memory goes to the device's buffers); mapped: the
-    result is the device's buffer until store() has written it (run.run)."""
+    result is the device's buffer until store() has written it (run.run). Every view of a
+    multi-view frame in turn (each result a copy but the last: the next view reuses the
+    buffers)."""
+    for view in st.others:
+        _compute(view, cfg, aovs, device, timings, False)
+    return _compute(st, cfg, aovs, device, timings, mapped)
+
+
+def _compute(st: Staged, cfg: Config, aovs, device, timings: Timings | None, mapped: bool) -> Staged:
     notes: list = []
     frame, src = st.frame, st.job.input
     colour = frame.colour()         # made once (a copy where the channels are not a run)
@@ -153,7 +200,8 @@ def store(st: Staged, cfg: Config) -> Result:
     job = st.job
     try:
         outputs.write(Path(job.output), st.rgb, st.alpha, st.planes, st.frame, cfg.output.type,
-                      cfg.output.exposure, cfg.output.compression, job.drop_channels)
+                      cfg.output.exposure, cfg.output.compression, job.drop_channels,
+                      others=[(o.frame, o.rgb, o.alpha, o.planes) for o in st.others])
     finally:
         unmap(st.rgb)
     if job.lamps:

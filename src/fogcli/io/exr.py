@@ -52,9 +52,11 @@ def _out_type(in_type: str, override: str) -> str:
     return override if override in ("half", "float") and in_type in _FLOATS else in_type
 
 
-def _part_plan(oiio, i: int, spec, frame, rgb, alpha, aovs: dict, out_type: str, compression: str):
+def _part_plan(oiio, i: int, spec, views: list, out_type: str, compression: str):
     """Part i's output spec and (channels, the type it is read in, channel -> (frame or
-    plane, its channel) that fogcli replaces, the AOV planes added after them)."""
+    plane, its channel) that fogcli replaces, the AOV planes added after them). views:
+    (frame, rgb, alpha, aovs) of each view fogcli made (a single-part stereo file has two
+    on one part)."""
     names = list(spec.channelnames)
     in_fmts = [_fmt(t) for t in spec.channelformats] if len(spec.channelformats) else [_fmt(spec.format)] * len(names)
     o = oiio.ImageSpec(spec)
@@ -63,7 +65,9 @@ def _part_plan(oiio, i: int, spec, frame, rgb, alpha, aovs: dict, out_type: str,
     o.tile_width = o.tile_height = o.tile_depth = 0
     replace: dict[int, tuple] = {}      # channel -> (frame or plane, its channel)
     extra_names, extra_planes = [], []
-    if i == frame.part:
+    for frame, rgb, alpha, aovs in views:
+        if i != frame.part:
+            continue
         for c, name in enumerate(frame.rgb_names):
             replace.setdefault(names.index(name), (rgb, c))
         if frame.alpha_name is not None and alpha is not None:
@@ -87,10 +91,13 @@ def _part_plan(oiio, i: int, spec, frame, rgb, alpha, aovs: dict, out_type: str,
     return o, (len(names), read_fmt, replace, extra_planes)
 
 
-def _kept_columns(frame, i: int, spec, nch: int, read_fmt: str, replace: dict):
+def _kept_columns(views: list, i: int, spec, nch: int, read_fmt: str, replace: dict):
     """(the channels the frame kept of part i, or None to read them again; the column of the
-    strips each channel of the part is in: of the kept ones, only those not replaced)."""
-    kept = frame.pixels if i == frame.part and read_fmt == "float" else None
+    strips each channel of the part is in: of the kept ones, only those not replaced). Two
+    views on the part: each kept only its own, read again."""
+    on = [v[0] for v in views if v[0].part == i]
+    frame = on[0] if len(on) == 1 else None
+    kept = frame.pixels if frame is not None and read_fmt == "float" else None
     if kept is not None and kept.shape != (spec.height, spec.width, len(frame.kept_channels)):
         kept = None
     if kept is not None:
@@ -102,11 +109,13 @@ def _kept_columns(frame, i: int, spec, nch: int, read_fmt: str, replace: dict):
     return kept, col
 
 
-def write_passthrough(path: Path, tmp: str, frame, rgb: np.ndarray, alpha: np.ndarray | None,
-                      aovs: dict, out_type: str, compression: str) -> None:
-    """Write `tmp` (renamed to `path` by the caller): the input EXR with the processed
-    part's colour (and alpha) replaced and the AOVs added to it."""
+def write_passthrough(path: Path, tmp: str, views: list, out_type: str, compression: str) -> None:
+    """Write `tmp` (renamed to `path` by the caller): the input EXR with each processed
+    view's colour (and alpha) replaced and its AOVs added to its part. views: (frame, rgb
+    (h, w, 3), alpha or None, aovs) of each, the first the frame the file is named by."""
     import OpenImageIO as oiio
+
+    frame = views[0][0]
 
     inp = oiio.ImageInput.open(str(frame.path))
     if inp is None:
@@ -119,7 +128,7 @@ def write_passthrough(path: Path, tmp: str, frame, rgb: np.ndarray, alpha: np.nd
             i += 1
         outs, plans = [], []
         for i, spec in enumerate(specs):
-            o, plan = _part_plan(oiio, i, spec, frame, rgb, alpha, aovs, out_type, compression)
+            o, plan = _part_plan(oiio, i, spec, views, out_type, compression)
             outs.append(o)
             plans.append(plan)
         out = oiio.ImageOutput.create(tmp)
@@ -133,7 +142,7 @@ def write_passthrough(path: Path, tmp: str, frame, rgb: np.ndarray, alpha: np.nd
                 ok = ok and out.open(tmp, o, "AppendSubimage")
             if not ok:
                 break
-            kept, col = _kept_columns(frame, i, spec, nch, read_fmt, replace)
+            kept, col = _kept_columns(views, i, spec, nch, read_fmt, replace)
             # all half: handed over as half (converted faster here than by the writer)
             as_half = all(str(f) == "half" for f in o.channelformats)
             for y0, y1, px in _strip_reader(inp, i, spec, nch, read_fmt, kept):

@@ -47,6 +47,7 @@ class Frame:
     rgb_names: tuple = ()           # the part's channel names read as R, G, B
     alpha_name: str | None = None
     view_prefix: str = ""           # "right." when a non-default view of a single-part file
+    view: str = ""                  # the view read (multi-view EXR), else ""
     pixel_type: str = "float"       # the colour channels' type in the file (half, float, uint8...)
     # the part's channels that fogcli does not replace (kept_channels, in the part's order) as
     # read (float16 where all are half, else float32; exact for half and float files of up to
@@ -229,12 +230,15 @@ def _parts(inp) -> list:
     return out
 
 
+def _multiview(spec) -> list[str]:
+    views = spec.getattribute("multiView")
+    return [str(v) for v in views] if views is not None and not isinstance(views, str) else ([views] if views else [])
+
+
 def _view_channels(names: list[str], spec, view: str | None, path: Path) -> list[int]:
     """Channels of one view of a single-part multi-view EXR: the default (first) view's are
     unprefixed, every other view's carry the view name as their first component."""
-    views = spec.getattribute("multiView")
-    views = [str(v) for v in views] if views is not None and not isinstance(views, str) else (
-        [views] if views else [])
+    views = _multiview(spec)
     if not views:
         if view:
             raise UserError(f"{path}: --view {view}: the file has no views")
@@ -397,13 +401,32 @@ def read_image(path: str | Path, layer: str | None = None, view: str | None = No
     replaced = {names.index(orig[i]) for i in rgb_idx} | ({names.index(orig[a_idx])} if a_idx is not None else set())
     kept = tuple(c for c in range(len(names)) if c not in replaced)
     prefix = view + "." if (len(parts) == 1 and view and any(n.startswith(view + ".") for n in names)) else ""
+    read_view = (view or (_multiview(spec) or [""])[0]) if len(parts) == 1 else parts[sub][3]
     return Frame(path, rgb, alpha, depth, (spec.x, spec.y),
                  (spec.full_x, spec.full_y, spec.full_width, spec.full_height), attributes, is_exr,
                  part=sub, rgb_names=tuple(orig[i] for i in rgb_idx),
-                 alpha_name=orig[a_idx] if a_idx is not None else None, view_prefix=prefix,
+                 alpha_name=orig[a_idx] if a_idx is not None else None, view_prefix=prefix, view=read_view,
                  pixel_type=formats[names.index(orig[rgb_idx[0]])],
                  pixels=np.ascontiguousarray(whole[:, :, list(kept)]) if keep_all else None, kept_channels=kept,
                  source=whole if rgb is None else None, rgb_cols=rgb_cols)
+
+
+@_decoding
+def views(path: str | Path) -> list[str]:
+    """The views of a multi-view EXR (single-part: its multiView list, the default view
+    first; multi-part: the parts' `view` attributes in part order); [] for any other file."""
+    if (path := Path(path)).suffix.lower() in RAW_EXT | {".npy"}:
+        return []
+    inp = _open(path)
+    try:
+        if inp.format_name() != "openexr":
+            return []
+        parts = _parts(inp)
+        if len(parts) == 1:
+            return _multiview(parts[0][1])
+        return list(dict.fromkeys(p[3] for p in parts if p[3]))
+    finally:
+        inp.close()
 
 
 @_decoding

@@ -158,16 +158,18 @@ def write_plane(path: Path, plane: np.ndarray, channel: str) -> None:
 
 
 def write(path: Path, rgb: np.ndarray, alpha: np.ndarray | None, aovs: dict, frame, out_type: str = "auto",
-          exposure: float = 0.0, compression: str = "auto", drop_channels: bool = False) -> None:
+          exposure: float = 0.0, compression: str = "auto", drop_channels: bool = False, others=()) -> None:
     """rgb (h, w, 3) scene-linear; aovs: channel name -> (h, w) array. An EXR input to an
     EXR output keeps everything fogcli does not produce (exr.write_passthrough) unless
-    drop_channels. out_type auto: the input colour's pixel type where it was half or float
+    drop_channels; others: (frame, rgb, alpha, aovs) of the input's other views, replaced
+    there too. out_type auto: the input colour's pixel type where it was half or float
     (EXR), else float; compression auto: the input EXR's, else zip."""
     ext = path.suffix.lower()
     if ext == ".exr" and frame.is_exr and not drop_channels:
         from fogcli.io.exr import write_passthrough
 
-        atomic_write(path, lambda tmp: write_passthrough(path, tmp, frame, rgb, alpha, aovs, out_type, compression))
+        views = [(frame, rgb, alpha, aovs), *others]
+        atomic_write(path, lambda tmp: write_passthrough(path, tmp, views, out_type, compression))
     elif ext in LINEAR_EXT:
         _write_linear(path, rgb, alpha, aovs, frame, out_type, compression)
     else:
