@@ -69,7 +69,8 @@ def test_windows_alpha_metadata_and_half(tmp_path):
     write_img(p, data, ["R", "G", "B", "A", "Z"], window=(5, 7), display=(0, 0, 64, 48),
               attrs=[("studio:shot", "sh010"), ("Copyright", "vfx")])
     out = tmp_path / "win_out.exr"
-    code, text, _ = run("apply", p, "-o", out, "--set", "output.type=half", "--set", "camera.empty_depth=0")
+    code, text, _ = run("apply", p, "-o", out, "--set", "output.type=half", "--set", "camera.empty_depth=0",
+                        "--keep-data-window")      # tests/test_data_window.py: the grown window
     assert code == 0, text
     spec, px = read(out)
     assert (spec.x, spec.y, spec.width, spec.height) == (5, 7, w, h)
@@ -81,7 +82,7 @@ def test_windows_alpha_metadata_and_half(tmp_path):
     np.testing.assert_allclose(a, data[:, :, 3], atol=1e-3)    # nothing in front of the plate; half
     assert spec.getattribute("compression") == "zip"
     out2 = tmp_path / "piz.exr"
-    assert run("apply", p, "-o", out2, "--set", "output.compression=piz")[0] == 0
+    assert run("apply", p, "-o", out2, "--set", "output.compression=piz", "--keep-data-window")[0] == 0
     spec2, px2 = read(out2)
     assert spec2.getattribute("compression") == "piz"
     np.testing.assert_allclose(px2[:, :, :3], read(tmp_path / "win_out.exr")[1][:, :, :3], atol=2e-2)

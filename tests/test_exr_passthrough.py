@@ -74,30 +74,39 @@ def stereo(tmp_path):
     return p
 
 
-@pytest.mark.parametrize("view", [None, "left", "right"])
-def test_stereo_single_part_keeps_every_channel_and_view(stereo, tmp_path, view):
+def _inside(a, so, si):
+    """Of an output plane, the pixels of the input's data window."""
+    return a[si.y - so.y:si.y - so.y + si.height, si.x - so.x:si.x - so.x + si.width]
+
+
+@pytest.mark.parametrize("view,keep", [(None, False), (None, True), ("left", True), ("right", True)])
+def test_stereo_single_part_keeps_every_channel_and_view(stereo, tmp_path, view, keep):
+    """Every channel kept; the data window grown to the display window (zeros where the
+    file had none) unless --keep-data-window."""
     out = tmp_path / "out.exr"
-    args = ["apply", stereo, "-o", out] + (["--view", view] if view else [])
+    args = ["apply", stereo, "-o", out] + (["--view", view] if view else []) + (["--keep-data-window"] if keep else [])
     code, text, _ = run(*args)
     assert code == 0, text
     (si, ci), = _read_all(stereo)
     (so, co), = _read_all(out)
     assert sorted(so.channelnames) == sorted(si.channelnames) and len(co) == 19
     assert _formats(so) == _formats(si)                           # half stays half, uint stays uint
-    assert (so.x, so.y, so.width, so.height) == (si.x, si.y, si.width, si.height)
+    assert (so.x, so.y, so.width, so.height) == ((si.x, si.y, si.width, si.height) if keep else (0, 0, 80, 50))
     assert (so.full_x, so.full_y, so.full_width, so.full_height) == (0, 0, 80, 50)
     assert tuple(so.getattribute("multiView")) == ("left", "right")
     assert so.getattribute("compression") == "piz" and so.getattribute("studio:shot") == "bb010"
     # by default every view is fogged; --view one of them
     changed = {p + c for p in {None: ("", "right."), "left": ("",), "right": ("right.",)}[view] for c in "RGB"}
     for n in ci:
+        inside = _inside(co[n], so, si)
         if n in changed:
-            assert np.abs(co[n] - ci[n]).max() > 1e-3, n         # fogged
+            assert np.abs(inside - ci[n]).max() > 1e-3, n         # fogged
         else:
-            np.testing.assert_array_equal(co[n], ci[n], err_msg=n)  # copied bit for bit
+            np.testing.assert_array_equal(inside, ci[n], err_msg=n)  # copied bit for bit
+            assert np.count_nonzero(co[n]) == np.count_nonzero(ci[n]), n     # nothing where it had no data
     mask = NAMES.index("whitebarmask.mask")
     raw = [_uint_channel(f, "whitebarmask.mask") for f in (stereo, out)]
-    np.testing.assert_array_equal(raw[0], raw[1])                  # ids beyond float32's integers survive
+    np.testing.assert_array_equal(raw[0], _inside(raw[1], so, si))     # ids beyond float32's integers survive
     assert raw[0].min() > 2 ** 24 and mask >= 0
 
 
@@ -131,7 +140,7 @@ def test_a_view_without_depth_is_named(tmp_path):
     assert out.open(str(p), spec) and out.write_image(_data(names))
     out.close()
     o = tmp_path / "o.exr"
-    code, text, _ = run("apply", p, "-o", o)
+    code, text, _ = run("apply", p, "-o", o, "--keep-data-window")
     assert code == 0, text
     assert "view right has no depth channel of its own (right.Z); copied unfogged" in text
     (_, ci), = _read_all(p)
@@ -177,7 +186,8 @@ def test_multipart_views_and_tiles(tmp_path, view):
         assert out.write_image(d)
     out.close()
     o = tmp_path / "o.exr"
-    code, text, _ = run("apply", p, *(["--view", view] if view else []), "-o", o, "--aov", "transmittance")
+    code, text, _ = run("apply", p, *(["--view", view] if view else []), "-o", o, "--aov", "transmittance",
+                        "--keep-data-window")
     assert code == 0, text
     pin, pout = _read_all(p), _read_all(o)
     fogged = ("left", "right") if view is None else (view,)
@@ -204,7 +214,7 @@ def test_drop_channels_and_output_type(stereo, tmp_path):
     assert list(so.channelnames) == ["R", "G", "B", "A"]
     assert set(_formats(so).values()) == {"float"} and so.getattribute("compression") == "zips"
     assert so.getattribute("multiView") is None
-    assert (so.x, so.y) == (11, 4)
+    assert (so.x, so.y, so.width, so.height) == (0, 0, 80, 50)          # grown to the display window
     o2 = tmp_path / "o2.exr"
     code, text, _ = run("apply", stereo, "-o", o2, "--set", "output.type=float")
     assert code == 0, text

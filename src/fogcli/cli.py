@@ -121,10 +121,18 @@ def medium_options(fn):
         click.option("--aov", "aovs", multiple=True, type=click.Choice(AOV_NAMES), help="Extra EXR channels."),
         click.option("--drop-channels", is_flag=True,
                      help="EXR: write only R, G, B, (A) and the AOVs, not the input's other channels, parts and views."),
+        click.option("--keep-data-window", is_flag=True,
+                     help="EXR: the output's data window is the input's (default: grown to the display window, "
+                     "with the light scattered past it); output.data_window=keep."),
         click.option("--device", metavar="SPEC", help="OpenCL device (P:D, cpu, gpu or a name); env FOGCLI_DEVICE."),
     ]):
         fn = opt(fn)
     return fn
+
+
+def _window_set(sets: tuple, keep: bool) -> tuple:
+    """--keep-data-window is output.data_window=keep (a key: a config or a jobs file's line can say it)."""
+    return (*sets, "output.data_window=keep") if keep else sets
 
 
 @main.command()
@@ -137,8 +145,8 @@ def medium_options(fn):
               "(.json or .yaml) to reuse with --config.")
 @click.option("--timings", is_flag=True, help="Print a JSON line of stage times on stderr.")
 @guarded
-def apply(input, depth_path, medium, config_file, camera_file, sets, layer, view, aovs, drop_channels, device,
-          output, save_depth, lamps, timings):
+def apply(input, depth_path, medium, config_file, camera_file, sets, layer, view, aovs, drop_channels,
+          keep_data_window, device, output, save_depth, lamps, timings):
     """Apply a medium to INPUT."""
     from fogcli.io import outputs
     from fogcli.frame.job import Job, run_job
@@ -147,7 +155,7 @@ def apply(input, depth_path, medium, config_file, camera_file, sets, layer, view
     from fogcli.device.run import kernel_ms
 
     start = time.perf_counter()
-    cfg = assemble(medium, config_file, sets, camera_file)
+    cfg = assemble(medium, config_file, _window_set(sets, keep_data_window), camera_file)
     src = Path(input)
     out_path = Path(output) if output else src.with_name(f"{src.stem}.fog{outputs.default_ext(src)}")
     # no output replaces any file given as input, config and camera files included (run_job)
@@ -189,10 +197,13 @@ def apply(input, depth_path, medium, config_file, camera_file, sets, layer, view
 @click.option("-q", "--quiet", is_flag=True, help="No progress output.")
 @guarded
 def batch(input_dir, output_dir, jobs_file, depth_pattern, medium, config_file, camera_file, sets, layer, view, aovs,
-          drop_channels, device, fmt, recursive, jobs, skip_existing, scheduler, report, save_depth, quiet):
+          drop_channels, keep_data_window, device, fmt, recursive, jobs, skip_existing, scheduler, report, save_depth,
+          quiet):
     """Apply a medium to every image of INPUT_DIR, writing OUTPUT_DIR/<stem>.<format>; or to
     every line of --jobs-file. Exit 0 when all were written (or skipped), 3 when some failed."""
     from fogcli.batch.progress import describe_failure
+
+    sets = _window_set(sets, keep_data_window)
 
     given = [Path(p) for p in (config_file, camera_file, medium) if p and Path(p).is_file()]
     if jobs_file is not None:

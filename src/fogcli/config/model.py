@@ -398,6 +398,10 @@ class Output(_Model):
         "auto", description="EXR type of what fogcli writes: auto (the input colour's; float otherwise); copied channels keep theirs")
     compression: Literal["auto", "none", "rle", "zip", "zips", "piz", "pxr24", "b44", "b44a", "dwaa", "dwab"] = Field(
         "auto", description="EXR compression: auto (the input's; zip otherwise); pxr24, b44, dwaa, dwab are lossy")
+    data_window: Literal["grow", "keep"] = Field(
+        "grow", description="an EXR whose data window is not its display window: grow: the output's is both windows' "
+        "union (the light scattered past the data window kept; the camera is the display window's in either case) | "
+        "keep: the input's (--keep-data-window)")
 
 
 _SIZE_UNITS = {"": 1, "b": 1, "k": 1e3, "kb": 1e3, "kib": 2**10, "m": 1e6, "mb": 1e6, "mib": 2**20,

@@ -12,6 +12,7 @@ from fogcli.io import depth as depth_mod
 from fogcli.io import images as inputs
 from fogcli.device import memory
 from fogcli.io import outputs
+from fogcli.io import windows
 from fogcli.config.model import Config
 from fogcli.physics.luminance import luminance
 from fogcli.errors import UserError
@@ -101,11 +102,12 @@ def load(job: Job, cfg: Config, aovs=()) -> Staged:
     if job.depth:
         raw, dsrc = inputs.read_depth(job.depth), job.depth
     elif frame.depth is not None:
-        raw, dsrc = frame.depth, f"{src} (Z channel)"
+        raw, dsrc = None, f"{src} (Z channel)"
     else:
         raise UserError(f"{src}: no depth channel (Z, *.Z or *depth); pass --depth FILE")
+    frame, raw = _grow(job, cfg, aovs, frame, raw)
     res.io_ms += (time.perf_counter() - t0) * 1e3
-    _clean(st, frame, raw, dsrc, cfg)
+    _clean(st, frame, frame.depth if raw is None else raw, dsrc, cfg)
     if job.view is None and frame.view:
         _other_views(st, cfg, aovs)
     return st
@@ -114,6 +116,16 @@ def load(job: Job, cfg: Config, aovs=()) -> Staged:
 def _read(job: Job, cfg: Config, aovs, view: str | None):
     return inputs.read_image(Path(job.input), job.layer, view,
                              admit=lambda *size: memory.admit(*size, cfg=cfg, aovs=aovs))
+
+
+def _grow(job: Job, cfg: Config, aovs, frame, raw):
+    """An EXR on the union of its data and display windows (io/windows.py), refused before
+    it is made when that would not fit."""
+    box = windows.union(frame)
+    if box is None:
+        return frame, raw
+    memory.admit(job.input, box[2], box[3], 4, 4, cfg=cfg, aovs=aovs)
+    return windows.grow(frame, raw)
 
 
 def _clean(st: Staged, frame, raw, dsrc, cfg: Config, first: bool = True) -> None:
@@ -150,7 +162,7 @@ def _other_views(st: Staged, cfg: Config, aovs) -> None:
         return
     for v in names:
         t0 = time.perf_counter()
-        frame = _read(job, cfg, aovs, v)
+        frame, _ = _grow(job, cfg, aovs, _read(job, cfg, aovs, v), None)
         st.res.io_ms += (time.perf_counter() - t0) * 1e3
         if frame.depth is None or frame.view != v:
             st.res.warnings.append(f"{src}: view {v} has no depth channel of its own ({v}.Z); copied unfogged")
@@ -199,9 +211,11 @@ def store(st: Staged, cfg: Config) -> Result:
     t0 = time.perf_counter()
     job = st.job
     try:
-        outputs.write(Path(job.output), st.rgb, st.alpha, st.planes, st.frame, cfg.output.type,
+        keep = cfg.output.data_window == "keep"
+        frame, rgb, alpha, planes = _as_written(st, keep)
+        outputs.write(Path(job.output), rgb, alpha, planes, frame, cfg.output.type,
                       cfg.output.exposure, cfg.output.compression, job.drop_channels,
-                      others=[(o.frame, o.rgb, o.alpha, o.planes) for o in st.others])
+                      others=[_as_written(o, keep) for o in st.others])
     finally:
         unmap(st.rgb)
     if job.lamps:
@@ -209,6 +223,17 @@ def store(st: Staged, cfg: Config) -> Result:
     st.res.io_ms += (time.perf_counter() - t0) * 1e3
     st.res.pixels = st.rgb.shape[0] * st.rgb.shape[1]
     return st.res
+
+
+def _as_written(st: Staged, keep: bool) -> tuple:
+    """(frame, rgb, alpha, AOV planes) as the output holds them: on the data window the
+    frame was read with when keep, without the padding's alpha where the file had none."""
+    f = st.frame
+    alpha = None if f.alpha_added else st.alpha
+    if not (keep and f.read_window):
+        return f, st.rgb, alpha, st.planes
+    return (windows.as_read(f), windows.crop(st.rgb, f), windows.crop(alpha, f),
+            {k: windows.crop(p, f) for k, p in st.planes.items()})
 
 
 def write_lamps(path: Path, lamps: list) -> None:

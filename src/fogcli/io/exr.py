@@ -25,7 +25,27 @@ def _fmt(t) -> str:
     return str(t)
 
 
-def _strip_reader(inp, sub: int, spec, nch: int, fmt: str, kept: np.ndarray | None = None):
+def _strip_reader(inp, sub: int, spec, nch: int, fmt: str, kept: np.ndarray | None = None, out=None):
+    """Yields (y0, y1, pixels (y1-y0, width, nch)) over the output window `out` (a spec;
+    None: the part's data window), zero where the part has no data (io/windows.py)."""
+    strips = _strips(inp, sub, spec, nch, fmt, kept)
+    if out is None or (out.x, out.y, out.width, out.height) == (spec.x, spec.y, spec.width, spec.height):
+        yield from strips
+        return
+    x0, end = spec.x - out.x, spec.y + spec.height
+    zeros = lambda y0, y1, dt: np.zeros((y1 - y0, out.width, nch), dt)  # noqa: E731
+    dt = np.float32 if fmt == "float" else np.float64
+    for y0 in range(out.y, spec.y, STRIP):
+        yield y0, min(y0 + STRIP, spec.y), zeros(y0, min(y0 + STRIP, spec.y), dt)
+    for y0, y1, px in strips:
+        full = zeros(y0, y1, px.dtype)
+        full[:, x0:x0 + spec.width] = px
+        yield y0, y1, full
+    for y0 in range(end, out.y + out.height, STRIP):
+        yield y0, min(y0 + STRIP, out.y + out.height), zeros(y0, min(y0 + STRIP, out.y + out.height), dt)
+
+
+def _strips(inp, sub: int, spec, nch: int, fmt: str, kept: np.ndarray | None = None):
     """Yields (y0, y1, pixels (y1-y0, w, nch)) over the part's data window; tile rows for
     tiled files (OpenEXR refuses scanline access to them). kept: the part's pixels as the
     frame read them (Frame.pixels), sliced instead of decoded again."""
@@ -63,6 +83,9 @@ def _part_plan(oiio, i: int, spec, views: list, out_type: str, compression: str)
     for a in _ENCODING:
         o.erase_attribute(a)
     o.tile_width = o.tile_height = o.tile_depth = 0
+    grown = [(f, rgb) for f, rgb, *_ in views if f.part == i and f.read_window]
+    if grown:               # grown to the display window (io/windows.py)
+        (o.x, o.y), (o.height, o.width) = grown[0][0].window, grown[0][1].shape[:2]
     replace: dict[int, tuple] = {}      # channel -> (frame or plane, its channel)
     extra_names, extra_planes = [], []
     for frame, rgb, alpha, aovs in views:
@@ -145,8 +168,8 @@ def write_passthrough(path: Path, tmp: str, views: list, out_type: str, compress
             kept, col = _kept_columns(views, i, spec, nch, read_fmt, replace)
             # all half: handed over as half (converted faster here than by the writer)
             as_half = all(str(f) == "half" for f in o.channelformats)
-            for y0, y1, px in _strip_reader(inp, i, spec, nch, read_fmt, kept):
-                r0, r1 = y0 - spec.y, y1 - spec.y
+            for y0, y1, px in _strip_reader(inp, i, spec, nch, read_fmt, kept, o):
+                r0, r1 = y0 - o.y, y1 - o.y
                 want = np.float16 if as_half else (np.float32 if px.dtype == np.float16 else px.dtype)
                 if replace or extra:
                     # the strip in its written type, in one pass (OpenCV): the part's own

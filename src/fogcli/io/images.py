@@ -48,6 +48,8 @@ class Frame:
     alpha_name: str | None = None
     view_prefix: str = ""           # "right." when a non-default view of a single-part file
     view: str = ""                  # the view read (multi-view EXR), else ""
+    read_window: tuple = ()         # (x, y, w, h) as read, when grown to the display window (io/windows.py)
+    alpha_added: bool = False       # the alpha is the padding's (the file has none): not written
     pixel_type: str = "float"       # the colour channels' type in the file (half, float, uint8...)
     # the part's channels that fogcli does not replace (kept_channels, in the part's order) as
     # read (float16 where all are half, else float32; exact for half and float files of up to
@@ -419,12 +421,8 @@ def views(path: str | Path) -> list[str]:
         return []
     inp = _open(path)
     try:
-        if inp.format_name() != "openexr":
-            return []
-        parts = _parts(inp)
-        if len(parts) == 1:
-            return _multiview(parts[0][1])
-        return list(dict.fromkeys(p[3] for p in parts if p[3]))
+        parts = _parts(inp) if inp.format_name() == "openexr" else []
+        return _multiview(parts[0][1]) if len(parts) == 1 else list(dict.fromkeys(p[3] for p in parts if p[3]))
     finally:
         inp.close()
 
