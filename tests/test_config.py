@@ -214,3 +214,13 @@ def test_config_show_round_trips(tmp_path):
     assert again == assemble("sea", None, ("camera.empty_depth=inf",)).model_copy(
         update={"render": again.render}) and again.camera.empty_depth == float("inf")
     assert "c: 0." in text and "epsilon: 1.5" in text          # auto resolved
+    code, bare, _ = run("config", "--medium", "sea", "--set", "camera.empty_depth=inf")
+    assert code == 0 and bare == text                           # --show is what the command does (issue 41)
+
+
+@pytest.mark.parametrize("item", ["medium.absorption=", "medium.absorption= ", "camera.fov="])
+def test_an_empty_set_value_is_refused(item):
+    """Issue 41: `--set medium.absorption=` was taken as null, and the medium became empty."""
+    from helpers import assert_one_line_error, run
+
+    assert_one_line_error(*run("config", "--set", item)[:2], "empty value; expected a YAML value (null to unset the key)")

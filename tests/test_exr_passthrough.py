@@ -211,10 +211,19 @@ def test_drop_channels_and_output_type(stereo, tmp_path):
                         "--set", "output.compression=zips")
     assert code == 0, text
     (so, co), = _read_all(o)
-    assert list(so.channelnames) == ["R", "G", "B", "A"]
+    assert list(so.channelnames) == ["R", "G", "B", "A", "Z"]             # the input's depth kept (issue 41)
     assert set(_formats(so).values()) == {"float"} and so.getattribute("compression") == "zips"
     assert so.getattribute("multiView") is None
     assert (so.x, so.y, so.width, so.height) == (0, 0, 80, 50)          # grown to the display window
+    (si, ci), = _read_all(stereo)
+    np.testing.assert_array_equal(_inside(co["Z"], so, si), ci["Z"])
+    assert np.count_nonzero(co["Z"]) == np.count_nonzero(ci["Z"])
+    o3 = tmp_path / "o3.exr"
+    code, text, _ = run("apply", stereo, "-o", o3, "--drop-channels", "--set", "output.type=half", "--keep-data-window")
+    assert code == 0, text
+    (s3, c3), = _read_all(o3)
+    assert _formats(s3)["Z"] == "float" and _formats(s3)["R"] == "half"   # depth never in half
+    np.testing.assert_array_equal(c3["Z"], ci["Z"])
     o2 = tmp_path / "o2.exr"
     code, text, _ = run("apply", stereo, "-o", o2, "--set", "output.type=float")
     assert code == 0, text

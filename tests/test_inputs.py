@@ -206,3 +206,16 @@ def test_png_colour_space_metadata(tmp_path, cs, decode):
     code = np.round(v * 65535) / 65535
     want = {"srgb": srgb_to_linear(code), "linear": code, "gamma": code ** 2.2}[decode]
     np.testing.assert_allclose(got, want, rtol=1e-5, atol=1e-6)
+
+
+@pytest.mark.parametrize("names", [["N.X"], ["Normal.Z"], ["P.X", "P.Z"], ["N.X", "N.Y", "N.Z"], ["P.Z", "N.Z"]])
+def test_a_vector_pass_is_never_taken_as_depth(tmp_path, names):
+    """Issue 41: a depth file holding only a normal or position pass was read as depth (one
+    channel: that channel; two: grey + alpha)."""
+    from helpers import assert_one_line_error, run
+
+    img, d = tmp_path / "rgb.exr", tmp_path / "d.exr"
+    write_img(img, np.full((8, 9, 3), 0.5), ["R", "G", "B"])
+    write_img(d, np.random.default_rng(0).uniform(1, 20, (8, 9, len(names))), names)
+    assert_one_line_error(*run("apply", img, "--depth", d, "-o", tmp_path / "o.exr")[:2],
+                          "is a vector pass (normals, positions), not depth")

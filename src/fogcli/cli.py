@@ -120,7 +120,7 @@ def medium_options(fn):
         click.option("--view", metavar="NAME", help="EXR view to fog (multi-view files; default: every view, each with its own depth)."),
         click.option("--aov", "aovs", multiple=True, type=click.Choice(AOV_NAMES), help="Extra EXR channels."),
         click.option("--drop-channels", is_flag=True,
-                     help="EXR: write only R, G, B, (A) and the AOVs, not the input's other channels, parts and views."),
+                     help="EXR: write only R, G, B, (A), the input's depth (Z) and the AOVs, not its other channels, parts and views."),
         click.option("--keep-data-window", is_flag=True,
                      help="EXR: the output's data window is the input's (default: grown to the display window, "
                      "with the light scattered past it); output.data_window=keep."),
@@ -291,7 +291,8 @@ def media():
 
 @main.command("config")
 @click.argument("files", nargs=-1)
-@click.option("--show", is_flag=True, required=True, help="Print the merged, resolved config as YAML.")
+@click.option("--show", is_flag=True, help="Print the merged, resolved config as YAML (what the command does; kept "
+              "for scripts that say it).")
 @click.option("--medium", metavar="NAME|FILE", help="Medium preset or YAML file merged first. Default: fog.")
 @click.option("--camera", "camera_file", metavar="FILE", help="Pinhole intrinsics JSON merged after the files.")
 @click.option("--set", "sets", multiple=True, metavar="KEY=VALUE", help="Override one dotted key.")

@@ -148,9 +148,11 @@ def parse_set(item: str, locs: dict) -> dict:
         raise UserError(f"--set {item[:60]!r}: empty key part")
     if len(item) > 10_000:
         raise UserError(f"--set {key[:60]}: value of {len(value)} characters; expected a short YAML value")
+    if not value.strip():       # a typo or an unset shell variable, not a wish to unset the key
+        raise UserError(f"--set {key.strip()}=: empty value; expected a YAML value (null to unset the key)")
     try:
         _screen(value, f"--set {key.strip()}")
-        val = yaml.load(value, Loader=_Loader) if value.strip() else None
+        val = yaml.load(value, Loader=_Loader)
     except (yaml.YAMLError, ValueError):   # ValueError: an integer of more than 4300 digits
         raise UserError(f"--set {key.strip()}: value is not valid YAML") from None
     out: dict = {}

@@ -142,7 +142,8 @@ def _clean(st: Staged, frame, raw, dsrc, cfg: Config, first: bool = True) -> Non
                             "or negative) filled edge-aware from neighbours")
     if job.save_depth and first:        # of a multi-view file, the first view's
         save_depth(Path(job.save_depth), clean)
-    frame.depth = None           # the raw values are not read again (an EXR output copies Z from the file)
+    if not job.drop_channels:    # the raw values are not read again (an EXR output copies Z from the file)
+        frame.depth = None
     st.frame, st.depth = frame, clean
 
 

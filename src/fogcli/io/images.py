@@ -3,18 +3,15 @@ must keep of it (metadata, data and display windows). Everything goes through
 OpenImageIO except NPY depth. Every failure is a UserError naming the file."""
 from __future__ import annotations
 
-import contextlib
 import functools
-import os
 import re
-import sys
-import tempfile
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
 from fogcli.io import pixels
+from fogcli.io.quiet import quiet_stderr
 from fogcli.io.colour import srgb_to_linear
 from fogcli.errors import UserError
 from fogcli.physics.limits import check_radiance
@@ -254,31 +251,12 @@ def _view_channels(names: list[str], spec, view: str | None, path: Path) -> list
     return [i for i, n in enumerate(names) if n.startswith(view + ".")]
 
 
-@contextlib.contextmanager
-def _quiet_stderr():
-    """libpng, libtiff and libjpeg print their complaints on stderr themselves (fd 2), beside
-    the one line fogcli reports: catch them while a file is decoded."""
-    try:
-        sys.stderr.flush()
-        saved = os.dup(2)
-    except (OSError, ValueError):      # no fd 2 (embedded): nothing to protect
-        yield
-        return
-    with tempfile.TemporaryFile() as sink:
-        os.dup2(sink.fileno(), 2)
-        try:
-            yield
-        finally:
-            os.dup2(saved, 2)
-            os.close(saved)
-
-
 def _decoding(fn):
     """One UserError naming the file for whatever a corrupt file makes a decoder raise
     (undecodable attribute strings, library exceptions), with the libraries kept quiet."""
     @functools.wraps(fn)
     def wrapper(path, *a, **kw):
-        with _quiet_stderr():
+        with quiet_stderr():
             try:
                 return fn(path, *a, **kw)
             except (UserError, MemoryError):
@@ -484,8 +462,12 @@ def read_depth(path: str | Path) -> np.ndarray:
     names = list(spec.channelnames)
     inp.close()
     named = [i for i, n in enumerate(names) if _is_depth_name(n)]
+    vector = [n for n in names if "." in n and n.rsplit(".", 1)[1].lower() in ("x", "y", "z", "u", "v", "w")]
     if named:
         ch = named[0]
+    elif vector:        # a normal, position or motion pass is never a depth, whatever its channel count
+        raise UserError(f"{path}: {', '.join(names)} is a vector pass (normals, positions), not depth; expected Z, "
+                        "*.Z, *depth or a single channel")
     elif spec.nchannels == 1:
         ch = 0
     elif spec.nchannels == 2 or (spec.nchannels >= 3 and np.array_equal(px[:, :, 0], px[:, :, 1])

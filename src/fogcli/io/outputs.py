@@ -123,19 +123,22 @@ def output_is_whole(path: Path) -> bool:
     """An output of a previous run that can be read back entirely (--skip-existing)."""
     import OpenImageIO as oiio
 
+    from fogcli.io.quiet import quiet_stderr
+
     if not path.is_file() or path.stat().st_size == 0:
         return False
-    inp = oiio.ImageInput.open(str(path))
-    if inp is None:
-        oiio.geterror()
-        return False
-    try:
-        spec = inp.spec()
-        px = inp.read_image(0, 0, 0, spec.nchannels, "float")
-        ok = px is not None and not (hasattr(inp, "has_error") and inp.has_error)
-    except Exception:
-        ok = False
-    inp.close()
+    with quiet_stderr():        # libpng prints "IDAT: Read error" on a truncated file itself
+        inp = oiio.ImageInput.open(str(path))
+        if inp is None:
+            oiio.geterror()
+            return False
+        try:
+            spec = inp.spec()
+            px = inp.read_image(0, 0, 0, spec.nchannels, "float")
+            ok = px is not None and not (hasattr(inp, "has_error") and inp.has_error)
+        except Exception:
+            ok = False
+        inp.close()
     return ok
 
 
@@ -192,12 +195,19 @@ def _write_linear(path: Path, rgb: np.ndarray, alpha: np.ndarray | None, aovs: d
         for name, plane in aovs.items():
             planes.append(plane)
             names.append(name)
+    # --drop-channels keeps the input EXR's depth (the job leaves its raw values in the frame)
+    z = ext == ".exr" and frame.is_exr and frame.depth is not None and frame.depth.shape == (h, w)
+    if z:
+        planes.append(frame.depth)
+        names.append("Z")
     data = np.ascontiguousarray(np.stack(planes, axis=2), dtype=np.float32)
     if out_type == "auto":
         out_type = frame.pixel_type if frame.is_exr and frame.pixel_type in ("half", "float") else "float"
     fmt = out_type if ext == ".exr" else "float"
     spec = oiio.ImageSpec(w, h, data.shape[2], fmt)
     spec.channelnames = tuple(names)
+    if z:       # a depth in half is centimetres off at 20 m
+        spec.channelformats = tuple(oiio.TypeDesc(fmt) for _ in names[:-1]) + (oiio.TypeDesc("float"),)
     if "A" in names:
         spec.alpha_channel = 3
     if ext == ".exr":

@@ -60,10 +60,8 @@ def grow(frame, depth: np.ndarray | None = None):
     at, size = (x - ux, y - uy), (uh, uw)
     alpha = frame.alpha if frame.alpha is not None else np.ones((h, w), np.float32)
 
-    def pad_depth(d):
-        if d is None or d.shape[:2] != (h, w):
-            return d
-        return pad(d, at, size, np.nan if np.issubdtype(d.dtype, np.floating) else 0)
+    def pad_depth(d):       # 0: no measurement, as a file's own padding (alpha 0 makes it empty)
+        return d if d is None or d.shape[:2] != (h, w) else pad(d, at, size)
 
     grown = dataclasses.replace(
         frame, _rgb=pad(frame._rgb, at, size), source=pad(frame.source, at, size), alpha=pad(alpha, at, size),
@@ -86,4 +84,4 @@ def as_read(frame):
     if not frame.read_window:
         return frame
     x, y, _, _ = frame.read_window
-    return dataclasses.replace(frame, window=(x, y), read_window=())
+    return dataclasses.replace(frame, window=(x, y), read_window=(), depth=crop(frame.depth, frame))
