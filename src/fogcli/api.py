@@ -158,9 +158,10 @@ def apply(image: np.ndarray, depth: np.ndarray, config: Config | str | None = No
 
         for n in notes:
             warnings.warn(n, UserWarning, stacklevel=2)
-    from fogcli.frame.job import hidden_warning, mean_luminance
+    from fogcli.frame.job import faint_warning, grid_luminance, hidden_warning
 
-    hidden = hidden_warning(mean_luminance(img), out, cfg, dm)
+    y_in = grid_luminance(img)
+    hidden = hidden_warning(float(y_in.mean()), out, cfg, dm) or faint_warning(y_in, out, cfg, dm)
     if hidden:
         import warnings
 

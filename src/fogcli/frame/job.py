@@ -189,7 +189,8 @@ def _compute(st: Staged, cfg: Config, aovs, device, timings: Timings | None, map
     notes: list = []
     frame, src = st.frame, st.job.input
     colour = frame.colour()         # made once (a copy where the channels are not a run)
-    l_in = mean_luminance(colour)
+    y_in = grid_luminance(colour)
+    l_in = float(y_in.mean())
     try:
         frame_cfg, lamp_pixels = for_image(colour, st.depth, cfg, report=notes, lamps=st.lamps)
         started = start(colour, st.depth, frame_cfg, alpha=frame.alpha, aovs=aovs, device=device,
@@ -201,7 +202,7 @@ def _compute(st: Staged, cfg: Config, aovs, device, timings: Timings | None, map
     frame.rgb, grid, st.depth = None, np.array(depth_grid(st.depth)), None
     st.rgb, st.alpha, st.planes = finish(started, mapped)
     st.res.warnings += [f"{src}: {n}" for n in notes]
-    hidden = hidden_warning(l_in, st.rgb, cfg, grid)
+    hidden = hidden_warning(l_in, st.rgb, cfg, grid) or faint_warning(y_in, st.rgb, cfg, grid)
     if hidden:
         st.res.warnings.append(f"{src}: {hidden}")
     return st
@@ -246,10 +247,41 @@ def write_lamps(path: Path, lamps: list) -> None:
     outputs.atomic_write(path, lambda tmp: Path(tmp).write_text(json.dumps(data, indent=1) + "\n"))
 
 
+def grid_luminance(rgb) -> np.ndarray:
+    """Luminance of a grid of about 256 rows of a frame: what the warnings look at."""
+    step = max(1, rgb.shape[0] // 256)
+    return luminance(rgb[::step, ::step])
+
+
 def mean_luminance(rgb) -> float:
     """Mean luminance of a frame, from a grid of about 256 rows of it."""
-    step = max(1, rgb.shape[0] // 256)
-    return float(luminance(rgb[::step, ::step]).mean())
+    return float(grid_luminance(rgb).mean())
+
+
+FAINT = 0.03        # a frame's mean relative change in luminance below which a medium is hardly seen
+SHOWN = 0.2         # the change the hint's visibility aims at: plainly there, the scene still seen
+
+
+def faint_warning(y_in: np.ndarray, rgb_out, cfg: Config, depth) -> str | None:
+    """One line when the medium changes the frame by less than FAINT (mean |Y_out - Y_in|
+    over mean Y_in, y_in: grid_luminance of the input), with the relative visibility that
+    would change it by about SHOWN (the change grows about as 1 / visibility while thin)."""
+    y_out = grid_luminance(rgb_out)
+    if y_out.shape != y_in.shape or not float(y_in.sum()) > 0:
+        return None
+    change = float(np.abs(y_out - y_in).sum() / y_in.sum())
+    vis = visibility_m(cfg.medium)
+    if change >= FAINT or not change > 0 or not np.isfinite(vis):
+        return None
+    try:
+        med = median_depth(depth, cfg.camera.max_depth)
+    except UserError:
+        return None
+    share = vis * change / SHOWN / med          # the visibility that shows it, in median depths
+    nice = float(f"{share:.1g}") * 100
+    return (f"the medium changes the frame by {change:.1%} (visibility {vis:.3g} m against a median depth of "
+            f"{med:.3g} m): hardly visible; for a visible medium set medium.visibility: {nice:g}% "
+            f"({nice / 100:g} times the median depth)")
 
 
 def hidden_warning(l_in: float, rgb_out, cfg: Config, depth) -> str | None:
