@@ -74,3 +74,18 @@ def test_a_medium_too_thin_to_see_says_so_and_what_would_show_it():
     out, said = _apply(rgb, z, fogcli.make_config("fog", sets=[f"camera.fov={fov}", f"medium.visibility={vis}%"]))
     change = float(np.abs(luminance(out) - luminance(rgb)).mean() / luminance(rgb).mean())
     assert 0.1 < change < 0.4 and not said, (change, said)
+
+
+def test_the_warnings_read_a_half_frame_without_overflow(tmp_path):
+    """A half EXR's colour reaches the warnings as half: their sums overflowed it (numpy's
+    RuntimeWarning printed by every batch of half frames)."""
+    from helpers import write_img
+
+    p = tmp_path / "half.exr"
+    rgb = np.full((300, 300, 3), 40.0, np.float32)
+    write_img(p, np.dstack([rgb, np.full((300, 300), 3.0, np.float32)]), ["R", "G", "B", "Z"], fmt="half")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        code, text, _ = run("apply", p, "-o", tmp_path / "o.exr", "--medium", "haze")
+    assert code == 0, text
+    assert "hardly visible" in text and "changes the frame by 0.0%" not in text, text

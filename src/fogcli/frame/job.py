@@ -248,9 +248,10 @@ def write_lamps(path: Path, lamps: list) -> None:
 
 
 def grid_luminance(rgb) -> np.ndarray:
-    """Luminance of a grid of about 256 rows of a frame: what the warnings look at."""
+    """Luminance of a grid of about 256 rows of a frame: what the warnings look at (float64:
+    a half frame's sum overflows half)."""
     step = max(1, rgb.shape[0] // 256)
-    return luminance(rgb[::step, ::step])
+    return luminance(np.asarray(rgb[::step, ::step], np.float64))
 
 
 def mean_luminance(rgb) -> float:
