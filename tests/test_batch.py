@@ -276,3 +276,25 @@ def test_a_pool_broken_before_a_submit_is_a_crash_not_an_error(monkeypatch):
     rest = [source.get(block=False) for _ in range(3)]     # and each of the others once
     assert [j.input for j in rest] == ["f3.exr", "f4.exr", "f5.exr"]
     assert source.get(block=False) is runners.END
+
+
+def test_jobs_auto_starts_workers_only_where_they_pay():
+    """--jobs auto (issue 41): one process on 2 cores (it keeps both busy; workers were
+    slower there, tools/jobs_auto.py), and on a small batch or a stream anywhere; one
+    worker per 4 cores for a long batch."""
+    from fogcli.batch.worker_count import auto_jobs
+
+    assert auto_jobs(1000, 2_000_000, cores=2) == 1
+    assert auto_jobs(10, 230_400, cores=16) == 1                 # ten small frames: start-up dominates
+    assert auto_jobs(None, 2_000_000, cores=16) == 1             # a stream of unknown length
+    assert auto_jobs(1000, 2_000_000, cores=16) == 4
+    assert auto_jobs(1000, 2_000_000, cores=6) == 1
+    assert auto_jobs(48, 50_000_000, cores=64) == 12             # at least 4 frames a worker
+
+
+def test_jobs_option_takes_auto_or_a_count(tmp_path):
+    from helpers import assert_one_line_error, run
+
+    for bad in ("0", "x", "257", ""):
+        assert_one_line_error(*run("batch", tmp_path, tmp_path / "o", "--jobs", bad)[:2],
+                              "expected auto or a whole number from 1 to 256")

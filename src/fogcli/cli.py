@@ -130,6 +130,19 @@ def medium_options(fn):
     return fn
 
 
+def _jobs(value: str):
+    """--jobs: 'auto' or a whole number of workers, 1 to 256."""
+    if str(value).strip().lower() == "auto":
+        return "auto"
+    try:
+        n = int(str(value).strip())
+    except ValueError:
+        n = 0
+    if not 1 <= n <= 256:
+        raise click.BadParameter(f"expected auto or a whole number from 1 to 256, got {value!r}")
+    return n
+
+
 def _window_set(sets: tuple, keep: bool) -> tuple:
     """--keep-data-window is output.data_window=keep (a key: a config or a jobs file's line can say it)."""
     return (*sets, "output.data_window=keep") if keep else sets
@@ -187,8 +200,9 @@ def apply(input, depth_path, medium, config_file, camera_file, sets, layer, view
 @medium_options
 @click.option("--format", "fmt", metavar="EXT", help="Output format: exr, png, tif, jpg, hdr. Default: the input's (RAW: exr).")
 @click.option("--recursive", is_flag=True, help="Also process sub-folders; outputs keep the folder structure.")
-@click.option("--jobs", type=click.IntRange(1, 256), default=1, show_default=True,
-              help="Worker processes (spawned; each builds its kernels once).")
+@click.option("--jobs", default="auto", show_default=True, callback=lambda ctx, p, v: _jobs(v), metavar="N|auto",
+              help="Worker processes (spawned; each builds its kernels once), 1 to 256; auto: from the cores and "
+              "the batch's size (docs/distributed.md).")
 @click.option("--skip-existing", is_flag=True, help="Leave outputs that exist and read back whole.")
 @click.option("--scheduler", metavar="ADDRESS", help="Run on a Dask cluster: tcp://host:8786, or local:N for a LocalCluster.")
 @click.option("--report", metavar="PATH", help="Write the summary (done, skipped, failed with reasons) as JSON.")

@@ -19,6 +19,7 @@ from fogcli.errors import UserError
 from fogcli.frame.job import Job
 from fogcli.batch.discover import STALE, check_report, check_side_outputs, discover, remove_stale_temporaries
 from fogcli.batch.progress import Progress, Summary, write_report
+from fogcli.batch.worker_count import auto_jobs, frame_pixels, usable_cores
 
 
 END = object()
@@ -319,13 +320,13 @@ def _local(source, cfg, aovs, device, n_jobs, progress, collect):
     if n_jobs <= 1:
         _overlapped(source, cfg, aovs, device, progress, collect)
         return
-    threads = max(1, (os.cpu_count() or 1) // n_jobs)
+    threads = max(1, usable_cores() // n_jobs)
     while True:
         crashed, suspects = _pool(source, n_jobs, cfg, aovs, device, threads, progress, collect)
         if not crashed:
             return
         for job in suspects:
-            again, _ = _pool(Source([job]), 1, cfg, aovs, device, os.cpu_count() or 1, progress, collect)
+            again, _ = _pool(Source([job]), 1, cfg, aovs, device, usable_cores(), progress, collect)
             if again:
                 collect({"ok": False, "input": job.input, "output": job.output, "line": job.label,
                          "reason": "the worker process died on this frame (killed or crashed)"}, progress)
@@ -345,14 +346,14 @@ def _dask(source, cfg, aovs, device, scheduler, progress, collect):
     logging.getLogger("tornado.application").setLevel(logging.CRITICAL)
     cluster = None
     if scheduler.startswith("local"):
-        n = scheduler.partition(":")[2] or str(os.cpu_count() or 1)
+        n = scheduler.partition(":")[2] or str(usable_cores())
         if not n.isdigit() or int(n) < 1:
             raise UserError(f"--scheduler {scheduler}: expected local:N with N >= 1 workers")
         import dask
 
         # workers are spawned (never forked, PoCL hangs in a forked child) and share the
         # cores: each gets cores / N PoCL and OpenImageIO threads, like --jobs N
-        threads = str(max(1, (os.cpu_count() or 1) // int(n)))
+        threads = str(max(1, usable_cores() // int(n)))
         dask.config.set({"distributed.worker.multiprocessing-method": "spawn"})
         with _children_ignore_ctrl_c():
             cluster = LocalCluster(n_workers=int(n), threads_per_worker=1, processes=True,
@@ -398,9 +399,11 @@ def _dask(source, cfg, aovs, device, scheduler, progress, collect):
             cluster.close()
 
 
-def _run(items, stream: bool, total, cfg, aovs, device, jobs, scheduler, quiet, summary: "Summary") -> None:
+def _run(items, stream: bool, total, cfg, aovs, device, jobs, scheduler, quiet, summary: "Summary",
+         size: int | None = None) -> None:
     """Every job of `items` (Jobs, and results of lines that are not: jobs_file.Parser)
-    through the chosen runner, results into the summary."""
+    through the chosen runner, results into the summary. size: a frame's pixels, for
+    --jobs auto (None: unknown)."""
 
     def entry(r, keys):            # a jobs file's line number where there is one
         return {k: r[k] for k in (*keys, "line") if k != "line" or r.get("line")}
@@ -414,6 +417,8 @@ def _run(items, stream: bool, total, cfg, aovs, device, jobs, scheduler, quiet, 
             summary.failed.append(entry(r, ("input", "reason")))
         progress.update(r)
 
+    if jobs == "auto":
+        jobs = auto_jobs(total, size)
     progress = Progress(total, quiet)
     source = Source(items, lambda r: collect(r, progress), stream)
     try:
@@ -426,7 +431,7 @@ def _run(items, stream: bool, total, cfg, aovs, device, jobs, scheduler, quiet, 
 
 
 def run_batch(input_dir: Path, output_dir: Path, cfg, *, depth_pattern=None, recursive=False, fmt=None,
-              jobs=1, skip_existing=False, scheduler=None, aovs=(), device=None, quiet=False,
+              jobs="auto", skip_existing=False, scheduler=None, aovs=(), device=None, quiet=False,
               report: Path | None = None, layer=None, view=None, save_depth: Path | None = None,
               drop_channels: bool = False) -> Summary:
     t0 = time.perf_counter()
@@ -445,7 +450,8 @@ def run_batch(input_dir: Path, output_dir: Path, cfg, *, depth_pattern=None, rec
     remove_stale_temporaries(output_dir)
     summary = Summary(skipped=[{"input": i, "output": o} for i, o in plan.skipped],
                       failed=[{"input": i, "reason": r} for i, r in plan.failed])
-    _run(plan.jobs, False, len(plan.jobs), cfg, aovs, device, jobs, scheduler, quiet, summary)
+    _run(plan.jobs, False, len(plan.jobs), cfg, aovs, device, jobs, scheduler, quiet, summary,
+         size=frame_pixels(plan.jobs[0].input) if plan.jobs and jobs == "auto" else None)
     # a worker killed mid-write (a crash of another frame breaks the whole pool) leaves its
     # temporary file; every worker has stopped now
     remove_stale_temporaries(output_dir)
@@ -454,7 +460,7 @@ def run_batch(input_dir: Path, output_dir: Path, cfg, *, depth_pattern=None, rec
     return summary
 
 
-def run_jobs_file(path: str, *, medium=None, configs=(), sets=(), camera=None, jobs=1, skip_existing=False,
+def run_jobs_file(path: str, *, medium=None, configs=(), sets=(), camera=None, jobs="auto", skip_existing=False,
                   scheduler=None, aovs=(), device=None, quiet=False, report: Path | None = None, layer=None,
                   view=None, drop_channels: bool = False, protected=()) -> Summary:
     """`fogcli batch --jobs-file PATH` (`-`: standard input, taken line by line as it comes)."""
