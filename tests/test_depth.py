@@ -189,3 +189,36 @@ def test_hole_fill_does_not_blend_two_surfaces():
     dm, truth, holes = degrade(z, 4)
     got = {split: intermediate(D.prepare(dm, rgb, "t", split=split)[0], dm, holes) for split in (False, True)}
     assert got[True] < 0.01 and got[True] < 0.6 * got[False], got
+
+
+def test_a_lamp_in_a_depth_hole_keeps_its_depth():
+    """Issue 41: a lamp whose core the depth has no value for was filled from what lies
+    around it (a far wall, the sky) and lost its glow. Its own measured part gives its
+    depth; without one, the frame's other lamps' size (depth x sqrt(pixels)); without those,
+    the near side of the hole's border. Planted (prepare(lamps=False)): the first two fail."""
+    from fogcli.io.depth import prepare
+
+    h, w = 120, 200
+    rgb = np.full((h, w, 3), 0.05, np.float32)
+    d = np.full((h, w), 80.0, np.float32)                  # a far wall
+    rgb[20:30, 20:30] = 300.0                                # lamp A: 100 px at 10 m, measured
+    d[20:30, 20:30] = 10.0
+    rgb[60:65, 120:125] = 300.0                              # lamp B: 25 px, so 20 m by A's size
+    d[60:65, 120:125] = 20.0
+    rgb[60:70, 40:50] = 300.0                                # lamp C: 100 px at 12 m, half measured
+    d[60:70, 40:50] = 12.0
+    holed = d.copy()
+    holed[40:100, 100:160] = np.nan                          # over all of B
+    holed[55:75, 30:45] = np.nan                             # over half of C
+    for lamps, ok in ((True, True), (False, False)):
+        out, _ = prepare(holed.copy(), rgb, "test", lamps=lamps)
+        got_b, got_c = float(np.median(out[60:65, 120:125])), float(np.median(out[60:70, 40:45]))
+        assert (abs(got_b - 20.0) < 0.5 and abs(got_c - 12.0) < 0.1) == ok, (lamps, got_b, got_c)
+    # one lamp, wholly in a hole before a far wall, on a post at 6 m: the near side of the border
+    one = np.full((h, w), 80.0, np.float32)
+    one[:, 95:105] = 6.0
+    rgb1 = np.full((h, w, 3), 0.05, np.float32)
+    rgb1[40:50, 95:105] = 300.0
+    one[30:60, 85:115] = np.nan
+    out, _ = prepare(one, rgb1, "test")
+    assert abs(float(np.median(out[40:50, 95:105])) - 6.0) < 0.1

@@ -10,7 +10,7 @@ import numpy as np
 
 from fogcli.config.model import Config
 from fogcli.physics import pixel_rays
-from fogcli.physics.luminance import luminance
+from fogcli.physics.luminance import lamp_threshold, luminance
 
 
 def detect_lamps(rgb: np.ndarray, depth: np.ndarray, cfg: Config, spec) -> tuple[list, np.ndarray, list[str]]:
@@ -32,7 +32,7 @@ def detect_lamps(rgb: np.ndarray, depth: np.ndarray, cfg: Config, spec) -> tuple
     cx, cy = cam.centre(w, h)
     y = luminance(rgb)
     hdr = float(y.max()) > 1.5
-    thr = spec.threshold if spec.threshold != "auto" else (10.0 * float(np.percentile(y, 99)) if hdr else 0.98)
+    thr = spec.threshold if spec.threshold != "auto" else lamp_threshold(y)
     n, labels, stats, _ = cv2.connectedComponentsWithStats((y > thr).astype(np.uint8), connectivity=8)
     jj, ii = np.mgrid[0:h, 0:w]
     dlen = pixel_rays.length(pixel_rays.directions(ii, jj, f, fy, cx, cy))

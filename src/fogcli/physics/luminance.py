@@ -11,3 +11,10 @@ def luminance(rgb: np.ndarray) -> np.ndarray:
     """Y of (..., >= 3) colour, elementwise: a matmul would call BLAS, whose threads then spin
     beside the OpenCL device's on the same cores."""
     return LUMA[0] * rgb[..., 0] + LUMA[1] * rgb[..., 1] + LUMA[2] * rgb[..., 2]
+
+
+def lamp_threshold(y: np.ndarray) -> float:
+    """Luminance above which a pixel is a lamp's core (lights {type: auto}, threshold: auto):
+    10x the 99th percentile of an HDR frame's, 0.98 in a display-referred one (max <= 1.5),
+    whose lamps are clipped."""
+    return 10.0 * float(np.percentile(y, 99)) if float(y.max()) > 1.5 else 0.98
