@@ -89,3 +89,40 @@ def test_the_warnings_read_a_half_frame_without_overflow(tmp_path):
         code, text, _ = run("apply", p, "-o", tmp_path / "o.exr", "--medium", "haze")
     assert code == 0, text
     assert "hardly visible" in text and "changes the frame by 0.0%" not in text, text
+
+
+def test_clipped_lamps_of_an_8bit_photo_are_named_and_their_light_given_back(tmp_path):
+    """Issue 41: an 8-bit photo's lamps clip at white and glow no more than white paper.
+    One warning says so; camera.highlight_gain G makes a clipped core G times white (its
+    scattered light G times as much), leaves what is below 80 % of white as it was, and
+    keeps the hue. Planted (no warning, or the gain not applied): the asserts fail."""
+    from fogcli.io.colour import recover_highlights
+    from helpers import read, write_img
+
+    h, w = 60, 80
+    img = np.full((h, w, 3), 40, np.uint8)
+    img[28:32, 38:42] = 255                                   # a clipped lamp
+    img[5:8, 5:8] = (255, 200, 120)                           # a warm highlight, red clipped
+    p, z = tmp_path / "photo.png", tmp_path / "z.exr"
+    write_img(p, img, ["R", "G", "B"], fmt="uint8")
+    write_img(z, np.full((h, w), 30.0, np.float32), ["Z"])
+    outs = {}
+    for g in (1, 50):
+        o = tmp_path / f"o{g}.exr"
+        code, text, _ = run("apply", p, "--depth", z, "-o", o, "--set", f"camera.highlight_gain={g}")
+        assert code == 0, text
+        said = [ln for ln in text.splitlines() if "clipped at white" in ln]
+        assert len(said) == (1 if g == 1 else 0), text
+        assert g != 1 or "25 pixel(s) clipped at white" in said[0]        # 16 of the lamp, 9 of the warm one
+        outs[g] = read(o)[1][:, :, :3]
+    ring = np.zeros((h, w), bool)
+    ring[22:38, 32:48] = True
+    ring[26:34, 36:44] = False                                # around the lamp, not on it
+    base = outs[1][40:, :].mean()                             # far from both highlights
+    glow1, glow50 = outs[1][ring].mean() - base, outs[50][ring].mean() - base
+    assert 30 < glow50 / glow1 < 60, (glow1, glow50)
+    rgb = np.array([[[0.5, 0.4, 0.3], [1.0, 1.0, 1.0], [1.0, 0.58, 0.19]]], np.float32)
+    rec = recover_highlights(rgb, 50.0)
+    np.testing.assert_array_equal(rec[0, 0], rgb[0, 0])                       # below the knee
+    np.testing.assert_allclose(rec[0, 1], 50.0)
+    np.testing.assert_allclose(rec[0, 2] / rec[0, 2, 0], rgb[0, 2], rtol=1e-6)                # the hue kept

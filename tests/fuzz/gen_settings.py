@@ -86,6 +86,10 @@ def npy_variant(v: str, nr) -> tuple[bytes | Callable, str]:
     return content, e
 
 
+VECTOR_PASSES = {"exr-N.X": ["N.X"], "exr-Normal.Z": ["Normal.Z"], "exr-P.XZ": ["P.X", "P.Z"],
+                 "exr-N.XYZ": ["N.X", "N.Y", "N.Z"]}
+
+
 def gen_depth(i, r, nr):
     """Depth files: the NPY zoo, corrupt depth files of every format, sizes, and decoding
     modes (disparity, inverse, cityscapes) over odd contents."""
@@ -102,10 +106,10 @@ def gen_depth(i, r, nr):
         args += ["--depth", "d.npy"]
         variant = f"npy/{v}"
     else:
-        dk = r.choice(list(DEPTH_KINDS) + ["jpg", "png8", "exr-rgb", "tif3"])
+        dk = r.choice(list(DEPTH_KINDS) + ["jpg", "png8", "exr-rgb", "tif3", *VECTOR_PASSES])
         how = r.choice(CORRUPTIONS + ["none", "none", "mode"])
         with tempfile.TemporaryDirectory() as d:
-            ext = DEPTH_KINDS.get(dk, {"jpg": ".jpg", "png8": ".png", "exr-rgb": ".exr", "tif3": ".tif"}.get(dk))
+            ext = DEPTH_KINDS.get(dk, {"jpg": ".jpg", "png8": ".png", "exr-rgb": ".exr", "tif3": ".tif"}.get(dk, ".exr"))
             p = Path(d) / ("d" + ext)
             z = zplane(nr)
             if dk in DEPTH_KINDS:
@@ -114,10 +118,13 @@ def gen_depth(i, r, nr):
                 write_img(p, np.clip(z / 4, 0, 255).astype(np.uint8)[:, :, None], ["Y"], fmt="uint8")
             elif dk == "exr-rgb":
                 write_img(p, colour(nr), ["R", "G", "B"])
+            elif dk in VECTOR_PASSES:         # a normal or position pass alone is never depth (issue 41)
+                names = VECTOR_PASSES[dk]
+                write_img(p, np.dstack([z] * len(names)), names)
             else:
                 write_img(p, np.dstack([z, z * 2, z * 3]), ["R", "G", "B"])
             data = p.read_bytes()
-        expect = "refuse" if how in REFUSE_CORRUPTIONS or dk in ("exr-rgb", "tif3") else ""
+        expect = "refuse" if how in REFUSE_CORRUPTIONS or dk in ("exr-rgb", "tif3", *VECTOR_PASSES) else ""
         if how not in ("none", "mode"):
             data = corrupt(data, how, r)
         files[("d" + ext).replace(".", "_DOT_")] = data

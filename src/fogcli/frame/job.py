@@ -12,6 +12,7 @@ from fogcli.io import depth as depth_mod
 from fogcli.io import images as inputs
 from fogcli.device import memory
 from fogcli.io import outputs
+from fogcli.io.colour import clipped_pixels, recover_highlights
 from fogcli.io import windows
 from fogcli.config.model import Config
 from fogcli.physics.luminance import luminance
@@ -128,9 +129,26 @@ def _grow(job: Job, cfg: Config, aovs, frame, raw):
     return windows.grow(frame, raw)
 
 
+def _highlights(st: Staged, frame, cfg: Config) -> None:
+    """A display-referred frame clips its lamps at white: they scatter no more light than
+    white paper. Said once; camera.highlight_gain gives them their light back."""
+    if not frame.display_referred:
+        return
+    gain = cfg.camera.highlight_gain
+    n = clipped_pixels(frame.rgb)
+    if gain != 1.0:
+        frame.rgb = recover_highlights(frame.rgb, gain)
+    elif n:
+        st.res.warnings.append(
+            f"{st.job.input}: {n} pixel(s) clipped at white: this display-referred image holds no light above it, so "
+            "lamps there glow no more than white paper; set camera.highlight_gain (how many times white a clipped "
+            "lamp is, e.g. 50), or use an HDR or camera RAW source")
+
+
 def _clean(st: Staged, frame, raw, dsrc, cfg: Config, first: bool = True) -> None:
     """The frame's depth made metric and cleaned, with what that did in the warnings."""
     job, res = st.job, st.res
+    _highlights(st, frame, cfg)
     h, w = frame.shape
     clean, rep = depth_mod.metric_depth(raw, frame.colour(), cfg.camera, str(dsrc), frame.alpha)
     res.warnings += rep.notes or []

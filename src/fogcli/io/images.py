@@ -47,6 +47,7 @@ class Frame:
     view: str = ""                  # the view read (multi-view EXR), else ""
     read_window: tuple = ()         # (x, y, w, h) as read, when grown to the display window (io/windows.py)
     alpha_added: bool = False       # the alpha is the padding's (the file has none): not written
+    display_referred: bool = False  # decoded from an sRGB / gamma image: nothing above white
     pixel_type: str = "float"       # the colour channels' type in the file (half, float, uint8...)
     # the part's channels that fogcli does not replace (kept_channels, in the part's order) as
     # read (float16 where all are half, else float32; exact for half and float files of up to
@@ -388,7 +389,7 @@ def read_image(path: str | Path, layer: str | None = None, view: str | None = No
                  alpha_name=orig[a_idx] if a_idx is not None else None, view_prefix=prefix, view=read_view,
                  pixel_type=formats[names.index(orig[rgb_idx[0]])],
                  pixels=np.ascontiguousarray(whole[:, :, list(kept)]) if keep_all else None, kept_channels=kept,
-                 source=whole if rgb is None else None, rgb_cols=rgb_cols)
+                 source=whole if rgb is None else None, rgb_cols=rgb_cols, display_referred=rgb is not None)
 
 
 @_decoding
