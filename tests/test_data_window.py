@@ -72,32 +72,54 @@ def test_keep_data_window_keeps_it_and_its_pixels(tmp_path):
     grown, kept = tmp_path / "grown.exr", tmp_path / "kept.exr"
     assert run("apply", src, "-o", grown)[0] == 0
     assert run("apply", src, "-o", kept, "--keep-data-window")[0] == 0
-    (sg, pg), (sk, pk) = read(grown), read(kept)
+    (_, pg), (sk, pk) = read(grown), read(kept)
     assert (sk.x, sk.y, sk.width, sk.height) == WINDOW
     x, y, w, h = WINDOW
     np.testing.assert_array_equal(pk, pg[y:y + h, x:x + w])
+
+
+def _peak(tmp_path, window, size, display, extra=()):
+    """Where (display pixels) the glow of a point light that the display window's camera
+    sees at pixel (120.5, 30.5) of a 160-px-wide display has its peak, and the output's
+    data window."""
+    (x, y), (w, h) = window, size
+    focal = 80 / np.tan(np.radians(30))                  # fov 60 over the display's 160 px
+    px, py = 120.5, 30.5
+    pos = [float(10 * (px - 80) / focal), float(-10 * (py - 50) / focal), -10.0]
+    data = np.concatenate([np.full((h, w, 3), 0.01, np.float32), np.ones((h, w, 1), np.float32),
+                           np.full((h, w, 1), 30.0, np.float32)], 2)
+    src = tmp_path / "part.exr"
+    write_img(src, data, ["R", "G", "B", "A", "Z"], window=(x, y), display=display)
+    cfg = tmp_path / "light.yaml"
+    cfg.write_text(f"lights:\n  - {{type: point, position: {pos}, intensity: [50, 50, 50]}}\n")
+    o = tmp_path / "o.exr"
+    code, text, _ = run("apply", src, "-o", o, "--config", cfg, "--set", "camera.fov=60", *extra)
+    assert code == 0, text
+    spec, out = read(o)
+    r, c = np.unravel_index(np.argmax(out[:, :, 1]), out.shape[:2])
+    return (spec.x + c + 0.5, spec.y + r + 0.5), (spec.x, spec.y, spec.width, spec.height)
 
 
 def test_the_camera_is_the_display_windows(tmp_path):
     """A data window off the display window's centre: a point light (camera space) lights
     the medium where the display window's camera sees it. Planted bug (the data window taken
     as the whole frame, fogcli before issue 41): the glow's peak lands 15 px away."""
-    x, y, w, h = 90, 10, 60, 40
-    focal = 80 / np.tan(np.radians(30))                  # fov 60 over the display's 160 px
-    px, py = 120.5, 30.5                                 # where the light is seen (display pixels)
-    pos = [float(10 * (px - 80) / focal), float(-10 * (py - 50) / focal), -10.0]
-    data = np.concatenate([np.full((h, w, 3), 0.01, np.float32), np.ones((h, w, 1), np.float32),
-                           np.full((h, w, 1), 30.0, np.float32)], 2)
-    src = tmp_path / "part.exr"
-    write_img(src, data, ["R", "G", "B", "A", "Z"], window=(x, y), display=DISPLAY)
-    cfg = tmp_path / "light.yaml"
-    cfg.write_text(f"lights:\n  - {{type: point, position: {pos}, intensity: [50, 50, 50]}}\n")
-    o = tmp_path / "o.exr"
-    code, text, _ = run("apply", src, "-o", o, "--config", cfg, "--keep-data-window", "--set", "camera.fov=60")
-    assert code == 0, text
-    spec, out = read(o)
-    r, c = np.unravel_index(np.argmax(out[:, :, 1]), out.shape[:2])
-    assert abs(spec.x + c + 0.5 - px) <= 1 and abs(spec.y + r + 0.5 - py) <= 1, (spec.x + c, spec.y + r)
+    (cx, cy), win = _peak(tmp_path, (90, 10), (60, 40), DISPLAY, ["--keep-data-window"])
+    assert abs(cx - 120.5) <= 1 and abs(cy - 30.5) <= 1 and win == (90, 10, 60, 40), (cx, cy, win)
+
+
+def test_overscan_keeps_the_display_windows_camera(tmp_path):
+    """A data window larger than the display window (overscan): nothing to grow, and the
+    camera is still the display window's (its centre is not the data window's)."""
+    (cx, cy), win = _peak(tmp_path, (-20, -30), (200, 140), DISPLAY)
+    assert win == (-20, -30, 200, 140) and abs(cx - 120.5) <= 1 and abs(cy - 30.5) <= 1, (cx, cy, win)
+
+
+def test_a_placeholder_display_window_is_not_the_camera(tmp_path):
+    """A display window less than half the data window (a writer's 1x1 placeholder) is
+    ignored: the data window is the frame, as for any other image."""
+    (cx, cy), win = _peak(tmp_path, (0, 0), (160, 100), (0, 0, 1, 1))
+    assert win == (0, 0, 160, 100) and abs(cx - 120.5) <= 1 and abs(cy - 30.5) <= 1, (cx, cy, win)
 
 
 @pytest.mark.parametrize("fmt", ["exr", "png"])

@@ -83,6 +83,19 @@ def main():
     for name, (o, i) in res.items():
         print(f"| {name} | {o:.1f} | {i:.1f} | {o / i:.4f} |")
     print(f"grown / full, outside the old window: {res['grown'][0] / res['full'][0]:.4f} (issue 41: within 1 +- 0.10)")
+    # why the growth goes to the whole display window: a small element's glow in a large frame
+    ex, ey, ew, eh = 200, 40, 160, 120              # the sample's lamps
+    big, at = (0, 0, 4096, 2560), (1800, 1100)
+    with tempfile.TemporaryDirectory() as d:
+        d = Path(d)
+        _write(d / "element.exr", frame[ey:ey + eh, ex:ex + ew], cols, at, big)
+        subprocess.run([sys.executable, "-m", "fogcli", "apply", str(d / "element.exr"), "--medium", a.medium,
+                        "-o", str(d / "out.exr")], check=True)
+        whole = _outside(d / "out.exr", (*at, ew, eh))[0]
+        m = max(ew, eh) // 2
+        near = whole - _outside(d / "out.exr", (at[0] - m, at[1] - m, ew + 2 * m, eh + 2 * m))[0]
+    print(f"an element of {ew}x{eh} of the sample at {at} in a {big[2]}x{big[3]} display window: of the light "
+          f"outside it, {near / whole:.1%} lies within half its size around it ({near:.1f} of {whole:.1f})")
 
 
 if __name__ == "__main__":

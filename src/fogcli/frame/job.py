@@ -67,6 +67,7 @@ class Staged:
     lamps: list = field(default_factory=list)
     res: Result = field(default_factory=Result)
     others: list = field(default_factory=list)      # the other views of a multi-view EXR (Staged each)
+    cfg: Config | None = None       # the config with this frame's camera (an EXR's display window), or None
 
 
 def run_job(job: Job, cfg: Config, aovs=(), device=None, timings: Timings | None = None) -> Result:
@@ -106,9 +107,9 @@ def load(job: Job, cfg: Config, aovs=()) -> Staged:
         raw, dsrc = None, f"{src} (Z channel)"
     else:
         raise UserError(f"{src}: no depth channel (Z, *.Z or *depth); pass --depth FILE")
-    frame, raw = _grow(job, cfg, aovs, frame, raw)
+    frame, raw, st.cfg = _grow(job, cfg, aovs, frame, raw)
     res.io_ms += (time.perf_counter() - t0) * 1e3
-    _clean(st, frame, frame.depth if raw is None else raw, dsrc, cfg)
+    _clean(st, frame, frame.depth if raw is None else raw, dsrc, st.cfg)
     if job.view is None and frame.view:
         _other_views(st, cfg, aovs)
     return st
@@ -120,13 +121,16 @@ def _read(job: Job, cfg: Config, aovs, view: str | None):
 
 
 def _grow(job: Job, cfg: Config, aovs, frame, raw):
-    """An EXR on the union of its data and display windows (io/windows.py), refused before
-    it is made when that would not fit."""
+    """An EXR grown to hold its display window (io/windows.py; refused before it is made
+    when that would not fit), its raw depth alike, and the config with the display
+    window's camera in the frame's pixels."""
+    disp = windows.display_of(frame)
     box = windows.union(frame)
-    if box is None:
-        return frame, raw
-    memory.admit(job.input, box[2], box[3], 4, 4, cfg=cfg, aovs=aovs)
-    return windows.grow(frame, raw)
+    if box is not None:
+        memory.admit(job.input, box[2], box[3], 4, 4, cfg=cfg, aovs=aovs)
+        frame, raw = windows.grow(frame, raw)
+    cam = windows.camera_for(cfg.camera, frame, disp)
+    return frame, raw, (cfg if cam is cfg.camera else cfg.model_copy(update={"camera": cam}))
 
 
 def _highlights(st: Staged, frame, cfg: Config) -> None:
@@ -181,13 +185,13 @@ def _other_views(st: Staged, cfg: Config, aovs) -> None:
         return
     for v in names:
         t0 = time.perf_counter()
-        frame, _ = _grow(job, cfg, aovs, _read(job, cfg, aovs, v), None)
+        frame, _, view_cfg = _grow(job, cfg, aovs, _read(job, cfg, aovs, v), None)
         st.res.io_ms += (time.perf_counter() - t0) * 1e3
         if frame.depth is None or frame.view != v:
             st.res.warnings.append(f"{src}: view {v} has no depth channel of its own ({v}.Z); copied unfogged")
             continue
-        other = Staged(job, res=st.res)
-        _clean(other, frame, frame.depth, f"{src} (view {v}, Z channel)", cfg, first=False)
+        other = Staged(job, res=st.res, cfg=view_cfg)
+        _clean(other, frame, frame.depth, f"{src} (view {v}, Z channel)", view_cfg, first=False)
         st.others.append(other)
 
 
@@ -199,8 +203,8 @@ def compute(st: Staged, cfg: Config, aovs=(), device=None, timings: Timings | No
     multi-view frame in turn (each result a copy but the last: the next view reuses the
     buffers)."""
     for view in st.others:
-        _compute(view, cfg, aovs, device, timings, False)
-    return _compute(st, cfg, aovs, device, timings, mapped)
+        _compute(view, view.cfg or cfg, aovs, device, timings, False)
+    return _compute(st, st.cfg or cfg, aovs, device, timings, mapped)
 
 
 def _compute(st: Staged, cfg: Config, aovs, device, timings: Timings | None, mapped: bool) -> Staged:

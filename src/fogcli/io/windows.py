@@ -1,11 +1,14 @@
 """An EXR's data window inside its display window. The camera (field of view, principal
 point) describes the display window, and a render's data window is often a part of it (an
-element's bounding box) or reaches past it (overscan). fogcli works on the union of the two:
-the frame is padded with empty pixels (colour 0, alpha 0: they look at camera.empty_depth,
-as a compositor's empty pixels), so that the camera's rays are the display window's and the
-light a medium scatters past the data window lands in the display window, where a
-compositor would grow a blur's bounding box. The output's data window is that union, or the
-input's with --keep-data-window (the same pixels, cropped)."""
+element's bounding box) or reaches past it (overscan). fogcli pads the frame with empty
+pixels (colour 0, alpha 0: they look at camera.empty_depth, as a compositor's empty pixels)
+to the union of the two windows, so that the light a medium scatters past the data window
+lands in the display window, where a compositor would grow a blur's bounding box; and it
+takes the camera's rays from the display window wherever the frame lies in it (camera_for).
+Not less than the whole display window: in thick fog a small element's glow spreads over most
+of the frame (tools/data_window.py: half the element's size around it held 11 % of it). The
+output's data window is the grown one, or the input's with --keep-data-window (the same
+pixels, cropped)."""
 from __future__ import annotations
 
 import dataclasses
@@ -16,24 +19,53 @@ from fogcli.errors import UserError
 from fogcli.io.images import MAX_PIXELS
 
 
-def union(frame) -> tuple[int, int, int, int] | None:
-    """(x, y, width, height) of the data window grown to hold the display window, or None
-    where the display window is within the data window (nothing to grow)."""
+def display_of(frame) -> tuple[int, int, int, int] | None:
+    """The display window (x, y, width, height) the camera describes, or None: not an EXR,
+    or a display window that cannot be the frame's (empty, or less than half the data
+    window's width or height: a writer's placeholder)."""
     if not frame.is_exr:
+        return None
+    h, w = frame.shape
+    fx, fy, fw, fh = frame.display
+    if fw <= 0 or fh <= 0 or 2 * fw < w or 2 * fh < h:
+        return None
+    return fx, fy, fw, fh
+
+
+def union(frame) -> tuple[int, int, int, int] | None:
+    """(x, y, width, height) the data window grows to: its union with the display window;
+    None where there is nothing to grow."""
+    disp = display_of(frame)
+    if disp is None:
         return None
     x, y = frame.window
     h, w = frame.shape
-    fx, fy, fw, fh = frame.display
-    if fw <= 0 or fh <= 0:
-        return None
+    fx, fy, fw, fh = disp
     x0, y0, x1, y1 = min(x, fx), min(y, fy), max(x + w, fx + fw), max(y + h, fy + fh)
     if (x0, y0, x1, y1) == (x, y, x + w, y + h):
         return None
     if (x1 - x0) * (y1 - y0) > MAX_PIXELS:
-        raise UserError(f"{frame.path}: data window {w}x{h} at ({x}, {y}) and display window {fw}x{fh} at ({fx}, {fy}) "
-                        f"span {x1 - x0}x{y1 - y0}, beyond fogcli's limit of {MAX_PIXELS / 1e6:.0f} MPx; "
-                        "--keep-data-window does not help: the camera is the display window's")
+        raise UserError(f"{frame.path}: data window {w}x{h} at ({x}, {y}) grown to hold the display window {fw}x{fh} "
+                        f"at ({fx}, {fy}) spans {x1 - x0}x{y1 - y0}, beyond fogcli's limit of {MAX_PIXELS / 1e6:.0f} MPx")
     return x0, y0, x1 - x0, y1 - y0
+
+
+def camera_for(cam, frame, display: tuple | None = None):
+    """The camera in the frame's own pixels: the focal length and principal point are the
+    display window's (cx, cy given count from its top-left corner; intrinsics calibrated for
+    another size are scaled to it), moved by where the frame's (grown) data window lies.
+    The camera as given where the frame is its display window, or has none."""
+    disp = display or display_of(frame)
+    if disp is None:
+        return cam
+    fx, fy, fw, fh = disp
+    ox, oy = frame.window
+    c = cam.for_size(fw, fh)
+    if (ox, oy) == (fx, fy) and tuple(frame.shape) == (fh, fw):
+        return c
+    cx, cy = c.centre(fw, fh)
+    return c.model_copy(update=dict(focal_px=c.focal(fw), focal_px_y=c.focal_y(fw), cx=cx + fx - ox, cy=cy + fy - oy,
+                                    calibrated_size=None))
 
 
 def pad(a: np.ndarray | None, at: tuple, size: tuple, value=0.0) -> np.ndarray | None:
