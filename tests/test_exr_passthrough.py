@@ -276,3 +276,30 @@ def test_kept_pixels_write_what_a_second_decode_writes(tmp_path, zfmt):
         assert np.array_equal(a[n], b[n]), n
     assert np.array_equal(a["Z"], d[:, :, 4].astype(np.float16 if zfmt == "half" else np.float32))
     assert a["R"][0, 0] == np.inf and a["G"][0, 0] == -np.inf and a["B"][0, 0] == 65504.0
+
+
+def test_a_stereo_depth_file_gives_each_view_its_depth(tmp_path):
+    """--depth naming a stereo depth EXR (Z for the left view, right.Z for the right): each
+    view of a stereo image without depth takes its own, by default and with --view."""
+    import OpenImageIO as oiio
+
+    rgb_names = ["R", "G", "B", "right.R", "right.G", "right.B"]
+    img, dep = tmp_path / "rgb.exr", tmp_path / "depth.exr"
+    for path, names, data in ((img, rgb_names, _data(rgb_names, 4)),
+                              (dep, ["Z", "right.Z"], np.dstack([np.full((H, W), 5.0), np.full((H, W), 40.0)]))):
+        spec = _spec(names, lambda n: "float", window=(0, 0), display=(0, 0, W, H))
+        spec.attribute("multiView", oiio.TypeDesc("string[2]"), ("left", "right"))
+        out = oiio.ImageOutput.create(str(path))
+        assert out.open(str(path), spec) and out.write_image(np.ascontiguousarray(data, np.float32))
+        out.close()
+    outs = {}
+    for view in (None, "right"):
+        outs[view] = tmp_path / f"o_{view}.exr"
+        code, text, _ = run("apply", img, "--depth", dep, "-o", outs[view], *(["--view", view] if view else []),
+                            "--aov", "transmittance")
+        assert code == 0 and "copied unfogged" not in text, text
+    (_, both), = _read_all(outs[None])
+    (_, right), = _read_all(outs["right"])
+    np.testing.assert_array_equal(both["right.R"], right["right.R"])
+    # 5 m and 40 m of the default fog: the right view is far more hidden
+    assert both["transmittance.G"].mean() > 0.8 and both["right.transmittance.G"].mean() < 0.5

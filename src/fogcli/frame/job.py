@@ -101,8 +101,9 @@ def load(job: Job, cfg: Config, aovs=()) -> Staged:
 
     t0 = time.perf_counter()
     frame = _read(job, cfg, aovs, job.view)
-    if job.depth:
-        raw, dsrc = inputs.read_depth(job.depth), job.depth
+    if job.depth:       # of a multi-view depth EXR, the view's own (right.Z), else its plain depth
+        raw = inputs.read_depth(job.depth, view=frame.view) if frame.view else None
+        raw, dsrc = (inputs.read_depth(job.depth) if raw is None else raw), job.depth
     elif frame.depth is not None:
         raw, dsrc = None, f"{src} (Z channel)"
     else:
@@ -185,13 +186,17 @@ def _other_views(st: Staged, cfg: Config, aovs) -> None:
         return
     for v in names:
         t0 = time.perf_counter()
-        frame, _, view_cfg = _grow(job, cfg, aovs, _read(job, cfg, aovs, v), None)
+        frame = _read(job, cfg, aovs, v)
+        # --depth FILE: its own view's depth (right.Z of a stereo depth EXR), else the input's
+        given = inputs.read_depth(job.depth, view=v) if job.depth else None
         st.res.io_ms += (time.perf_counter() - t0) * 1e3
-        if frame.depth is None or frame.view != v:
+        if frame.view != v or (given is None and frame.depth is None):
             st.res.warnings.append(f"{src}: view {v} has no depth channel of its own ({v}.Z); copied unfogged")
             continue
+        frame, given, view_cfg = _grow(job, cfg, aovs, frame, given)
         other = Staged(job, res=st.res, cfg=view_cfg)
-        _clean(other, frame, frame.depth, f"{src} (view {v}, Z channel)", view_cfg, first=False)
+        _clean(other, frame, frame.depth if given is None else given,
+               f"{job.depth} (view {v})" if given is not None else f"{src} (view {v}, Z channel)", view_cfg, first=False)
         st.others.append(other)
 
 

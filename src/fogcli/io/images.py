@@ -430,9 +430,12 @@ def read_raw(path: Path, admit=None) -> Frame:
 
 
 @_decoding
-def read_depth(path: str | Path) -> np.ndarray:
-    """Raw depth values of a separate depth file (EXR, TIFF, PNG16, NPY)."""
+def read_depth(path: str | Path, view: str | None = None) -> np.ndarray | None:
+    """Raw depth values of a separate depth file (EXR, TIFF, PNG16, NPY). view: that view's
+    depth of a multi-view EXR (`right.Z`), None where the file has none."""
     path = Path(path)
+    if view is not None and path.suffix.lower() != ".exr":
+        return None
     if path.suffix.lower() == ".npy":
         check_regular(path, "a depth file")
         try:
@@ -463,6 +466,10 @@ def read_depth(path: str | Path) -> np.ndarray:
     names = list(spec.channelnames)
     inp.close()
     named = [i for i, n in enumerate(names) if _is_depth_name(n)]
+    if view is not None:
+        named = [i for i, n in enumerate(names) if n.startswith(view + ".") and _is_depth_name(n[len(view) + 1:])]
+        if not named:
+            return None
     vector = [n for n in names if "." in n and n.rsplit(".", 1)[1].lower() in ("x", "y", "z", "u", "v", "w")]
     if named:
         ch = named[0]
