@@ -161,7 +161,7 @@ def apply(image: np.ndarray, depth: np.ndarray, config: Config | str | None = No
     from fogcli.frame.job import faint_warning, grid_luminance, hidden_warning
 
     y_in = grid_luminance(img)
-    hidden = hidden_warning(float(y_in.mean()), out, cfg, dm) or faint_warning(y_in, out, cfg, dm)
+    hidden = hidden_warning(float(y_in.mean(dtype=np.float64)), out, cfg, dm) or faint_warning(y_in, out, cfg, dm)
     if hidden:
         import warnings
 

@@ -217,7 +217,7 @@ def _compute(st: Staged, cfg: Config, aovs, device, timings: Timings | None, map
     frame, src = st.frame, st.job.input
     colour = frame.colour()         # made once (a copy where the channels are not a run)
     y_in = grid_luminance(colour)
-    l_in = float(y_in.mean())
+    l_in = float(y_in.mean(dtype=np.float64))
     try:
         frame_cfg, lamp_pixels = for_image(colour, st.depth, cfg, report=notes, lamps=st.lamps)
         started = start(colour, st.depth, frame_cfg, alpha=frame.alpha, aovs=aovs, device=device,
@@ -275,15 +275,16 @@ def write_lamps(path: Path, lamps: list) -> None:
 
 
 def grid_luminance(rgb) -> np.ndarray:
-    """Luminance of a grid of about 256 rows of a frame: what the warnings look at (float64:
-    a half frame's sum overflows half)."""
+    """Luminance of a grid of about 256 rows of a frame: what the warnings look at (float32:
+    a half frame's sums overflow half; of the grid's luminance only, not of its colour, which
+    tests/test_memory.py's peak would see)."""
     step = max(1, rgb.shape[0] // 256)
-    return luminance(np.asarray(rgb[::step, ::step], np.float64))
+    return luminance(rgb[::step, ::step]).astype(np.float32)
 
 
 def mean_luminance(rgb) -> float:
     """Mean luminance of a frame, from a grid of about 256 rows of it."""
-    return float(grid_luminance(rgb).mean())
+    return float(grid_luminance(rgb).mean(dtype=np.float64))
 
 
 FAINT = 0.03        # a frame's mean relative change in luminance below which a medium is hardly seen
@@ -295,9 +296,10 @@ def faint_warning(y_in: np.ndarray, rgb_out, cfg: Config, depth) -> str | None:
     over mean Y_in, y_in: grid_luminance of the input), with the relative visibility that
     would change it by about SHOWN (the change grows about as 1 / visibility while thin)."""
     y_out = grid_luminance(rgb_out)
-    if y_out.shape != y_in.shape or not float(y_in.sum()) > 0:
+    total = float(y_in.sum(dtype=np.float64))
+    if y_out.shape != y_in.shape or not total > 0:
         return None
-    change = float(np.abs(y_out - y_in).sum() / y_in.sum())
+    change = float(np.abs(y_out - y_in).sum(dtype=np.float64) / total)
     vis = visibility_m(cfg.medium)
     if change >= FAINT or not change > 0 or not np.isfinite(vis):
         return None
