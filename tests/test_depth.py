@@ -222,3 +222,32 @@ def test_a_lamp_in_a_depth_hole_keeps_its_depth():
     one[30:60, 85:115] = np.nan
     out, _ = prepare(one, rgb1, "test")
     assert abs(float(np.median(out[40:50, 95:105])) - 6.0) < 0.1
+
+
+def test_a_clipped_sky_without_depth_is_no_lamp():
+    """A blown-out sky that the depth leaves empty is one bright region, not a lamp's core:
+    the lamp rule (which gave it a lamp's depth, 1.2 m) leaves it to the fill. Planted
+    (no size cap): it fails."""
+    from fogcli.io.depth import prepare
+
+    h, w = 120, 200
+    rgb = np.full((h, w, 3), 0.3, np.float32)
+    rgb[:50] = 1.0                                       # 8-bit white
+    d = np.full((h, w), 20.0, np.float32)
+    d[:50] = np.nan
+    rgb[70:74, 150:154] = 1.0                            # a small lamp, measured at 30 m
+    d[68:76, 148:156] = 30.0
+    out, _ = prepare(d, rgb, "test")
+    ref, _ = prepare(d, rgb, "test", lamps=False)
+    np.testing.assert_array_equal(out[:50], ref[:50])
+
+
+def test_the_lamp_threshold_looks_at_the_pixels_with_light():
+    """An element padded to a large display window is mostly black: the threshold of its
+    lit pixels, not 10x a black percentile (0: every pixel a lamp)."""
+    from fogcli.physics.luminance import lamp_threshold
+
+    y = np.zeros((1000, 1000), np.float32)
+    y[:30, :30] = 0.2
+    y[10:12, 10:12] = 50.0
+    assert lamp_threshold(y) == lamp_threshold(y[:30, :30]) > 1.0

@@ -278,9 +278,12 @@ def test_kept_pixels_write_what_a_second_decode_writes(tmp_path, zfmt):
     assert a["R"][0, 0] == np.inf and a["G"][0, 0] == -np.inf and a["B"][0, 0] == 65504.0
 
 
-def test_a_stereo_depth_file_gives_each_view_its_depth(tmp_path):
-    """--depth naming a stereo depth EXR (Z for the left view, right.Z for the right): each
-    view of a stereo image without depth takes its own, by default and with --view."""
+@pytest.mark.parametrize("layout", ["one part", "a part a view, right first"])
+def test_a_stereo_depth_file_gives_each_view_its_depth(tmp_path, layout):
+    """--depth naming a stereo depth EXR (Z for the left view, right.Z for the right; or a
+    part a view, the right one first): each view of a stereo image without depth takes its
+    own, by default and with --view. Planted (the first part's depth for every view): the
+    left view was fogged at 40 m."""
     import OpenImageIO as oiio
 
     rgb_names = ["R", "G", "B", "right.R", "right.G", "right.B"]
@@ -290,6 +293,18 @@ def test_a_stereo_depth_file_gives_each_view_its_depth(tmp_path):
         spec = _spec(names, lambda n: "float", window=(0, 0), display=(0, 0, W, H))
         spec.attribute("multiView", oiio.TypeDesc("string[2]"), ("left", "right"))
         out = oiio.ImageOutput.create(str(path))
+        if path == dep and layout != "one part":
+            specs = []
+            for view, z in (("right", 40.0), ("left", 5.0)):
+                sp = _spec(["Z"], lambda n: "float", window=(0, 0), display=(0, 0, W, H))
+                sp.attribute("name", view)
+                sp.attribute("view", view)
+                specs.append((sp, np.full((H, W, 1), z, np.float32)))
+            assert out.open(str(path), tuple(sp for sp, _ in specs))
+            for k, (sp, z) in enumerate(specs):
+                assert (not k or out.open(str(path), sp, "AppendSubimage")) and out.write_image(z)
+            out.close()
+            continue
         assert out.open(str(path), spec) and out.write_image(np.ascontiguousarray(data, np.float32))
         out.close()
     outs = {}

@@ -15,11 +15,19 @@ CORE_S_PER_PIXEL = 3e-7         # a frame's core time (2 MPx EXR: 0.62 core-s, A
 
 
 def usable_cores() -> int:
-    """The cores this process may run on (its affinity: taskset, a cgroup's cpuset), not the machine's."""
+    """The cores this process may run on (its affinity: taskset, a cgroup's cpuset), not the
+    machine's, and at most its cgroup's CPU quota (docker --cpus, a Kubernetes limit)."""
     try:
-        return max(1, len(os.sched_getaffinity(0)))
+        n = max(1, len(os.sched_getaffinity(0)))
     except (AttributeError, OSError):
-        return os.cpu_count() or 1
+        n = os.cpu_count() or 1
+    try:
+        quota, period = open("/sys/fs/cgroup/cpu.max").read().split()[:2]
+        if quota != "max":
+            n = min(n, max(1, -(-int(quota) // int(period))))
+    except (OSError, ValueError):
+        pass
+    return n
 
 
 def auto_jobs(frames: int | None, pixels: int | None, cores: int | None = None) -> int:

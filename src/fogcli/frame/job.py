@@ -101,9 +101,8 @@ def load(job: Job, cfg: Config, aovs=()) -> Staged:
 
     t0 = time.perf_counter()
     frame = _read(job, cfg, aovs, job.view)
-    if job.depth:       # of a multi-view depth EXR, the view's own (right.Z), else its plain depth
-        raw = inputs.read_depth(job.depth, view=frame.view) if frame.view else None
-        raw, dsrc = (inputs.read_depth(job.depth) if raw is None else raw), job.depth
+    if job.depth:       # of a multi-view depth EXR, the view's own (right.Z, or its part)
+        raw, dsrc = _view_depth(job.depth, frame.view), job.depth
     elif frame.depth is not None:
         raw, dsrc = None, f"{src} (Z channel)"
     else:
@@ -114,6 +113,17 @@ def load(job: Job, cfg: Config, aovs=()) -> Staged:
     if job.view is None and frame.view:
         _other_views(st, cfg, aovs)
     return st
+
+
+def _view_depth(path: str, view: str):
+    """The depth of `view` in a depth file: its own where the file has views, else the file's."""
+    have = inputs.views(path) if view else []
+    if not have:
+        return inputs.read_depth(path)
+    raw = inputs.read_depth(path, view=view)
+    if raw is None:
+        raise UserError(f"{path}: a depth file of views {', '.join(have)}, none of them {view}; expected {view}'s depth")
+    return raw
 
 
 def _read(job: Job, cfg: Config, aovs, view: str | None):

@@ -252,6 +252,9 @@ def prepare(metric: np.ndarray, rgb: np.ndarray, source: str, split: bool = True
     return out.astype(np.float32), rep
 
 
+LAMP_SHARE = 0.005      # a bright region larger than this share of the frame is not a lamp
+
+
 def _lamps_in_holes(out: np.ndarray, d: np.ndarray, valid: np.ndarray, rgb: np.ndarray) -> None:
     """A lamp's core without depth (a sensor blinded by it, a hole over it) takes its own
     measured part's depth, or else the near side of its hole's border (the 10th percentile):
@@ -284,7 +287,10 @@ def _lamps_in_holes(out: np.ndarray, d: np.ndarray, valid: np.ndarray, rgb: np.n
     # the lamps with a depth say how large the frame's lamps are: depth x sqrt(pixels) (a
     # street's lamps are alike; a lamp at twice the distance covers a quarter of the pixels)
     todo, sizes = [], []
+    largest = LAMP_SHARE * d.size
     for k in range(1, n):
+        if st[k, 4] > largest:      # a clipped sky or a lit wall, not a lamp
+            continue
         box = window(st[k], 2)
         core = lab[box] == k
         hole = ~valid[box]

@@ -458,18 +458,26 @@ def read_depth(path: str | Path, view: str | None = None) -> np.ndarray | None:
             return np.ascontiguousarray(arr, dtype=np.float32)     # beyond float32: inf, i.e. sky
 
     inp = _open(path)
-    spec = inp.spec()
+    parts = _parts(inp)
+    sub, spec = parts[0][0], parts[0][1]
+    if view is not None and len(parts) > 1:        # the view's own part
+        mine = [p for p in parts if p[3] == view]
+        if not mine:
+            inp.close()
+            return None
+        sub, spec = mine[0][0], mine[0][1]
     fmt_name = str(spec.format)
     # integer files hold depth codes (mm, or depth_scale units): read them unnormalised
     read_fmt = fmt_name if fmt_name in ("uint8", "uint16", "uint32", "int16", "int32") else "float"
-    px = _read_pixels(inp, path, read_fmt)
+    px = _read_pixels(inp, path, read_fmt, sub)
     names = list(spec.channelnames)
     inp.close()
     named = [i for i, n in enumerate(names) if _is_depth_name(n)]
-    if view is not None:
-        named = [i for i, n in enumerate(names) if n.startswith(view + ".") and _is_depth_name(n[len(view) + 1:])]
-        if not named:
-            return None
+    if view is not None and len(parts) == 1:       # the view's channels: the default view's unprefixed
+        own = _view_channels(names, spec, view, path) if view in _multiview(spec) else []
+        named = [i for i in own if _is_depth_name(names[i].removeprefix(view + "."))]
+    if view is not None and not named:
+        return None
     vector = [n for n in names if "." in n and n.rsplit(".", 1)[1].lower() in ("x", "y", "z", "u", "v", "w")]
     if named:
         ch = named[0]

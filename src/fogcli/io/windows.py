@@ -16,6 +16,7 @@ import dataclasses
 import numpy as np
 
 from fogcli.errors import UserError
+from fogcli.io import pixels
 from fogcli.io.images import MAX_PIXELS
 
 
@@ -95,8 +96,11 @@ def grow(frame, depth: np.ndarray | None = None):
     def pad_depth(d):       # 0: no measurement, as a file's own padding (alpha 0 makes it empty)
         return d if d is None or d.shape[:2] != (h, w) else pad(d, at, size)
 
+    # the colour alone, in float32 (the part's other channels are copied from the file by
+    # the writer): padding every channel of a many-channel part cost 6x the colour's memory
+    rgb = frame._rgb if frame._rgb is not None else pixels.take(frame.source, frame.rgb_cols)
     grown = dataclasses.replace(
-        frame, _rgb=pad(frame._rgb, at, size), source=pad(frame.source, at, size), alpha=pad(alpha, at, size),
+        frame, _rgb=pad(rgb, at, size), source=None, alpha=pad(alpha, at, size),
         depth=pad_depth(frame.depth), window=(ux, uy), pixels=None,
         read_window=(x, y, w, h), alpha_added=frame.alpha is None)
     return grown, pad_depth(depth)

@@ -16,5 +16,9 @@ def luminance(rgb: np.ndarray) -> np.ndarray:
 def lamp_threshold(y: np.ndarray) -> float:
     """Luminance above which a pixel is a lamp's core (lights {type: auto}, threshold: auto):
     10x the 99th percentile of an HDR frame's, 0.98 in a display-referred one (max <= 1.5),
-    whose lamps are clipped."""
-    return 10.0 * float(np.percentile(y, 99)) if float(y.max()) > 1.5 else 0.98
+    whose lamps are clipped. Of the pixels with light: an element padded to its display
+    window (io/windows.py) is mostly black, and 10x a black percentile made every pixel a lamp."""
+    lit = y[y > 0]
+    if not lit.size:
+        return float("inf")
+    return 10.0 * float(np.percentile(lit, 99)) if float(lit.max()) > 1.5 else 0.98
