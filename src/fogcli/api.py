@@ -158,10 +158,9 @@ def apply(image: np.ndarray, depth: np.ndarray, config: Config | str | None = No
 
         for n in notes:
             warnings.warn(n, UserWarning, stacklevel=2)
-    from fogcli.frame.job import faint_warning, grid_luminance, hidden_warning
+    from fogcli.frame.job import grid_luminance, medium_warning
 
-    y_in = grid_luminance(img)
-    hidden = hidden_warning(float(y_in.mean(dtype=np.float64)), out, cfg, dm) or faint_warning(y_in, out, cfg, dm)
+    hidden = medium_warning(grid_luminance(img), out, cfg, dm)
     if hidden:
         import warnings
 

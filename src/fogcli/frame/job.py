@@ -227,7 +227,6 @@ def _compute(st: Staged, cfg: Config, aovs, device, timings: Timings | None, map
     frame, src = st.frame, st.job.input
     colour = frame.colour()         # made once (a copy where the channels are not a run)
     y_in = grid_luminance(colour)
-    l_in = float(y_in.mean(dtype=np.float64))
     try:
         frame_cfg, lamp_pixels = for_image(colour, st.depth, cfg, report=notes, lamps=st.lamps)
         started = start(colour, st.depth, frame_cfg, alpha=frame.alpha, aovs=aovs, device=device,
@@ -239,7 +238,7 @@ def _compute(st: Staged, cfg: Config, aovs, device, timings: Timings | None, map
     frame.rgb, grid, st.depth = None, np.array(depth_grid(st.depth)), None
     st.rgb, st.alpha, st.planes = finish(started, mapped)
     st.res.warnings += [f"{src}: {n}" for n in notes]
-    hidden = hidden_warning(l_in, st.rgb, cfg, grid) or faint_warning(y_in, st.rgb, cfg, grid)
+    hidden = medium_warning(y_in, st.rgb, cfg, grid)
     if hidden:
         st.res.warnings.append(f"{src}: {hidden}")
     return st
@@ -292,20 +291,21 @@ def grid_luminance(rgb) -> np.ndarray:
     return luminance(rgb[::step, ::step]).astype(np.float32)
 
 
-def mean_luminance(rgb) -> float:
-    """Mean luminance of a frame, from a grid of about 256 rows of it."""
-    return float(grid_luminance(rgb).mean(dtype=np.float64))
-
-
 FAINT = 0.03        # a frame's mean relative change in luminance below which a medium is hardly seen
 SHOWN = 0.2         # the change the hint's visibility aims at: plainly there, the scene still seen
 
 
-def faint_warning(y_in: np.ndarray, rgb_out, cfg: Config, depth) -> str | None:
-    """One line when the medium changes the frame by less than FAINT (mean |Y_out - Y_in|
-    over mean Y_in, y_in: grid_luminance of the input), with the relative visibility that
-    would change it by about SHOWN (the change grows about as 1 / visibility while thin)."""
+def medium_warning(y_in: np.ndarray, rgb_out, cfg: Config, depth) -> str | None:
+    """One line when the medium all but hides the frame, or hardly changes it (y_in:
+    grid_luminance of the input; the output's grid is made once, for both)."""
     y_out = grid_luminance(rgb_out)
+    return _hidden(y_in, y_out, cfg, depth) or _faint(y_in, y_out, cfg, depth)
+
+
+def _faint(y_in: np.ndarray, y_out: np.ndarray, cfg: Config, depth) -> str | None:
+    """When the medium changes the frame by less than FAINT (mean |Y_out - Y_in| over mean
+    Y_in, both grid_luminance), with the relative visibility that would change it by about
+    SHOWN (the change grows about as 1 / visibility while thin)."""
     total = float(y_in.sum(dtype=np.float64))
     if y_out.shape != y_in.shape or not total > 0:
         return None
@@ -324,11 +324,11 @@ def faint_warning(y_in: np.ndarray, rgb_out, cfg: Config, depth) -> str | None:
             f"({nice / 100:g} times the median depth)")
 
 
-def hidden_warning(l_in: float, rgb_out, cfg: Config, depth) -> str | None:
-    """One line when the medium all but hides the frame (output mean luminance below 5 % of
-    the input's, l_in: mean_luminance of the input), with the numbers that say why and the
-    relative strength that would not."""
-    l_out = mean_luminance(rgb_out)
+def _hidden(y_in: np.ndarray, y_out: np.ndarray, cfg: Config, depth) -> str | None:
+    """When the medium all but hides the frame (output mean luminance below 5 % of the
+    input's, both grid_luminance), with the numbers that say why and the relative strength
+    that would not."""
+    l_in, l_out = float(y_in.mean(dtype=np.float64)), float(y_out.mean(dtype=np.float64))
     if not l_in > 0 or l_out >= 0.05 * l_in:
         return None
     try:
