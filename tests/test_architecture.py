@@ -142,8 +142,15 @@ def test_no_module_over_500_lines_and_no_function_over_80(tmp_path):
 
 
 # What a runtime needs besides its modules: the kernels, the presets, the shipped tables.
-DATA = ("fogcli/device/kernels/*.cl", "fogcli/device/kernels/*.h", "fogcli/config/media/*.yaml",
-        "fogcli/physics/data/*.npz")
+def _package_data() -> tuple:
+    """The runtime's data files as pyproject.toml declares them (package-data), as wheel paths."""
+    import tomllib
+
+    decl = tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["setuptools"]["package-data"]
+    return tuple(f"{pkg.replace('.', '/')}/{pat}" for pkg, pats in decl.items() for pat in pats)
+
+
+DATA = _package_data()
 REACHED = textwrap.dedent("""
     import grimp
 

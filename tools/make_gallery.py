@@ -99,10 +99,43 @@ def main() -> int:
         lines.append(f"| {scene} | {mode} | {name} | {ratio:.3f} | {'yes' if ok else 'no'} | {_summary(said)} |")
     lines += ["", "The smoke ball sits 30 m ahead of the camera: in the 6 m room there is none of it. The",
               "harbour water (visibility 1.7 m) hides a harbour whose median depth is 14 m, as it would;",
-              "fogcli warns with the numbers and the relative strength."]
+              "fogcli warns with the numbers and the relative strength.", ""]
+    lines += contact_sheets()
     (ROOT / "docs" / "gallery.md").write_text("\n".join(lines) + "\n")
     print("wrote docs/gallery.md and", ", ".join(sheets.values()))
     return 0
+
+
+TUM = ROOT.parent / "shared" / "data"
+# the TUM RGB-D frame (freiburg1): depth in 1/5000 m, 62 degrees across
+TUM_SETS = ["camera.depth_scale=0.0002", "camera.fov=62"]
+
+
+def contact_sheets() -> list[str]:
+    """`fogcli media --sheet` as a user runs it: on the sample, and on the TUM RGB-D frame
+    (of ../shared/data, when it is there) at the presets' own strength and at 200 %."""
+    import subprocess
+
+    runs = [("sample", [str(ROOT / "samples" / "harbour.exr")], "the bundled sample")]
+    if (TUM / "tum_color.png").exists():
+        tum = [str(TUM / "tum_color.png"), "--depth", str(TUM / "tum_depth.png")]
+        tum += [a for s in TUM_SETS for a in ("--set", s)]
+        runs += [("tum", tum, "a TUM RGB-D frame (a real Kinect frame: 8-bit colour, 16-bit depth with holes)"),
+                 ("tum-relative", tum + ["--set", f"medium.visibility={RELATIVE}"],
+                  f"the same frame, every preset at `medium.visibility={RELATIVE}`")]
+    lines = ["## Contact sheets: `fogcli media --sheet`", "",
+             "Every preset on one image, labelled with its visibility and asymmetry, as the command makes it",
+             "(`fogcli media --sheet IMAGE [--depth D] [--set ...] -o sheet.jpg`; the input first):", ""]
+    for name, args, what in runs:
+        path = OUT / f"sheet-{name}.jpg"
+        cmd = [sys.executable, "-m", "fogcli", "media", "--sheet", *args, "--width", "320", "-o", str(path)]
+        r = subprocess.run(cmd, capture_output=True, text=True)
+        if r.returncode != 0:
+            raise SystemExit(r.stderr)
+        shown = " ".join(str(Path(a).relative_to(ROOT)) if a.startswith(str(ROOT) + "/") else
+                         Path(a).name if a.startswith(str(ROOT.parent)) else a for a in cmd[3:])
+        lines += [f"**{what}**: `fogcli {shown.replace(str(OUT) + '/', '')}`", "", f"![{name}](images/{path.name})", ""]
+    return lines
 
 
 def _summary(said: list) -> str:

@@ -288,11 +288,29 @@ def devices():
 
 
 @main.command()
+@click.option("--sheet", metavar="IMAGE", help="Render every preset (and each --config file) on IMAGE as a "
+              "labelled contact sheet (-o).")
+@click.option("--depth", "depth_path", metavar="DEPTH", help="--sheet: depth file; default: the image's Z channel.")
+@click.option("--config", "config_files", multiple=True, metavar="FILE", help="--sheet: also this config, a tile of its own.")
+@click.option("--camera", "camera_file", metavar="FILE", help="--sheet: pinhole intrinsics JSON.")
+@click.option("-o", "--output", metavar="PNG", help="--sheet: the sheet's file (PNG, JPEG or TIFF).")
+@click.option("--set", "sets", multiple=True, metavar="KEY=VALUE", help="--sheet: override a key in every tile "
+              "(e.g. camera.depth_scale=0.001).")
+@click.option("--width", default=480, show_default=True, type=click.IntRange(64, 4096), help="--sheet: tile width, px.")
+@click.option("--device", metavar="SPEC", help="OpenCL device (P:D, cpu, gpu or a name); env FOGCLI_DEVICE.")
 @guarded
-def media():
-    """List the bundled medium presets."""
+def media(sheet, depth_path, config_files, camera_file, sets, output, width, device):
+    """List the bundled medium presets, or show them all on an image (--sheet)."""
     from fogcli.config.presets import assemble, describe, presets, visibility_m
 
+    if sheet or output:
+        if not (sheet and output):
+            raise UserError("--sheet IMAGE and -o SHEET go together")
+        from fogcli.tune.contact_sheet import contact_sheet
+
+        for w in contact_sheet(sheet, output, depth_path, config_files, camera_file, width, device, sets):
+            click.echo(f"fogcli: warning: {w}", err=True)
+        return
     for name, path in presets().items():
         m = assemble(name).medium
         sa = ", ".join(f"{x:.4g}" for x in m.absorption)
@@ -301,6 +319,26 @@ def media():
         dens = "" if [d.type for d in m.density] == ["homogeneous"] else " (at density 1)"
         click.echo(f"{name:<11} {describe(path)}")
         click.echo(f"{'':<11} visibility {vis}{dens}  absorption [{sa}]  scattering [{ss}]  g {m.asymmetry:g}")
+
+
+@main.command()
+@click.argument("image", metavar="IMAGE")
+@click.option("--depth", "depth_path", metavar="DEPTH", help="Depth file (EXR/TIFF/PNG16/NPY); default: the image's Z channel.")
+@click.option("--medium", metavar="NAME|FILE", help="Medium preset (see `fogcli media`) or YAML file to start from. Default: fog.")
+@click.option("--config", "config_file", metavar="FILE", help="YAML config to start from.")
+@click.option("--camera", "camera_file", metavar="FILE", help="Pinhole intrinsics JSON.")
+@click.option("--port", default=0, type=click.IntRange(0, 65535), help="Port on 127.0.0.1 (default: a free one).")
+@click.option("--no-browser", is_flag=True, help="Print the page's address only; do not open a browser.")
+@click.option("--device", metavar="SPEC", help="OpenCL device (P:D, cpu, gpu or a name); env FOGCLI_DEVICE.")
+@guarded
+def tune(image, depth_path, medium, config_file, camera_file, port, no_browser, device):
+    """Choose a medium by eye: a page on 127.0.0.1 with IMAGE, in the foreground (Ctrl-C ends it).
+    Save writes IMAGE.tune.yaml and IMAGE.fog.<ext>, and prints the `fogcli apply` that makes them."""
+    from fogcli.tune.serve import serve
+    from fogcli.tune.session import Session
+
+    session = Session(image, depth_path, medium, config_file, camera_file, device)
+    serve(session, port, not no_browser, echo=lambda m: click.echo(m))
 
 
 @main.command("config")

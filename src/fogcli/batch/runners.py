@@ -357,7 +357,10 @@ def _dask(source, cfg, aovs, device, scheduler, progress, collect):
         dask.config.set({"distributed.worker.multiprocessing-method": "spawn"})
         with _children_ignore_ctrl_c():
             cluster = LocalCluster(n_workers=int(n), threads_per_worker=1, processes=True,
-                                   dashboard_address=None, silence_logs=40,
+                                   # CRITICAL: a worker whose scheduler went first at Ctrl-C logs its
+                                   # lost heartbeat with a traceback (seen under load); a frame's
+                                   # failure still reaches the report through its future
+                                   dashboard_address=None, silence_logs=logging.CRITICAL,
                                    env={"POCL_MAX_PTHREAD_COUNT": threads, "POCL_CPU_MAX_CU_NUM": threads,
                                         "OPENIMAGEIO_THREADS": threads})
         client = Client(cluster)

@@ -43,8 +43,22 @@ def assemble(medium: str | None = None, config_file: str | list | None = None,
     """Merge the sources in order (preset < --medium < --config < --camera < --set) and
     validate once."""
     locs: dict = {}
-    src = _medium_source(medium or DEFAULT_MEDIUM)
-    data = S.load_yaml(src, locs)
+    data = S.merge(medium_data(medium, locs), given_data(config_file, camera_file, camera_section, locs))
+    for item in sets:
+        data = S.merge(data, S.parse_set(item, locs))
+    return build(data, locs)
+
+
+def medium_data(medium: str | None, locs: dict) -> dict:
+    """The preset's (or --medium file's) data, unvalidated."""
+    return S.load_yaml(_medium_source(medium or DEFAULT_MEDIUM), locs)
+
+
+def given_data(config_file: str | list | None = None, camera_file: str | None = None,
+               camera_section: dict | None = None, locs: dict | None = None) -> dict:
+    """What the --config files and the camera add to the medium, merged in order, unvalidated."""
+    locs = {} if locs is None else locs
+    data: dict = {}
     for f in ([config_file] if isinstance(config_file, str) else config_file or []):
         data = S.merge(data, S.load_yaml(f, locs))
     if camera_file:
@@ -53,9 +67,7 @@ def assemble(medium: str | None = None, config_file: str | list | None = None,
         data = S.merge(data, load(camera_file))
     if camera_section:
         data = S.merge(data, {"camera": dict(camera_section)})
-    for item in sets:
-        data = S.merge(data, S.parse_set(item, locs))
-    return build(data, locs)
+    return data
 
 
 def check_file(path: str) -> list[str]:

@@ -1,0 +1,295 @@
+"""What `fogcli tune` holds between the page's requests: the image named on the command
+line read once, a reduced copy for previews while a slider moves, the config the page
+builds on the preset, and the full-size frame rendered as `fogcli apply` renders it (the
+same stages of frame.job), which Save writes beside the YAML that reproduces it."""
+from __future__ import annotations
+
+import math
+import shlex
+import threading
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from fogcli.config import yaml_source as S
+from fogcli.config.model import Config
+from fogcli.config.presets import DEFAULT_MEDIUM, given_data, medium_data, presets, visibility_m
+from fogcli.config.validate import build
+from fogcli.device.plan import Timings
+from fogcli.device.run import run
+from fogcli.errors import UserError
+from fogcli.frame.job import Job, compute, load, store
+from fogcli.frame.scene import for_image, median_depth
+from fogcli.io import outputs
+from fogcli.io.colour import linear_to_srgb
+from fogcli.physics import pixel_rays
+from fogcli.physics.luminance import luminance
+from fogcli.tune.saved_yaml import commented_yaml, prune
+
+PREVIEW_PIXELS = 500_000        # the preview's size while a slider moves (issue 42: 0.5 MPx)
+SHOWN = ("output", "input", "scattered", "airlight")
+# what the page may change: the look of the medium and its lights; the camera (how the depth
+# is read), the output and the limits stay as the command line gave them
+PAGE_SECTIONS = ("medium", "lights", "render")
+
+
+@dataclass
+class Rendered:
+    """One result the page shows: float colour planes by name (SHOWN), at one size."""
+    size: str
+    planes: dict
+    key: str                # the config it was made with (its canonical JSON)
+    ms: float
+    cfg: Config
+
+
+class Session:
+    def __init__(self, image: str, depth: str | None = None, medium: str | None = None,
+                 config_file: str | None = None, camera_file: str | None = None, device: str | None = None):
+        self.image = Path(image)
+        self.depth = depth
+        self.config_file, self.camera_file, self.device = config_file, camera_file, device
+        self.medium_file = medium if medium and medium not in presets() else None
+        self.preset = medium or DEFAULT_MEDIUM
+        self.given = given_data(config_file, camera_file)          # refused here when bad
+        self.overrides: dict = {}
+        self._presets: dict = {}
+        self.timings = Timings()
+        stem = self.image.name.rsplit(".", 1)[0]
+        self.yaml_path = self.image.with_name(f"{stem}.tune.yaml")
+        self.output_path = self.image.with_name(f"{stem}.fog{outputs.default_ext(self.image)}")
+        self.lock = threading.Lock()     # one render at a time: they share the device's plans
+        cfg = self.config()
+        st = load(self._job(), cfg)       # the frame as apply reads it: colour, cleaned metric depth
+        self._reduce(st, st.cfg or cfg)
+        self.full: Rendered | None = None
+        self.preview: Rendered | None = None
+        self._full_staged = None
+
+    # ------------------------------------------------------------------ config
+    def choices(self) -> list[str]:
+        return list(presets()) + ([self.medium_file] if self.medium_file else [])
+
+    def set_preset(self, name: str) -> None:
+        if name not in self.choices():
+            raise UserError(f"preset: expected one of {', '.join(self.choices())}, got {name!r}")
+        self.preset = name
+        self.overrides = {k: v for k, v in self.overrides.items() if k == "lights"}
+
+    def data(self, overrides: dict | None = None) -> dict:
+        """The config's data as the saved YAML gives it: the preset, then what the command
+        line's files and the page add (the page's changes through one YAML round trip)."""
+        page = self.overrides if overrides is None else overrides
+        return S.merge(self._preset_data(), self.saved(page))
+
+    def _preset_data(self) -> dict:
+        """The preset's data, read once a preset (a slider's every move builds on it)."""
+        if self.preset not in self._presets:
+            self._presets[self.preset] = medium_data(self.preset, {})
+        return self._presets[self.preset]
+
+    def saved(self, overrides: dict) -> dict:
+        """What the YAML holds: the command line's --config and --camera with the page's
+        changes, less what the preset already says (kept where dropping it would change
+        the config)."""
+        for k in overrides:
+            if k not in PAGE_SECTIONS:
+                raise UserError(f"{k}: the page changes only {', '.join(PAGE_SECTIONS)}")
+        full = S.merge(self.given, overrides)
+        base = self._preset_data()
+        pruned = prune(full, base)
+        if pruned != full and self._build(S.merge(base, pruned)) != self._build(S.merge(base, full)):
+            return full
+        return pruned
+
+    def config(self, overrides: dict | None = None) -> Config:
+        return self._build(self.data(overrides))
+
+    @staticmethod
+    def _build(data: dict) -> Config:
+        import yaml
+
+        # through YAML text as the saved file will be read: the same numbers, the same types
+        return build(yaml.safe_load(yaml.safe_dump(data, sort_keys=False)), {})
+
+    # ------------------------------------------------------------------ renders
+    def _job(self) -> Job:
+        return Job(str(self.image), str(self.output_path), self.depth,
+                   protected=tuple(p for p in (self.config_file, self.camera_file, self.medium_file) if p))
+
+    def _reduce(self, st, cfg: Config) -> None:
+        """The reduced frame for previews (area-averaged colour, nearest depth), and the
+        camera made to follow it (calibrated_size: the full frame's)."""
+        import cv2
+
+        frame = st.frame
+        rgb = np.asarray(frame.rgb, np.float32)
+        h, w = frame.shape
+        self.width, self.height = w, h
+        self.input_full = rgb
+        self.depth_full = st.depth
+        self.alpha_full = frame.alpha
+        s = min(1.0, math.sqrt(PREVIEW_PIXELS / (w * h)))
+        pw, ph = max(1, round(w * s)), max(1, round(h * s))
+        area = lambda a: cv2.resize(a, (pw, ph), interpolation=cv2.INTER_AREA) if s < 1 else a  # noqa: E731
+        self.input_small = np.ascontiguousarray(area(rgb))
+        self.depth_small = np.ascontiguousarray(
+            cv2.resize(st.depth, (pw, ph), interpolation=cv2.INTER_NEAREST) if s < 1 else st.depth)
+        self.alpha_small = None if frame.alpha is None else np.ascontiguousarray(area(frame.alpha))
+        cam = cfg.camera
+        self.camera = cam if cam.calibrated_size is not None else cam.model_copy(update={"calibrated_size": (w, h)})
+        self.median = median_depth(st.depth, cam.max_depth)
+        self.hdr = not frame.display_referred
+        self.mean_luminance = float(luminance(self.input_small).mean())
+
+    def render(self, overrides: dict, size: str, aovs: bool = False) -> Rendered:
+        """The frame with the page's config: 'preview' (reduced; with the scattered and
+        airlight AOVs when asked: they cost downloads) or 'full' (apply's stages)."""
+        cfg = self.config(overrides)
+        key = cfg.model_dump_json()
+        with self.lock:
+            t0 = time.perf_counter()
+            if size == "full":
+                planes = self._render_full(cfg)
+            else:
+                planes = self._render_preview(cfg, aovs)
+            r = Rendered(size, planes, key, (time.perf_counter() - t0) * 1e3, cfg)
+            self.overrides = overrides
+            if size == "full":
+                self.full = r
+            else:
+                self.preview = r
+            return r
+
+    def _render_preview(self, cfg: Config, aovs: bool) -> dict:
+        cfg = cfg.model_copy(update={"camera": self.camera})
+        frame_cfg, lamp_pixels = for_image(self.input_small, self.depth_small, cfg)
+        out, _, planes = run(self.input_small, self.depth_small, frame_cfg, alpha=self.alpha_small,
+                             aovs=("scattered", "airlight") if aovs else (), device=self.device,
+                             lamp_pixels=lamp_pixels, timings=self.timings)
+        return {"output": out, "input": self.input_small, **_rgb_planes(planes)}
+
+    def _render_full(self, cfg: Config) -> dict:
+        """apply's stages on the file as read again (compute consumes the frame it uploads);
+        the AOVs come from a second run, so that the frame kept for Save is apply's own."""
+        st = compute(load(self._job(), cfg), cfg, device=self.device, timings=Timings())
+        self._full_staged = (st, cfg)
+        return {"output": st.rgb, "input": self.input_full}
+
+    def aovs(self, size: str) -> dict:
+        """The planes of the last frame of that size with its scattered and airlight AOVs,
+        made on demand (the page's AOV view) by a run with the same config."""
+        r = self.full if size == "full" else self.preview
+        if r is None:
+            raise UserError(f"no {size} frame rendered yet")
+        with self.lock:
+            if "scattered" not in r.planes:
+                cfg = r.cfg
+                big = size == "full"
+                rgb, dep, alpha = ((self.input_full, self.depth_full, self.alpha_full) if big else
+                                   (self.input_small, self.depth_small, self.alpha_small))
+                frame_cfg, lamp_pixels = for_image(rgb, dep, cfg.model_copy(update={"camera": self.camera}))
+                _, _, planes = run(rgb, dep, frame_cfg, alpha=alpha, aovs=("scattered", "airlight"),
+                                   device=self.device, lamp_pixels=lamp_pixels)
+                r.planes.update(_rgb_planes(planes))
+        return r.planes
+
+    # ------------------------------------------------------------------ the page's other asks
+    def light_at(self, x: float, y: float) -> dict:
+        """A point light at the full frame's pixel (x, y), at that pixel's depth, bright
+        enough to be seen against the frame."""
+        if not (0 <= x < self.width and 0 <= y < self.height):
+            raise UserError(f"pixel ({x:g}, {y:g}): outside the {self.width}x{self.height} frame")
+        cam = self.camera.for_size(self.width, self.height)
+        d = float(self.depth_full[int(y), int(x)])
+        d = min(d, cam.max_depth, 4.0 * self.median) if math.isfinite(d) else 4.0 * self.median
+        ray = pixel_rays.directions(np.array(x - 0.5), np.array(y - 0.5), cam.focal(self.width),
+                                    cam.focal_y(self.width), *cam.centre(self.width, self.height))
+        pos = ray * d if cam.depth == "z" else ray / pixel_rays.length(ray) * d
+        level = max(self.mean_luminance, 1e-3) * 20.0 * d * d
+        return {"type": "point", "position": [round(float(v), 4) for v in pos],
+                "intensity": [float(f"{level:.3g}")] * 3}
+
+    def pixel(self, x: float, y: float) -> dict:
+        """The depth and colours of the full frame's pixel (x, y): input, and the last
+        result (full size where made, else the preview's)."""
+        if not (0 <= x < self.width and 0 <= y < self.height):
+            raise UserError(f"pixel ({x:g}, {y:g}): outside the {self.width}x{self.height} frame")
+        xi, yi = int(x), int(y)
+        out = {"x": xi, "y": yi, "depth": float(self.depth_full[yi, xi]),
+               "input": [float(v) for v in self.input_full[yi, xi]]}
+        r = self.full if self.full is not None and self.full.key == self.config().model_dump_json() else self.preview
+        if r is not None:
+            p = r.planes["output"]
+            ph, pw = p.shape[:2]
+            out["output"] = [float(v) for v in p[min(ph - 1, yi * ph // self.height), min(pw - 1, xi * pw // self.width)]]
+            out["of"] = r.size
+        return out
+
+    def state(self) -> dict:
+        """What the page starts from: the presets, the frame, and the config's values for
+        the controls (the effective visibility as a share of the median depth)."""
+        cfg = self.config()
+        m = cfg.medium
+        vis = m.visibility if isinstance(m.visibility, str) else f"{visibility_m(m) / self.median * 100:.4g}%"
+        ext = [a + s for a, s in zip(m.absorption, m.scattering)]
+        return {
+            "presets": self.choices(), "preset": self.preset, "overrides": self.overrides,
+            "width": self.width, "height": self.height,
+            "preview": list(self.input_small.shape[1::-1]), "hdr": self.hdr,
+            "median_depth": self.median, "visibility": vis,
+            "albedo": (sum(m.scattering) / sum(ext)) if sum(ext) > 0 else 0.0,
+            "asymmetry": m.asymmetry, "ambient": m.ambient if m.ambient == "auto" else list(m.ambient),
+            "border": cfg.render.border, "density": [d.model_dump(mode="json") for d in m.density],
+            "lights": [x.model_dump(mode="json", exclude_defaults=True) | {"type": x.type} for x in cfg.lights],
+            "files": {"yaml": str(self.yaml_path), "output": str(self.output_path)},
+        }
+
+    def save(self, overrides: dict) -> dict:
+        """The YAML (what differs from the preset, with comments) and the full-size frame,
+        written as `fogcli apply` with that YAML writes it; the command that does."""
+        cfg = self.config(overrides)
+        data = self.saved(overrides)
+        text = commented_yaml(data, self.preset, self.image.name)
+        outputs.atomic_write(self.yaml_path, lambda tmp: Path(tmp).write_text(text))
+        if self.full is None or self.full.key != cfg.model_dump_json() or self._full_staged is None:
+            self.render(overrides, "full")
+        st, used = self._full_staged
+        st.planes = {}
+        store(st, used)
+        return {"yaml": str(self.yaml_path), "output": str(self.output_path), "command": self.command()}
+
+    def command(self, output: str | None = None) -> str:
+        parts = ["fogcli", "apply", str(self.image)]
+        if self.depth:
+            parts += ["--depth", self.depth]
+        parts += ["--medium", self.preset]     # the YAML holds --config's and --camera's values too
+        parts += ["--config", str(self.yaml_path), "-o", output or str(self.output_path)]
+        return shlex.join(parts)
+
+
+def _rgb_planes(planes: dict) -> dict:
+    return {name: np.dstack([planes[f"{name}.{c}"] for c in "RGB"]) for name in ("scattered", "airlight")
+            if f"{name}.R" in planes}
+
+
+# sRGB's 8-bit code of each 16-bit linear value: the page's frames through a table (a
+# power per channel cost 25 ms of a 0.5 MPx preview's 40 ms encoding)
+_STEPS = 65535
+_SRGB8 = np.clip(np.rint(linear_to_srgb(np.arange(_STEPS + 1, dtype=np.float32) / _STEPS) * 255), 0, 255).astype(np.uint8)
+
+
+def encode(rgb: np.ndarray, exposure: float, quality: int = 92) -> bytes:
+    """Scene-linear colour as a JPEG for the page: the exposure, then sRGB (linear_to_srgb,
+    at 16-bit steps of the linear value)."""
+    import cv2
+
+    scaled = np.multiply(rgb[:, :, ::-1], np.float32(2.0 ** exposure * _STEPS), dtype=np.float32)
+    idx = np.clip(scaled, 0, _STEPS, out=scaled).astype(np.uint16)
+    q = _SRGB8[idx]
+    ok, buf = cv2.imencode(".jpg", q, [cv2.IMWRITE_JPEG_QUALITY, quality])
+    if not ok:
+        raise UserError("cannot encode the preview")
+    return buf.tobytes()
