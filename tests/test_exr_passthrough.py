@@ -318,3 +318,27 @@ def test_a_stereo_depth_file_gives_each_view_its_depth(tmp_path, layout):
     np.testing.assert_array_equal(both["right.R"], right["right.R"])
     # 5 m and 40 m of the default fog: the right view is far more hidden
     assert both["transmittance.G"].mean() > 0.8 and both["right.transmittance.G"].mean() < 0.5
+
+
+def test_the_eyes_of_a_stereo_pair_share_one_medium(tmp_path):
+    """A visibility relative to the scene is the first view's for both eyes: the right
+    view, three times as deep, gets the same extinction (-ln T over the depth, pixel by
+    pixel), not one of its own median (review of issue 41)."""
+    stereo, out = tmp_path / "deep_right.exr", tmp_path / "out.exr"
+    data = _data(NAMES)
+    data[:, :, NAMES.index("Z")] = 10.0           # planes: the depth as the kernels take it, uncleaned
+    data[:, :, NAMES.index("right.Z")] = 30.0
+    spec = _spec(NAMES, _fmt)
+    spec.attribute("multiView", oiio.TypeDesc("string[2]"), ("left", "right"))
+    f = oiio.ImageOutput.create(str(stereo))
+    assert f.open(str(stereo), spec) and f.write_image(data)
+    f.close()
+    code, text, _ = run("apply", stereo, "-o", out, "--set", "medium.visibility=200%", "--aov", "transmittance",
+                        "--keep-data-window")
+    assert code == 0, text
+    (_, o), = _read_all(out)
+    (_, i), = _read_all(stereo)
+    left = -np.log(o["transmittance.R"]) / i["Z"]
+    right = -np.log(o["right.transmittance.R"]) / i["right.Z"]
+    assert left.min() > 0.01           # 200 % of 10 m: the medium is there
+    np.testing.assert_allclose(right, left, rtol=2e-3)      # one extinction (its own median's: a third)

@@ -145,3 +145,64 @@ def test_save_writes_the_frame_that_the_printed_command_makes(session, tmp_path)
     # and the frame differs from the preset's: the page's config is in it
     _, plain = read(SAMPLE)
     assert np.abs(a[:, :, :3] - plain[:, :, :3]).mean() > 0.01
+
+
+def test_a_save_that_cannot_write_is_one_line_on_the_page(session, app, monkeypatch):
+    """A full disk or a read-only folder on Save: the page gets the reason (500, JSON),
+    the terminal one line, and the server goes on."""
+    said = []
+    monkeypatch.setattr(app, "echo", said.append)
+
+    def full_disk(*a, **k):
+        raise OSError(28, "No space left on device", str(session.yaml_path))
+
+    monkeypatch.setattr("fogcli.tune.session.outputs.atomic_write", full_disk)
+    status, body = call(app, "POST", "/api/save", headers={"x-fogcli-token": TOKEN},
+                        body=json.dumps({"overrides": {}}).encode())
+    assert status == 500 and "No space left on device" in json.loads(body)["error"]
+    assert len(said) == 1 and "Traceback" not in said[0]
+    assert call(app, "GET", "/api/state", headers={"x-fogcli-token": TOKEN})[0] == 200
+
+
+def test_an_rgbd_photo_with_a_set_key_saves_what_apply_makes(tmp_path):
+    """An 8-bit photo with a 16-bit depth in millimetres (--set camera.depth_scale): the
+    key goes into the saved YAML, and the PNG Save writes is apply's, byte for byte."""
+    import cv2
+
+    rng = np.random.default_rng(4)
+    rgb = (rng.uniform(0.1, 0.9, (60, 80, 3)) * 255).astype(np.uint8)
+    depth = np.tile(np.linspace(1500, 6000, 80, dtype=np.float32), (60, 1)).astype(np.uint16)
+    cv2.imwrite(str(tmp_path / "photo.png"), rgb)
+    cv2.imwrite(str(tmp_path / "photo_depth.png"), depth)
+    s = Session(str(tmp_path / "photo.png"), str(tmp_path / "photo_depth.png"), "haze",
+                sets=("camera.depth_scale=0.001",))
+    assert 3.0 < s.median < 4.5                       # metres: the key was used
+    saved = s.save({"medium": {"visibility": "100%"}})
+    assert "depth_scale: 0.001" in Path(saved["yaml"]).read_text()
+    assert Path(saved["output"]).suffix == ".png"
+    assert _apply_as_printed(saved["command"], tmp_path / "again.png") == 0
+    assert (tmp_path / "again.png").read_bytes() == Path(saved["output"]).read_bytes()
+
+
+@pytest.mark.parametrize("args, needle", [
+    (["missing.exr"], "missing.exr"),
+    ([str(SAMPLE), "--set", "camera.depth_scale="], "empty value"),
+    ([str(SAMPLE), "--medium", "nope"], "no such preset"),
+])
+def test_tune_refuses_bad_input_in_one_line(args, needle):
+    from helpers import assert_one_line_error, run
+
+    code, out, _ = run("tune", *args, "--no-browser")
+    assert_one_line_error(code, out, needle)
+
+
+def test_a_port_in_use_is_one_line():
+    import socket
+
+    from helpers import assert_one_line_error, run
+
+    with socket.socket() as taken:
+        taken.bind(("127.0.0.1", 0))
+        taken.listen(1)
+        code, out, _ = run("tune", SAMPLE, "--no-browser", "--port", taken.getsockname()[1])
+    assert_one_line_error(code, out, "cannot listen on 127.0.0.1")

@@ -327,17 +327,19 @@ def media(sheet, depth_path, config_files, camera_file, sets, output, width, dev
 @click.option("--medium", metavar="NAME|FILE", help="Medium preset (see `fogcli media`) or YAML file to start from. Default: fog.")
 @click.option("--config", "config_file", metavar="FILE", help="YAML config to start from.")
 @click.option("--camera", "camera_file", metavar="FILE", help="Pinhole intrinsics JSON.")
+@click.option("--set", "sets", multiple=True, metavar="KEY=VALUE", help="Override one dotted key, e.g. "
+              "camera.depth_scale=0.001 (kept in the saved YAML).")
 @click.option("--port", default=0, type=click.IntRange(0, 65535), help="Port on 127.0.0.1 (default: a free one).")
 @click.option("--no-browser", is_flag=True, help="Print the page's address only; do not open a browser.")
 @click.option("--device", metavar="SPEC", help="OpenCL device (P:D, cpu, gpu or a name); env FOGCLI_DEVICE.")
 @guarded
-def tune(image, depth_path, medium, config_file, camera_file, port, no_browser, device):
+def tune(image, depth_path, medium, config_file, camera_file, sets, port, no_browser, device):
     """Choose a medium by eye: a page on 127.0.0.1 with IMAGE, in the foreground (Ctrl-C ends it).
     Save writes IMAGE.tune.yaml and IMAGE.fog.<ext>, and prints the `fogcli apply` that makes them."""
     from fogcli.tune.serve import serve
     from fogcli.tune.session import Session
 
-    session = Session(image, depth_path, medium, config_file, camera_file, device)
+    session = Session(image, depth_path, medium, config_file, camera_file, device, sets)
     serve(session, port, not no_browser, echo=lambda m: click.echo(m))
 
 

@@ -20,7 +20,7 @@ from fogcli.errors import UserError
 from fogcli.config.presets import visibility_m
 from fogcli.device.plan import Timings
 from fogcli.device.run import finish, start, unmap
-from fogcli.frame.scene import depth_grid, for_image, median_depth
+from fogcli.frame.scene import concrete_medium, depth_grid, for_image, median_depth
 
 
 @dataclass
@@ -150,10 +150,9 @@ def _highlights(st: Staged, frame, cfg: Config) -> None:
     if not frame.display_referred:
         return
     gain = cfg.camera.highlight_gain
-    n = clipped_pixels(frame.rgb)
     if gain != 1.0:
         frame.rgb = recover_highlights(frame.rgb, gain)
-    elif n:
+    elif n := clipped_pixels(frame.rgb):
         st.res.warnings.append(
             f"{st.job.input}: {n} pixel(s) clipped at white: this display-referred image holds no light above it, so "
             "lamps there glow no more than white paper; set camera.highlight_gain (how many times white a clipped "
@@ -217,6 +216,10 @@ def compute(st: Staged, cfg: Config, aovs=(), device=None, timings: Timings | No
     result is the device's buffer until store() has written it (run.run). Every view of a
     multi-view frame in turn (each result a copy but the last: the next view reuses the
     buffers)."""
+    if st.others:       # one medium for every eye: a share of the median depth, ambient auto, of the first view
+        medium = concrete_medium(st.frame.colour(), st.depth, st.cfg or cfg)
+        for view in (*st.others, st):
+            view.cfg = (view.cfg or cfg).model_copy(update={"medium": medium})
     for view in st.others:
         _compute(view, view.cfg or cfg, aovs, device, timings, False)
     return _compute(st, st.cfg or cfg, aovs, device, timings, mapped)

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from fogcli.config.model import Config
+from fogcli.config.model import Config, Medium
 from fogcli.device.lights import optical_distance
 from fogcli.errors import UserError
 from fogcli.frame.lamps import detect_lamps
@@ -38,12 +38,22 @@ def for_image(rgb: np.ndarray, depth: np.ndarray, cfg: Config, report: list | No
         shared, lamp_pixels = share_lamps(cfg, found, labels)
         cfg = cfg.model_copy(update={"lights": [x for x in cfg.lights if x.type != "auto"] + shared})
         lamp_pixels = lamp_pixels if cfg.lights and lamp_pixels[0].size else None
-    if isinstance(cfg.medium.visibility, str):        # a share of this frame's median depth
-        cfg = cfg.model_copy(update={"medium": cfg.medium.for_depth(median_depth(depth, cfg.camera.max_depth))})
-    if cfg.medium.ambient == "auto":
-        la = estimate(np.asarray(rgb, np.float32), depth, cfg.camera.max_depth)
-        cfg = cfg.model_copy(update={"medium": cfg.medium.model_copy(update={"ambient": la})})
+    medium = concrete_medium(rgb, depth, cfg)
+    if medium is not cfg.medium:
+        cfg = cfg.model_copy(update={"medium": medium})
     return cfg, lamp_pixels
+
+
+def concrete_medium(rgb: np.ndarray, depth: np.ndarray, cfg: Config) -> Medium:
+    """The medium with its values of the image made concrete: a visibility given as a share
+    of the frame's median depth, the ambient light `auto` (the views of a stereo pair take
+    the first view's: one medium for both eyes)."""
+    m = cfg.medium
+    if isinstance(m.visibility, str):
+        m = m.for_depth(median_depth(depth, cfg.camera.max_depth))
+    if m.ambient == "auto":
+        m = m.model_copy(update={"ambient": estimate(np.asarray(rgb, np.float32), depth, cfg.camera.max_depth)})
+    return m
 
 
 def share_lamps(cfg: Config, found: list, labels) -> tuple[list, tuple]:

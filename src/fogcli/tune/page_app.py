@@ -12,7 +12,7 @@ from concurrent.futures import ThreadPoolExecutor
 from importlib import resources
 from urllib.parse import parse_qs
 
-from fogcli.errors import UserError
+from fogcli.errors import ProcessingError, UserError
 from fogcli.tune.session import SHOWN, Session, encode
 
 MAX_BODY = 1 << 20          # a config is a few kB
@@ -65,6 +65,10 @@ class PageApp:
             status, data, kind, extra = 400, json.dumps({"error": str(exc)}).encode(), "application/json", {}
         except (ValueError, TypeError, KeyError) as exc:
             status, data, kind, extra = 400, json.dumps({"error": f"bad request: {exc}"}).encode(), "application/json", {}
+        except Exception as exc:        # a full disk on Save, a device error: one line, here and on the page
+            msg = f"{exc.__class__.__name__}: {exc}" if not isinstance(exc, (OSError, ProcessingError)) else str(exc)
+            self.echo(f"fogcli tune: {method} {path}: {msg}")
+            status, data, kind, extra = 500, json.dumps({"error": msg}).encode(), "application/json", {}
         await _send(send, status, data, kind, extra)
 
     async def route(self, method: str, path: str, query: dict, body: bytes):

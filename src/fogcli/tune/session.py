@@ -47,13 +47,16 @@ class Rendered:
 
 class Session:
     def __init__(self, image: str, depth: str | None = None, medium: str | None = None,
-                 config_file: str | None = None, camera_file: str | None = None, device: str | None = None):
+                 config_file: str | None = None, camera_file: str | None = None, device: str | None = None,
+                 sets=()):
         self.image = Path(image)
         self.depth = depth
         self.config_file, self.camera_file, self.device = config_file, camera_file, device
         self.medium_file = medium if medium and medium not in presets() else None
         self.preset = medium or DEFAULT_MEDIUM
         self.given = given_data(config_file, camera_file)          # refused here when bad
+        for item in sets:            # --set: kept in the saved YAML like a --config file's keys
+            self.given = S.merge(self.given, S.parse_set(item, {}))
         self.overrides: dict = {}
         self._presets: dict = {}
         self.timings = Timings()
@@ -79,10 +82,11 @@ class Session:
         self.overrides = {k: v for k, v in self.overrides.items() if k == "lights"}
 
     def data(self, overrides: dict | None = None) -> dict:
-        """The config's data as the saved YAML gives it: the preset, then what the command
-        line's files and the page add (the page's changes through one YAML round trip)."""
+        """The config's data: the preset, then what the command line's files and the page
+        add (what the saved YAML gives with the preset: saved() keeps it so)."""
         page = self.overrides if overrides is None else overrides
-        return S.merge(self._preset_data(), self.saved(page))
+        _sections(page)
+        return S.merge(self._preset_data(), S.merge(self.given, page))
 
     def _preset_data(self) -> dict:
         """The preset's data, read once a preset (a slider's every move builds on it)."""
@@ -94,9 +98,7 @@ class Session:
         """What the YAML holds: the command line's --config and --camera with the page's
         changes, less what the preset already says (kept where dropping it would change
         the config)."""
-        for k in overrides:
-            if k not in PAGE_SECTIONS:
-                raise UserError(f"{k}: the page changes only {', '.join(PAGE_SECTIONS)}")
+        _sections(overrides)
         full = S.merge(self.given, overrides)
         base = self._preset_data()
         pruned = prune(full, base)
@@ -234,6 +236,7 @@ class Session:
         cfg = self.config()
         m = cfg.medium
         vis = m.visibility if isinstance(m.visibility, str) else f"{visibility_m(m) / self.median * 100:.4g}%"
+        m = m.for_depth(self.median)        # the coefficients this frame gets
         ext = [a + s for a, s in zip(m.absorption, m.scattering)]
         return {
             "presets": self.choices(), "preset": self.preset, "overrides": self.overrides,
@@ -241,6 +244,7 @@ class Session:
             "preview": list(self.input_small.shape[1::-1]), "hdr": self.hdr,
             "median_depth": self.median, "visibility": vis,
             "albedo": (sum(m.scattering) / sum(ext)) if sum(ext) > 0 else 0.0,
+            "absorption": list(m.absorption), "scattering": list(m.scattering),
             "asymmetry": m.asymmetry, "ambient": m.ambient if m.ambient == "auto" else list(m.ambient),
             "border": cfg.render.border, "density": [d.model_dump(mode="json") for d in m.density],
             "lights": [x.model_dump(mode="json", exclude_defaults=True) | {"type": x.type} for x in cfg.lights],
@@ -268,6 +272,12 @@ class Session:
         parts += ["--medium", self.preset]     # the YAML holds --config's and --camera's values too
         parts += ["--config", str(self.yaml_path), "-o", output or str(self.output_path)]
         return shlex.join(parts)
+
+
+def _sections(overrides: dict) -> None:
+    for k in overrides:
+        if k not in PAGE_SECTIONS:
+            raise UserError(f"{k}: the page changes only {', '.join(PAGE_SECTIONS)}")
 
 
 def _rgb_planes(planes: dict) -> dict:

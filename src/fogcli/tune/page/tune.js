@@ -67,7 +67,14 @@ function showControls() {
   const exp = st.density.find((d) => d.type === "exponential");
   $("height-on").checked = !!exp;
   if (exp) { $("falloff").value = exp.falloff; $("height").value = exp.offset[1]; }
-  $("falloff-out").textContent = fmt($("falloff").value); $("height-out").textContent = fmt($("height").value);
+  const noise = st.density.find((d) => d.type === "noise");
+  $("noise-on").checked = !!noise;
+  if (noise) { $("amplitude").value = noise.amplitude; $("scale").value = scaleToSlider(noise.scale); }
+  for (let i = 0; i < 3; i++) {
+    $("abs-" + i).value = Number(st.absorption[i].toPrecision(4));
+    $("sca-" + i).value = Number(st.scattering[i].toPrecision(4));
+  }
+  readControls();
   $("border").value = st.border;
   if (lights === null) showLights(st.lights); else showLights(lights);
 }
@@ -111,6 +118,29 @@ function readControls() {
   $("asymmetry-out").textContent = fmt($("asymmetry").value);
   $("falloff-out").textContent = fmt($("falloff").value);
   $("height-out").textContent = fmt($("height").value);
+  $("amplitude-out").textContent = fmt($("amplitude").value);
+  $("scale-out").textContent = fmt(sliderToScale(+$("scale").value));
+}
+
+// the patches' size: a log slider over 1 % to 100 % of the median depth
+const scaleToSlider = (m) => Math.round(Math.log(m / (0.01 * st.median_depth)) / Math.log(100) * 1000);
+const sliderToScale = (v) => Number((0.01 * st.median_depth * Math.pow(100, v / 1000)).toPrecision(3));
+
+// the medium's density: a height fog or an even one, with noise patches in a box around
+// what the camera sees (to twice the median depth)
+function density() {
+  const d = $("height-on").checked
+    ? [{ type: "exponential", falloff: +$("falloff").value, offset: [0, +$("height").value, 0] }]
+    : [{ type: "homogeneous" }];
+  if ($("noise-on").checked) {
+    // two octaves, and a march of about 32 steps through the box: a frame in a fraction of a
+    // second (the defaults, four octaves and steps of a quarter of the finest, take seconds)
+    const m = st.median_depth, scale = sliderToScale(+$("scale").value);
+    const r = (x) => Number(x.toPrecision(4));
+    d.push({ type: "noise", amplitude: +$("amplitude").value, scale: scale, octaves: 2, step: r(Math.max(scale / 4, m / 16)),
+             shape: "box", center: [0, 0, r(-m)], size: [4 * m, 4 * m, 2 * m].map(r), seed: 1 });
+  }
+  return d;
 }
 
 function bind(id, apply) {
@@ -236,14 +266,14 @@ async function start() {
     $("ambient-out").textContent = fmt(k);
   };
   bind("ambient", ambient); bind("ambient-colour", ambient); bind("ambient-auto", ambient);
-  const height = () => {
-    if ($("height-on").checked) {
-      ov.medium.density = [{ type: "exponential", falloff: +$("falloff").value, offset: [0, +$("height").value, 0] }];
-    } else {
-      ov.medium.density = [{ type: "homogeneous" }];
-    }
+  const dens = () => { ov.medium.density = density(); };
+  for (const id of ["height-on", "falloff", "height", "noise-on", "amplitude", "scale"]) bind(id, dens);
+  const coefficients = () => {
+    ov.medium.absorption = [0, 1, 2].map((i) => Math.max(0, +$("abs-" + i).value || 0));
+    ov.medium.scattering = [0, 1, 2].map((i) => Math.max(0, +$("sca-" + i).value || 0));
+    delete ov.medium.albedo;      // it would share their sum out again
   };
-  bind("height-on", height); bind("falloff", height); bind("height", height);
+  for (let i = 0; i < 3; i++) { bind("abs-" + i, coefficients); bind("sca-" + i, coefficients); }
   bind("border", () => { ov.render.border = $("border").value; });
   $("preset").addEventListener("change", async () => {
     st = await (await api("/api/preset", { name: $("preset").value })).json();
