@@ -129,7 +129,9 @@ class PageApp:
         else:
             plane = r.planes[which]
         extra = {"x-render-ms": f"{ms:.1f}"} if ms is not None else {}
-        return 200, encode(plane, max(-20.0, min(20.0, exposure))), "image/jpeg", extra
+        # a preview lives for a tenth of a second: a lighter JPEG, quicker made and decoded
+        quality = 85 if size == "preview" else 95
+        return 200, encode(plane, max(-20.0, min(20.0, exposure)), quality), "image/jpeg", extra
 
 
 def _overrides(req: dict) -> dict:

@@ -291,7 +291,7 @@ _STEPS = 65535
 _SRGB8 = np.clip(np.rint(linear_to_srgb(np.arange(_STEPS + 1, dtype=np.float32) / _STEPS) * 255), 0, 255).astype(np.uint8)
 
 
-def encode(rgb: np.ndarray, exposure: float, quality: int = 92) -> bytes:
+def encode(rgb: np.ndarray, exposure: float, quality: int) -> bytes:
     """Scene-linear colour as a JPEG for the page: the exposure, then sRGB (linear_to_srgb,
     at 16-bit steps of the linear value)."""
     import cv2
