@@ -91,6 +91,8 @@ def test_slider_light_save_reproduce(page):
     args[args.index("-o") + 1] = str(tmp / "again.exr")
     r = subprocess.run([sys.executable, "-m", "fogcli", *args[1:]], capture_output=True, text=True, cwd=tmp)
     assert r.returncode == 0, r.stderr
+    errors = [e["message"] for e in drv.get_log("browser") if e["level"] == "SEVERE"]
+    assert errors == [], errors            # no script error, no refused request, on the way
     _, a = read(saved_out)
     _, b = read(tmp / "again.exr")
     assert np.array_equal(a, b), np.abs(a - b).max()

@@ -149,7 +149,7 @@ async def _send(send, status: int, data: bytes, kind: str, extra: dict | None = 
     headers = [(b"content-type", kind.encode()), (b"content-length", str(len(data)).encode()),
                (b"cache-control", b"no-store"), (b"x-content-type-options", b"nosniff"),
                (b"referrer-policy", b"no-referrer"),
-               (b"content-security-policy", b"default-src 'self'; img-src 'self' blob:; frame-ancestors 'none'")]
+               (b"content-security-policy", b"default-src 'self'; img-src 'self' blob: data:; frame-ancestors 'none'")]
     headers += [(k.encode(), v.encode()) for k, v in (extra or {}).items()]
     await send({"type": "http.response.start", "status": status, "headers": headers})
     await send({"type": "http.response.body", "body": data})
