@@ -5,7 +5,7 @@ import numpy as np
 import OpenImageIO as oiio
 import pytest
 
-from helpers import run
+from helpers import assert_one_line_error, run
 
 # a beachball-like single-part stereo file: 19 channels, the left view unprefixed
 NAMES = ["R", "G", "B", "A", "Z", "disparityL.x", "disparityL.y", "forward.u", "forward.v", "whitebarmask.mask",
@@ -342,3 +342,37 @@ def test_the_eyes_of_a_stereo_pair_share_one_medium(tmp_path):
     right = -np.log(o["right.transmittance.R"]) / i["right.Z"]
     assert left.min() > 0.01           # 200 % of 10 m: the medium is there
     np.testing.assert_allclose(right, left, rtol=2e-3)      # one extinction (its own median's: a third)
+
+
+def test_a_stereo_pair_is_admitted_with_both_views(tmp_path, monkeypatch):
+    """The views of a pair are held together: a limits.memory that one view fits in and the
+    pair does not refuses the default run (one line naming the views) and lets --view pass
+    (review of issue 41: each view was admitted alone). 640x360: limits.memory starts at 1 MiB."""
+    from fogcli.device import memory
+
+    stereo = tmp_path / "pair.exr"
+    w, h = 640, 360
+    data = np.random.default_rng(1).uniform(0, 1, (h, w, len(NAMES))).astype(np.float32)
+    for i, n in enumerate(NAMES):
+        data[:, :, i] = 20.0 if n.endswith("Z") else (1.0 if n.endswith("A") else data[:, :, i])
+    spec = oiio.ImageSpec(w, h, len(NAMES), "half")
+    spec.channelnames = tuple(NAMES)
+    spec.channelformats = tuple(oiio.TypeDesc(_fmt(n)) for n in NAMES)
+    spec.attribute("multiView", oiio.TypeDesc("string[2]"), ("left", "right"))
+    f = oiio.ImageOutput.create(str(stereo))
+    assert f.open(str(stereo), spec) and f.write_image(data)
+    f.close()
+
+    seen = []
+    real = memory.admit
+    monkeypatch.setattr(memory, "admit", lambda *a, **k: (seen.append((a, k)), real(*a, **k))[1])
+    assert run("apply", stereo, "-o", tmp_path / "one.exr", "--view", "left")[0] == 0
+    (src, w, h, ch, size), kw = seen[0]
+    one = memory.estimate(w, h, ch, size, kw["cfg"], kw["aovs"])
+    pair = one + w * h * (ch * (size + 4) + memory.HOST_BYTES_PER_PIXEL)
+    limit = (one + pair) // 2
+    code, text, _ = run("apply", stereo, "-o", tmp_path / "two.exr", "--set", f"limits.memory={limit}")
+    assert_one_line_error(code, text, "(2 views) needs about")
+    assert not (tmp_path / "two.exr").exists()
+    code, text, _ = run("apply", stereo, "-o", tmp_path / "left.exr", "--view", "left", "--set", f"limits.memory={limit}")
+    assert code == 0, text

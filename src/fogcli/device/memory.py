@@ -54,17 +54,21 @@ def estimate(width: int, height: int, channels: int, itemsize: int, cfg, aovs=()
     return device + host
 
 
-def admit(source: str, width: int, height: int, channels: int, itemsize: int, cfg, aovs=()) -> None:
-    """UserError when a frame of this size would need more than limits.memory allows."""
+def admit(source: str, width: int, height: int, channels: int, itemsize: int, cfg, aovs=(), views: int = 1) -> None:
+    """UserError when a frame of this size would need more than limits.memory allows.
+    views: a multi-view frame's views are held together (one device plan, the host's
+    arrays of each)."""
     limit = limit_bytes(cfg.limits.memory)
     if limit is None:
         return
     need = estimate(width, height, channels, itemsize, cfg, aovs)
+    need += (views - 1) * width * height * (channels * (itemsize + 4) + HOST_BYTES_PER_PIXEL)
     if need > limit:
         setting = cfg.limits.memory
         what = (f": auto, {DEFAULT_SHARE:.0%} of the memory available" if setting == "auto" else
                 f": {setting} of the memory available" if isinstance(setting, str) else "")
-        raise UserError(f"{source}: {width}x{height} needs about {_gib(need)} of memory, more than limits.memory "
+        of = f" ({views} views)" if views > 1 else ""
+        raise UserError(f"{source}: {width}x{height}{of} needs about {_gib(need)} of memory, more than limits.memory "
                         f"allows ({_gib(limit)}{what}); set limits.memory (e.g. --set limits.memory=90%) "
                         "or use a smaller image")
 

@@ -100,18 +100,21 @@ def load(job: Job, cfg: Config, aovs=()) -> Staged:
         raise UserError(f"--aov needs an .exr output, got {out_path.name}")
 
     t0 = time.perf_counter()
-    frame = _read(job, cfg, aovs, job.view)
+    # every view of a multi-view EXR is fogged and held at once: admitted together
+    names = inputs.views(src) if job.view is None and src.suffix.lower() == ".exr" else []
+    n_views = max(1, len(names))
+    frame = _read(job, cfg, aovs, job.view, n_views)
     if job.depth:       # of a multi-view depth EXR, the view's own (right.Z, or its part)
         raw, dsrc = _view_depth(job.depth, frame.view), job.depth
     elif frame.depth is not None:
         raw, dsrc = None, f"{src} (Z channel)"
     else:
         raise UserError(f"{src}: no depth channel (Z, *.Z or *depth); pass --depth FILE")
-    frame, raw, st.cfg = _grow(job, cfg, aovs, frame, raw)
+    frame, raw, st.cfg = _grow(job, cfg, aovs, frame, raw, n_views)
     res.io_ms += (time.perf_counter() - t0) * 1e3
     _clean(st, frame, frame.depth if raw is None else raw, dsrc, st.cfg)
     if job.view is None and frame.view:
-        _other_views(st, cfg, aovs)
+        _other_views(st, cfg, aovs, names)
     return st
 
 
@@ -126,19 +129,19 @@ def _view_depth(path: str, view: str):
     return raw
 
 
-def _read(job: Job, cfg: Config, aovs, view: str | None):
+def _read(job: Job, cfg: Config, aovs, view: str | None, views: int = 1):
     return inputs.read_image(Path(job.input), job.layer, view,
-                             admit=lambda *size: memory.admit(*size, cfg=cfg, aovs=aovs))
+                             admit=lambda *size: memory.admit(*size, cfg=cfg, aovs=aovs, views=views))
 
 
-def _grow(job: Job, cfg: Config, aovs, frame, raw):
+def _grow(job: Job, cfg: Config, aovs, frame, raw, views: int = 1):
     """An EXR grown to hold its display window (io/windows.py; refused before it is made
     when that would not fit), its raw depth alike, and the config with the display
     window's camera in the frame's pixels."""
     disp = windows.display_of(frame)
     box = windows.union(frame)
     if box is not None:
-        memory.admit(job.input, box[2], box[3], 4, 4, cfg=cfg, aovs=aovs)
+        memory.admit(job.input, box[2], box[3], 4, 4, cfg=cfg, aovs=aovs, views=views)
         frame, raw = windows.grow(frame, raw)
     cam = windows.camera_for(cfg.camera, frame, disp)
     return frame, raw, (cfg if cam is cfg.camera else cfg.model_copy(update={"camera": cam}))
@@ -179,13 +182,13 @@ def _clean(st: Staged, frame, raw, dsrc, cfg: Config, first: bool = True) -> Non
     st.frame, st.depth = frame, clean
 
 
-def _other_views(st: Staged, cfg: Config, aovs) -> None:
+def _other_views(st: Staged, cfg: Config, aovs, views: list) -> None:
     """A multi-view EXR: every view is fogged with its own depth (right.Z for the right
     view), so that a stereo pair stays a pair. A view without a depth of its own is copied
     as it is, and a warning names it; an output that holds one view (PNG, --drop-channels)
     gets the first, and a warning says so."""
     job, src = st.job, st.job.input
-    names = [v for v in inputs.views(src) if v != st.frame.view]
+    names = [v for v in views if v != st.frame.view]
     if not names:
         return
     one = Path(job.output).suffix.lower() != ".exr" or job.drop_channels
