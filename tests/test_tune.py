@@ -206,3 +206,13 @@ def test_a_port_in_use_is_one_line():
         taken.listen(1)
         code, out, _ = run("tune", SAMPLE, "--no-browser", "--port", taken.getsockname()[1])
     assert_one_line_error(code, out, "cannot listen on 127.0.0.1")
+
+
+def test_without_the_tune_extra_it_says_what_to_install_before_reading(monkeypatch):
+    import fogcli.tune.session as session_mod
+    from helpers import assert_one_line_error, run
+
+    monkeypatch.setitem(sys.modules, "uvicorn", None)          # not installed: import fails
+    monkeypatch.setattr(session_mod, "Session", lambda *a, **k: pytest.fail("the image was read first"))
+    code, out, _ = run("tune", SAMPLE, "--no-browser")
+    assert_one_line_error(code, out, "pip install 'fogcli[tune]'")

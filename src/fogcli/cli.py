@@ -336,9 +336,10 @@ def media(sheet, depth_path, config_files, camera_file, sets, output, width, dev
 def tune(image, depth_path, medium, config_file, camera_file, sets, port, no_browser, device):
     """Choose a medium by eye: a page on 127.0.0.1 with IMAGE, in the foreground (Ctrl-C ends it).
     Save writes IMAGE.tune.yaml and IMAGE.fog.<ext>, and prints the `fogcli apply` that makes them."""
-    from fogcli.tune.serve import serve
+    from fogcli.tune.serve import require_server, serve
     from fogcli.tune.session import Session
 
+    require_server()
     session = Session(image, depth_path, medium, config_file, camera_file, device, sets)
     serve(session, port, not no_browser, echo=lambda m: click.echo(m))
 

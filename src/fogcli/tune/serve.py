@@ -21,11 +21,17 @@ def bind(port: int) -> socket.socket:
     return sock
 
 
-def serve(session: Session, port: int = 0, open_browser: bool = True, echo=print, token: str | None = None) -> None:
+def require_server():
+    """uvicorn (the tune extra), asked for before the image is read."""
     try:
         import uvicorn
     except ImportError:
         raise UserError("fogcli tune needs its web server: pip install 'fogcli[tune]'") from None
+    return uvicorn
+
+
+def serve(session: Session, port: int = 0, open_browser: bool = True, echo=print, token: str | None = None) -> None:
+    uvicorn = require_server()
     sock = bind(port)
     port = sock.getsockname()[1]
     token = token or secrets.token_urlsafe(24)
