@@ -8,12 +8,11 @@ from pathlib import Path
 import numpy as np
 
 from fogcli.config.presets import assemble, presets, visibility_m
-from fogcli.device.run import run
 from fogcli.errors import UserError
 from fogcli.frame.job import Job, load
-from fogcli.frame.scene import for_image
 from fogcli.io import outputs
 from fogcli.io.colour import linear_to_srgb
+from fogcli.tune.quick_look import reduced, render
 
 COLUMNS = 3
 
@@ -35,17 +34,11 @@ def contact_sheet(image: str, output: str, depth: str | None = None, config_file
     h, w = frame.shape
     tw = min(width, w)
     th = max(1, round(h * tw / w))
-    rgb = cv2.resize(np.asarray(frame.rgb, np.float32), (tw, th), interpolation=cv2.INTER_AREA)
-    dep = cv2.resize(st.depth, (tw, th), interpolation=cv2.INTER_NEAREST)
-    alpha = None if frame.alpha is None else cv2.resize(frame.alpha, (tw, th), interpolation=cv2.INTER_AREA)
-    cam = cfg.camera if cfg.camera.calibrated_size else cfg.camera.model_copy(update={"calibrated_size": (w, h)})
-    tiles = [(("input", ""), rgb)]
+    look = reduced(np.asarray(frame.rgb, np.float32), st.depth, frame.alpha, cfg.camera, tw, th)
+    tiles = [(("input", ""), look.rgb)]
     sources = [(name, name, None) for name in presets()] + [(Path(f).name, None, f) for f in config_files]
     for label, medium, cfile in sources:
-        c = assemble(medium, cfile, sets, camera_file)
-        c = c.model_copy(update={"camera": cam})
-        frame_cfg, lamp_pixels = for_image(rgb, dep, c)
-        res, _, _ = run(rgb, dep, frame_cfg, alpha=alpha, device=device, lamp_pixels=lamp_pixels)
+        res, _, frame_cfg = render(look, assemble(medium, cfile, sets, camera_file), device=device)
         m = frame_cfg.medium
         tiles.append(((label, f"visibility {visibility_m(m):.4g} m, g {m.asymmetry:g}"), res))
     sheet = _assemble(tiles, tw, th)

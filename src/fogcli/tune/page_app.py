@@ -121,7 +121,7 @@ class PageApp:
         s = self.session
         r = s.full if size == "full" else s.preview
         if which == "input":
-            plane = s.input_full if size == "full" else s.input_small
+            plane = (s.big if size == "full" else s.small).rgb
         elif r is None:
             raise UserError(f"no {size} frame rendered yet")
         elif which not in r.planes:

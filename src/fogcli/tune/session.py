@@ -18,14 +18,14 @@ from fogcli.config.model import Config
 from fogcli.config.presets import DEFAULT_MEDIUM, given_data, medium_data, presets, visibility_m
 from fogcli.config.validate import build
 from fogcli.device.plan import Timings
-from fogcli.device.run import run
 from fogcli.errors import UserError
 from fogcli.frame.job import Job, compute, load, store
-from fogcli.frame.scene import for_image, median_depth
+from fogcli.frame.scene import median_depth
 from fogcli.io import outputs
 from fogcli.io.colour import linear_to_srgb
 from fogcli.physics import pixel_rays
 from fogcli.physics.luminance import luminance
+from fogcli.tune.quick_look import reduced, render
 from fogcli.tune.saved_yaml import commented_yaml, prune
 
 PREVIEW_PIXELS = 500_000        # the preview's size while a slider moves (issue 42: 0.5 MPx)
@@ -122,29 +122,17 @@ class Session:
                    protected=tuple(p for p in (self.config_file, self.camera_file, self.medium_file) if p))
 
     def _reduce(self, st, cfg: Config) -> None:
-        """The reduced frame for previews (area-averaged colour, nearest depth), and the
-        camera made to follow it (calibrated_size: the full frame's)."""
-        import cv2
-
+        """The frame at full size and reduced to PREVIEW_PIXELS for previews."""
         frame = st.frame
         rgb = np.asarray(frame.rgb, np.float32)
         h, w = frame.shape
         self.width, self.height = w, h
-        self.input_full = rgb
-        self.depth_full = st.depth
-        self.alpha_full = frame.alpha
         s = min(1.0, math.sqrt(PREVIEW_PIXELS / (w * h)))
-        pw, ph = max(1, round(w * s)), max(1, round(h * s))
-        area = lambda a: cv2.resize(a, (pw, ph), interpolation=cv2.INTER_AREA) if s < 1 else a  # noqa: E731
-        self.input_small = np.ascontiguousarray(area(rgb))
-        self.depth_small = np.ascontiguousarray(
-            cv2.resize(st.depth, (pw, ph), interpolation=cv2.INTER_NEAREST) if s < 1 else st.depth)
-        self.alpha_small = None if frame.alpha is None else np.ascontiguousarray(area(frame.alpha))
-        cam = cfg.camera
-        self.camera = cam if cam.calibrated_size is not None else cam.model_copy(update={"calibrated_size": (w, h)})
-        self.median = median_depth(st.depth, cam.max_depth)
+        self.big = reduced(rgb, st.depth, frame.alpha, cfg.camera, w, h)
+        self.small = reduced(rgb, st.depth, frame.alpha, cfg.camera, max(1, round(w * s)), max(1, round(h * s)))
+        self.median = median_depth(st.depth, cfg.camera.max_depth)
         self.hdr = not frame.display_referred
-        self.mean_luminance = float(luminance(self.input_small).mean())
+        self.mean_luminance = float(luminance(self.small.rgb).mean())
 
     def render(self, overrides: dict, size: str, aovs: bool = False) -> Rendered:
         """The frame with the page's config: 'preview' (reduced; with the scattered and
@@ -166,19 +154,15 @@ class Session:
             return r
 
     def _render_preview(self, cfg: Config, aovs: bool) -> dict:
-        cfg = cfg.model_copy(update={"camera": self.camera})
-        frame_cfg, lamp_pixels = for_image(self.input_small, self.depth_small, cfg)
-        out, _, planes = run(self.input_small, self.depth_small, frame_cfg, alpha=self.alpha_small,
-                             aovs=("scattered", "airlight") if aovs else (), device=self.device,
-                             lamp_pixels=lamp_pixels, timings=self.timings)
-        return {"output": out, "input": self.input_small, **_rgb_planes(planes)}
+        out, planes, _ = render(self.small, cfg, ("scattered", "airlight") if aovs else (), self.device, self.timings)
+        return {"output": out, "input": self.small.rgb, **_rgb_planes(planes)}
 
     def _render_full(self, cfg: Config) -> dict:
         """apply's stages on the file as read again (compute consumes the frame it uploads);
         the AOVs come from a second run, so that the frame kept for Save is apply's own."""
         st = compute(load(self._job(), cfg), cfg, device=self.device, timings=Timings())
         self._full_staged = (st, cfg)
-        return {"output": st.rgb, "input": self.input_full}
+        return {"output": st.rgb, "input": self.big.rgb}
 
     def aovs(self, size: str) -> dict:
         """The planes of the last frame of that size with its scattered and airlight AOVs,
@@ -188,13 +172,8 @@ class Session:
             raise UserError(f"no {size} frame rendered yet")
         with self.lock:
             if "scattered" not in r.planes:
-                cfg = r.cfg
-                big = size == "full"
-                rgb, dep, alpha = ((self.input_full, self.depth_full, self.alpha_full) if big else
-                                   (self.input_small, self.depth_small, self.alpha_small))
-                frame_cfg, lamp_pixels = for_image(rgb, dep, cfg.model_copy(update={"camera": self.camera}))
-                _, _, planes = run(rgb, dep, frame_cfg, alpha=alpha, aovs=("scattered", "airlight"),
-                                   device=self.device, lamp_pixels=lamp_pixels)
+                look = self.big if size == "full" else self.small
+                _, planes, _ = render(look, r.cfg, ("scattered", "airlight"), self.device)
                 r.planes.update(_rgb_planes(planes))
         return r.planes
 
@@ -204,8 +183,8 @@ class Session:
         enough to be seen against the frame."""
         if not (0 <= x < self.width and 0 <= y < self.height):
             raise UserError(f"pixel ({x:g}, {y:g}): outside the {self.width}x{self.height} frame")
-        cam = self.camera.for_size(self.width, self.height)
-        d = float(self.depth_full[int(y), int(x)])
+        cam = self.big.camera.for_size(self.width, self.height)
+        d = float(self.big.depth[int(y), int(x)])
         d = min(d, cam.max_depth, 4.0 * self.median) if math.isfinite(d) else 4.0 * self.median
         ray = pixel_rays.directions(np.array(x - 0.5), np.array(y - 0.5), cam.focal(self.width),
                                     cam.focal_y(self.width), *cam.centre(self.width, self.height))
@@ -220,8 +199,8 @@ class Session:
         if not (0 <= x < self.width and 0 <= y < self.height):
             raise UserError(f"pixel ({x:g}, {y:g}): outside the {self.width}x{self.height} frame")
         xi, yi = int(x), int(y)
-        out = {"x": xi, "y": yi, "depth": float(self.depth_full[yi, xi]),
-               "input": [float(v) for v in self.input_full[yi, xi]]}
+        out = {"x": xi, "y": yi, "depth": float(self.big.depth[yi, xi]),
+               "input": [float(v) for v in self.big.rgb[yi, xi]]}
         r = self.full if self.full is not None and self.full.key == self.config().model_dump_json() else self.preview
         if r is not None:
             p = r.planes["output"]
@@ -241,7 +220,7 @@ class Session:
         return {
             "presets": self.choices(), "preset": self.preset, "overrides": self.overrides,
             "width": self.width, "height": self.height,
-            "preview": list(self.input_small.shape[1::-1]), "hdr": self.hdr,
+            "preview": list(self.small.rgb.shape[1::-1]), "hdr": self.hdr,
             "median_depth": self.median, "visibility": vis,
             "albedo": (sum(m.scattering) / sum(ext)) if sum(ext) > 0 else 0.0,
             "absorption": list(m.absorption), "scattering": list(m.scattering),
