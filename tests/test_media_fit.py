@@ -93,7 +93,7 @@ def test_the_warnings_read_a_half_frame_without_overflow(tmp_path):
 
 def test_clipped_lamps_of_an_8bit_photo_are_named_and_their_light_given_back(tmp_path):
     """Issue 41: an 8-bit photo's lamps clip at white and glow no more than white paper.
-    One warning says so; camera.highlight_gain G makes a clipped core G times white (its
+    One warning says so; camera.highlight_gain G makes a clipped lamp G times white (its
     scattered light G times as much), leaves what is below 80 % of white as it was, and
     keeps the hue. Planted (no warning, or the gain not applied): the asserts fail."""
     from fogcli.io.colour import recover_highlights
@@ -101,11 +101,11 @@ def test_clipped_lamps_of_an_8bit_photo_are_named_and_their_light_given_back(tmp
 
     h, w = 60, 80
     img = np.full((h, w, 3), 40, np.uint8)
-    img[28:32, 38:42] = 255                                   # a clipped lamp
+    img[28:32, 38:42] = 255                                   # a clipped lamp, 0.3 m across at 5 m
     img[5:8, 5:8] = (255, 200, 120)                           # a warm highlight, red clipped
     p, z = tmp_path / "photo.png", tmp_path / "z.exr"
     write_img(p, img, ["R", "G", "B"], fmt="uint8")
-    write_img(z, np.full((h, w), 30.0, np.float32), ["Z"])
+    write_img(z, np.full((h, w), 5.0, np.float32), ["Z"])
     outs = {}
     for g in (1, 50):
         o = tmp_path / f"o{g}.exr"
@@ -126,3 +126,32 @@ def test_clipped_lamps_of_an_8bit_photo_are_named_and_their_light_given_back(tmp
     np.testing.assert_array_equal(rec[0, 0], rgb[0, 0])                       # below the knee
     np.testing.assert_allclose(rec[0, 1], 50.0)
     np.testing.assert_allclose(rec[0, 2] / rec[0, 2, 0], rgb[0, 2], rtol=1e-6)                # the hue kept
+
+
+def test_a_lamps_gain_is_not_given_to_a_clipped_sky_window_or_reflection():
+    """Issue 41: camera.highlight_gain is for lamps (hundreds of times white); a clipped sky,
+    a far lit window and a lamp's streak of reflection are a few times white and take
+    camera.highlight_area_gain. Told apart by size at their depth and by shape; a lamp in a
+    depth hole is still a lamp. Planted (every clipped pixel a lamp, as before; no streak
+    test; no size test): the asserts fail."""
+    from fogcli.config.model import Config
+    from fogcli.frame.lamps import highlight_gains
+
+    h, w = 120, 160                        # 60 degrees across: f = 139 px
+    rgb = np.full((h, w, 3), 0.1, np.float32)
+    depth = np.full((h, w), 20.0, np.float32)
+    rgb[:20] = 1.0
+    depth[:20] = np.inf                    # a clipped sky
+    rgb[40:44, 30:34] = 1.0                # a lamp: 4 x 4 px at 20 m, 0.65 m across
+    rgb[40:44, 100:104] = 1.0
+    depth[40:44, 100:104] = 300.0          # a window: the same pixels at 300 m, 9.7 m across
+    rgb[60:75, 61] = 1.0                   # a reflection: a 1 x 15 px streak on the water, 0.6 m of it
+    rgb[95:98, 130:133] = 1.0
+    depth[93:100, 128:135] = np.nan        # a lamp the sensor could not see, nor its rim
+    cfg = Config.model_validate({"camera": {"highlight_gain": 300, "highlight_area_gain": 3}})
+    g = np.broadcast_to(highlight_gains(rgb, depth, cfg), (h, w))
+    assert g[42, 32] == 300 and g[96, 131] == 300, (g[42, 32], g[96, 131])
+    assert g[10, 80] == 3 and g[42, 102] == 3 and g[70, 61] == 3, (g[10, 80], g[42, 102], g[70, 61])
+    assert g[39, 29] == 300 and g[37, 29] == 3             # the lamp's 2 px rim, and no more
+    same = Config.model_validate({"camera": {"highlight_gain": 5, "highlight_area_gain": 5}})
+    assert np.all(highlight_gains(rgb, depth, same) == 5)

@@ -205,9 +205,12 @@ class Camera(_Model):
     empty_depth: Annotated[float, BeforeValidator(_inf_or_num), Field(ge=0)] = Field(
         0.0, description="m, where pixels with alpha 0 look: 0 = no medium (the plate behind carries its own); inf = open sky")
     highlight_gain: Annotated[Num, Field(ge=1, le=1e6)] = Field(
-        1.0, description="display-referred images (8/16-bit): the light a pixel clipped at white stands for, in "
-        "multiples of white (1: as stored; 50: a lamp that clipped is 50 times white); pixels from 80 % of white "
-        "up ramp towards it")
+        1.0, description="display-referred images (8/16-bit): the light a lamp clipped at white stands for, in "
+        "multiples of white (1: as stored; 50: a lamp that clipped is 50 times white); a lamp is a compact clipped "
+        "region at most 1 m across at its depth; its pixels from 80 % of white up ramp towards it")
+    highlight_area_gain: Annotated[Num, Field(ge=1, le=1e6)] = Field(
+        1.0, description="the same for every other clipped region (sky, lit windows, white walls, a lamp's "
+        "reflection): usually a few times white")
     position: Vec3 = Field((0.0, 0.0, 0.0), description="world position of the camera, m (for the density primitives)")
     yaw: Num = Field(0.0, description="degrees about +Y (positive turns left), then")
     pitch: Num = Field(0.0, description="degrees about +X (positive looks up), then")

@@ -20,6 +20,7 @@ from fogcli.errors import UserError
 from fogcli.config.presets import visibility_m
 from fogcli.device.plan import Timings
 from fogcli.device.run import finish, start, unmap
+from fogcli.frame.lamps import highlight_gains
 from fogcli.frame.scene import concrete_medium, depth_grid, for_image, median_depth
 
 
@@ -147,14 +148,15 @@ def _grow(job: Job, cfg: Config, aovs, frame, raw, views: int = 1):
     return frame, raw, (cfg if cam is cfg.camera else cfg.model_copy(update={"camera": cam}))
 
 
-def _highlights(st: Staged, frame, cfg: Config) -> None:
+def _highlights(st: Staged, frame, cfg: Config, depth: np.ndarray) -> None:
     """A display-referred frame clips its lamps at white: they scatter no more light than
-    white paper. Said once; camera.highlight_gain gives them their light back."""
+    white paper. Said once; camera.highlight_gain gives them their light back (and
+    highlight_area_gain the other clipped regions': lamps are told apart by their size at
+    their depth)."""
     if not frame.display_referred:
         return
-    gain = cfg.camera.highlight_gain
-    if gain != 1.0:
-        frame.rgb = recover_highlights(frame.rgb, gain)
+    if cfg.camera.highlight_gain != 1.0 or cfg.camera.highlight_area_gain != 1.0:
+        frame.rgb = recover_highlights(frame.rgb, highlight_gains(frame.rgb, depth, cfg))
     elif n := clipped_pixels(frame.rgb):
         st.res.warnings.append(
             f"{st.job.input}: {n} pixel(s) clipped at white: this display-referred image holds no light above it, so "
@@ -165,9 +167,9 @@ def _highlights(st: Staged, frame, cfg: Config) -> None:
 def _clean(st: Staged, frame, raw, dsrc, cfg: Config, first: bool = True) -> None:
     """The frame's depth made metric and cleaned, with what that did in the warnings."""
     job, res = st.job, st.res
-    _highlights(st, frame, cfg)
     h, w = frame.shape
     clean, rep = depth_mod.metric_depth(raw, frame.colour(), cfg.camera, str(dsrc), frame.alpha)
+    _highlights(st, frame, cfg, clean)
     res.warnings += rep.notes or []
     if rep.resampled_from:
         res.warnings.append(f"{dsrc}: depth {rep.resampled_from[0]}x{rep.resampled_from[1]} upsampled "

@@ -23,14 +23,15 @@ def clipped_pixels(rgb: np.ndarray) -> int:
     return int(np.count_nonzero(np.asarray(rgb).max(axis=-1) >= CLIPPED))
 
 
-def recover_highlights(rgb: np.ndarray, gain: float) -> np.ndarray:
+def recover_highlights(rgb: np.ndarray, gain) -> np.ndarray:
     """A display-referred frame's highlights as the light they stand for: each pixel scaled
     by 1 + (gain - 1) s, s rising smoothly from 0 at KNEE to 1 at white (of its largest
     channel), so that a clipped core is `gain` times as bright and its anti-aliased rim
-    follows without a step; the hue (channel ratios) is kept."""
-    if gain == 1.0:
+    follows without a step; the hue (channel ratios) is kept. `gain`: one for the frame, or
+    one per pixel (frame.lamps.highlight_gains)."""
+    if np.isscalar(gain) and gain == 1.0:
         return rgb
     m = np.asarray(rgb, np.float32).max(axis=-1)
     t = np.clip((m - KNEE) / (1.0 - KNEE), 0.0, 1.0)
-    scale = 1.0 + (np.float32(gain) - 1.0) * (t * t * (3.0 - 2.0 * t))
+    scale = 1.0 + (np.asarray(gain, np.float32) - 1.0) * (t * t * (3.0 - 2.0 * t))
     return (rgb * scale[..., None]).astype(np.float32)
