@@ -128,14 +128,15 @@ def test_clipped_lamps_of_an_8bit_photo_are_named_and_their_light_given_back(tmp
     np.testing.assert_allclose(rec[0, 2] / rec[0, 2, 0], rgb[0, 2], rtol=1e-6)                # the hue kept
 
 
-def test_a_lamps_gain_is_not_given_to_a_clipped_sky_window_or_reflection():
+def test_a_lamps_gain_and_colour_are_not_given_to_a_clipped_sky_window_or_reflection():
     """Issue 41: camera.highlight_gain is for lamps (hundreds of times white); a clipped sky,
     a far lit window and a lamp's streak of reflection are a few times white and take
     camera.highlight_area_gain. Told apart by size at their depth and by shape; a lamp in a
     depth hole is still a lamp. Planted (every clipped pixel a lamp, as before; no streak
     test; no size test): the asserts fail."""
     from fogcli.config.model import Config
-    from fogcli.frame.lamps import highlight_gains
+    from fogcli.frame.lamps import lamp_pixels, recover
+    from fogcli.io.colour import kelvin_rgb
 
     h, w = 120, 160                        # 60 degrees across: f = 139 px
     rgb = np.full((h, w, 3), 0.1, np.float32)
@@ -148,10 +149,26 @@ def test_a_lamps_gain_is_not_given_to_a_clipped_sky_window_or_reflection():
     rgb[60:75, 61] = 1.0                   # a reflection: a 1 x 15 px streak on the water, 0.6 m of it
     rgb[95:98, 130:133] = 1.0
     depth[93:100, 128:135] = np.nan        # a lamp the sensor could not see, nor its rim
-    cfg = Config.model_validate({"camera": {"highlight_gain": 300, "highlight_area_gain": 3}})
-    g = np.broadcast_to(highlight_gains(rgb, depth, cfg), (h, w))
+    cfg = Config.model_validate({"camera": {"highlight_gain": 300, "highlight_area_gain": 3, "highlight_kelvin": 2700}})
+    out = recover(rgb, depth, cfg)
+    g = out.max(axis=-1)
     assert g[42, 32] == 300 and g[96, 131] == 300, (g[42, 32], g[96, 131])
     assert g[10, 80] == 3 and g[42, 102] == 3 and g[70, 61] == 3, (g[10, 80], g[42, 102], g[70, 61])
-    assert g[39, 29] == 300 and g[37, 29] == 3             # the lamp's 2 px rim, and no more
-    same = Config.model_validate({"camera": {"highlight_gain": 5, "highlight_area_gain": 5}})
-    assert np.all(highlight_gains(rgb, depth, same) == 5)
+    lamp = lamp_pixels(rgb, depth, cfg)
+    assert lamp[39, 29] and not lamp[37, 29]               # the lamp's 2 px rim, and no more
+    # the lamps that clipped to white take the stated colour; the sky keeps its white
+    np.testing.assert_allclose(out[42, 32], 300 * kelvin_rgb(2700), rtol=1e-6)
+    np.testing.assert_allclose(out[10, 80], 3.0)
+    assert out[0, 0, 0] == out[0, 0, 2]
+
+
+def test_a_colour_temperature_is_the_black_bodys_colour():
+    """camera.highlight_kelvin: the Planckian locus (Kim et al.) against the CIE's tabulated
+    chromaticities of illuminant A (2856 K: x 0.44757, y 0.40745) and of the black body at
+    6500 K (0.31352, 0.32363; Wyszecki & Stiles). Planted (a sign in the 2222-4000 K spline,
+    or the matrix's inverse): fails."""
+    from fogcli.io.colour import XYZ_TO_SRGB, kelvin_rgb
+
+    for t, xy in ((2856, (0.44757, 0.40745)), (6500, (0.31352, 0.32363))):
+        xyz = np.linalg.solve(XYZ_TO_SRGB, kelvin_rgb(t).astype(np.float64))
+        np.testing.assert_allclose(xyz[:2] / xyz.sum(), xy, atol=1e-3)

@@ -24,7 +24,7 @@ from metrics import rel_l1  # noqa: E402
 
 SAMPLE = ROOT / "samples" / "harbour.exr"
 GAINS = (1, 30, 100, 150, 200, 300, 1000)   # camera.highlight_gain (lamps)
-AREA_GAINS = (1, 3)                          # camera.highlight_area_gain (every other clipped region)
+ROWS = ((1, None), (3, None), (3, 3000), (3, 4000), (3, 5000))   # camera.highlight_area_gain, highlight_kelvin
 BEGIN, END = markers("clipped-highlights")
 
 
@@ -68,23 +68,27 @@ def main() -> int:
                 return _read(out)
             ref = fog(SAMPLE)
             none = rel_l1(fog(d / "ldr.png"), ref)
-            for a_ in AREA_GAINS:
-                errs = [none if g == a_ == 1 else
+            for a_, k in ROWS:
+                kelvin = ("--set", f"camera.highlight_kelvin={k}") if k else ()
+                errs = [none if g == a_ == 1 and not k else
                         rel_l1(fog(d / "ldr.png", "--set", f"camera.highlight_gain={g}",
-                                   "--set", f"camera.highlight_area_gain={a_}"), ref) for g in GAINS]
-                rows.append((medium, a_, none, errs))
-                print(medium, a_, " ".join(f"{e:.3f}" for e in errs), flush=True)
+                                   "--set", f"camera.highlight_area_gain={a_}", *kelvin), ref) for g in GAINS]
+                rows.append((medium, a_, k, none, errs))
+                print(medium, a_, k, " ".join(f"{e:.3f}" for e in errs), flush=True)
     lines = [BEGIN, "", f"Written by `python tools/clipped_highlights.py --doc docs/physics.md` on {cpu_name()}. "
              f"The sample (`samples/harbour.exr`, HDR: lamps up to 400 times white, lit windows 6 times) against its "
              f"8-bit version (sRGB, clipped at white: {clipped} pixels at 255), each fogged with the sample's depth; "
              "relative L1 of the 8-bit version's output to the HDR original's, with `camera.highlight_gain` G on "
              "the lamps (compact clipped cores at most 1 m across) and `camera.highlight_area_gain` A on every "
-             "other clipped region (G 1, A 1: as stored, no recovery). The sample's lamps are 150, 200 and 400 "
-             "times white and warm; an 8-bit file keeps neither the level nor the hue of a clipped core.", "",
-             "| medium | A | " + " | ".join(f"G {g}" for g in GAINS) + " | best over none |",
-             "|---|---|" + "---|" * (len(GAINS) + 1)]
-    for medium, a_, none, errs in rows:
-        lines.append(f"| {medium} | {a_} | " + " | ".join(f"{e:.3f}" for e in errs) + f" | {none / min(errs):.2f}x |")
+             "other clipped region, and the lamps that clipped to white given the colour of `camera.highlight_kelvin` "
+             "K (-: left white). G 1, A 1, K -: as stored, no recovery. The sample's lamps are 150, 200 and 400 "
+             "times white in red, warm (red : green : blue 1 : 0.72 : 0.42, about 4300 K on this scale), its "
+             "windows 6 times; an 8-bit file keeps neither the level nor the hue of a core that clipped.", "",
+             "| medium | A | K | " + " | ".join(f"G {g}" for g in GAINS) + " | best over none |",
+             "|---|---|---|" + "---|" * (len(GAINS) + 1)]
+    for medium, a_, k, none, errs in rows:
+        lines.append(f"| {medium} | {a_} | {k or '-'} | " + " | ".join(f"{e:.3f}" for e in errs)
+                     + f" | {none / min(errs):.2f}x |")
     lines += ["", END]
     print("\n".join(lines))
     if a.doc:

@@ -211,6 +211,9 @@ class Camera(_Model):
     highlight_area_gain: Annotated[Num, Field(ge=1, le=1e6)] = Field(
         1.0, description="the same for every other clipped region (sky, lit windows, white walls, a lamp's "
         "reflection): usually a few times white")
+    highlight_kelvin: Annotated[Num, Field(ge=1667, le=25000)] | None = Field(
+        None, description="the colour temperature of a lamp whose core clipped to white (its hue is lost with "
+        "every channel clipped): 2000 sodium, 2700 tungsten, 4000 warm LED; unset: white")
     position: Vec3 = Field((0.0, 0.0, 0.0), description="world position of the camera, m (for the density primitives)")
     yaw: Num = Field(0.0, description="degrees about +Y (positive turns left), then")
     pitch: Num = Field(0.0, description="degrees about +X (positive looks up), then")

@@ -12,7 +12,7 @@ from fogcli.io import depth as depth_mod
 from fogcli.io import images as inputs
 from fogcli.device import memory
 from fogcli.io import outputs
-from fogcli.io.colour import clipped_pixels, recover_highlights
+from fogcli.io.colour import clipped_pixels
 from fogcli.io import windows
 from fogcli.config.model import Config
 from fogcli.physics.luminance import luminance
@@ -20,7 +20,7 @@ from fogcli.errors import UserError
 from fogcli.config.presets import visibility_m
 from fogcli.device.plan import Timings
 from fogcli.device.run import finish, start, unmap
-from fogcli.frame.lamps import highlight_gains
+from fogcli.frame.lamps import recover as recover_highlights
 from fogcli.frame.scene import concrete_medium, depth_grid, for_image, median_depth
 
 
@@ -150,18 +150,18 @@ def _grow(job: Job, cfg: Config, aovs, frame, raw, views: int = 1):
 
 def _highlights(st: Staged, frame, cfg: Config, depth: np.ndarray) -> None:
     """A display-referred frame clips its lamps at white: they scatter no more light than
-    white paper. Said once; camera.highlight_gain gives them their light back (and
-    highlight_area_gain the other clipped regions': lamps are told apart by their size at
-    their depth)."""
+    white paper. Said once; camera.highlight_gain and highlight_kelvin give them their light
+    back, and highlight_area_gain the other clipped regions' (frame.lamps.recover)."""
     if not frame.display_referred:
         return
-    if cfg.camera.highlight_gain != 1.0 or cfg.camera.highlight_area_gain != 1.0:
-        frame.rgb = recover_highlights(frame.rgb, highlight_gains(frame.rgb, depth, cfg))
+    cam = cfg.camera
+    if cam.highlight_gain != 1.0 or cam.highlight_area_gain != 1.0 or cam.highlight_kelvin is not None:
+        frame.rgb = recover_highlights(frame.rgb, depth, cfg)
     elif n := clipped_pixels(frame.rgb):
         st.res.warnings.append(
             f"{st.job.input}: {n} pixel(s) clipped at white: this display-referred image holds no light above it, so "
             "lamps there glow no more than white paper; set camera.highlight_gain (how many times white a clipped "
-            "lamp is, e.g. 50), or use an HDR or camera RAW source")
+            "lamp is, e.g. 50) and camera.highlight_kelvin (its colour, e.g. 2700), or use an HDR or camera RAW source")
 
 
 def _clean(st: Staged, frame, raw, dsrc, cfg: Config, first: bool = True) -> None:

@@ -147,26 +147,41 @@ LAMP_ACROSS_M = 1.0     # a clipped core at most this wide at its depth is a lam
 STREAK = 2.0            # a core whose box is this many times longer than wide is a streak: a lamp's reflection
 
 
-def highlight_gains(rgb: np.ndarray, depth: np.ndarray, cfg: Config) -> np.ndarray | float:
-    """How many times white each clipped pixel of a display-referred frame stands for:
-    camera.highlight_gain on a lamp's core (a compact clipped region at most LAMP_ACROSS_M
-    across at its depth, or, without a depth, at most LAMP_SHARE of the frame) and a 2 px rim,
-    camera.highlight_area_gain everywhere else. Sky, lit windows, white walls and a lamp's
+def recover(rgb: np.ndarray, depth: np.ndarray, cfg: Config) -> np.ndarray:
+    """A display-referred frame's clipped highlights as the light the config says they stand
+    for: camera.highlight_gain times white on a lamp (lamp_pixels), highlight_area_gain on
+    every other clipped region; a lamp's core that clipped to white in every channel takes
+    the colour of camera.highlight_kelvin. Sky, lit windows, white walls and a lamp's
     reflection on water also clip but are a few times white, where lamps are hundreds: one
     gain for both made the sample's fog 0.75 from its HDR original at best (relative L1; 0.89
-    with none), lamps alone 0.40 (tools/clipped_highlights.py)."""
+    with none), lamps apart 0.40 (tools/clipped_highlights.py)."""
+    from fogcli.io.colour import CLIPPED, kelvin_rgb, recover_highlights
+
+    cam = cfg.camera
+    lamps = lamp_pixels(rgb, depth, cfg)
+    gains = np.where(lamps, np.float32(cam.highlight_gain), np.float32(cam.highlight_area_gain))
+    if cam.highlight_kelvin is not None:
+        white = lamps & (np.asarray(rgb).min(axis=-1) >= CLIPPED)
+        if white.any():
+            rgb = np.array(rgb, np.float32)
+            rgb[white] = kelvin_rgb(cam.highlight_kelvin)
+    return recover_highlights(rgb, gains)
+
+
+def lamp_pixels(rgb: np.ndarray, depth: np.ndarray, cfg: Config) -> np.ndarray:
+    """The lamps of a display-referred frame where it clipped, and a 2 px rim: compact clipped
+    regions (a box at most STREAK times longer than wide) at most LAMP_ACROSS_M across at
+    their depth, or, without a depth, at most LAMP_SHARE of the frame."""
     import cv2
 
     from fogcli.io.colour import CLIPPED
     from fogcli.io.depth import LAMP_SHARE
 
-    cam = cfg.camera
-    lamp, area = float(cam.highlight_gain), float(cam.highlight_area_gain)
     clipped = np.asarray(rgb).max(axis=-1) >= CLIPPED
-    if lamp == area or not clipped.any():
-        return lamp
+    if not clipped.any():
+        return clipped
     h, w = depth.shape
-    cam = cam.for_size(w, h)
+    cam = cfg.camera.for_size(w, h)
     f, fy = cam.focal(w), cam.focal_y(w)
     cx, cy = cam.centre(w, h)
     n, lab, st, _ = cv2.connectedComponentsWithStats(clipped.astype(np.uint8), connectivity=8)
@@ -190,5 +205,4 @@ def highlight_gains(rgb: np.ndarray, depth: np.ndarray, cfg: Config) -> np.ndarr
         t = d[ok] * (pixel_rays.length(pixel_rays.directions(ii + box[1].start, jj + box[0].start, f, fy, cx, cy))
                      if cam.depth == "z" else 1.0)
         is_lamp[k] = 2.0 * float(np.median(t)) * math.sqrt(px / math.pi) / f <= LAMP_ACROSS_M
-    lamps = cv2.dilate(is_lamp[lab].astype(np.uint8), np.ones((5, 5), np.uint8)) > 0
-    return np.where(lamps, np.float32(lamp), np.float32(area))
+    return cv2.dilate(is_lamp[lab].astype(np.uint8), np.ones((5, 5), np.uint8)) > 0

@@ -1,4 +1,5 @@
-"""sRGB transfer functions (IEC 61966-2-1) for 8/16-bit inputs and display outputs."""
+"""sRGB transfer functions (IEC 61966-2-1) for 8/16-bit inputs and display outputs, and the
+highlights a display-referred frame clipped."""
 from __future__ import annotations
 
 import numpy as np
@@ -35,3 +36,27 @@ def recover_highlights(rgb: np.ndarray, gain) -> np.ndarray:
     t = np.clip((m - KNEE) / (1.0 - KNEE), 0.0, 1.0)
     scale = 1.0 + (np.asarray(gain, np.float32) - 1.0) * (t * t * (3.0 - 2.0 * t))
     return (rgb * scale[..., None]).astype(np.float32)
+
+
+# CIE XYZ -> linear sRGB (D65), IEC 61966-2-1
+XYZ_TO_SRGB = np.array([[3.2406, -1.5372, -0.4986], [-0.9689, 1.8758, 0.0415], [0.0557, -0.2040, 1.0570]])
+
+
+def kelvin_rgb(kelvin: float) -> np.ndarray:
+    """A black body's colour at `kelvin` (1667 to 25000 K) in linear sRGB, its largest channel
+    1: the Planckian locus's chromaticity by Kim et al.'s cubic splines (2002; within 1e-3 of
+    the CIE tables), then XYZ at Y = 1 to sRGB. A tungsten lamp at 2700 K is (1, 0.42, 0.10)
+    in an sRGB file balanced for daylight."""
+    t = float(kelvin)
+    if t <= 4000:
+        x = -0.2661239e9 / t ** 3 - 0.2343589e6 / t ** 2 + 0.8776956e3 / t + 0.179910
+    else:
+        x = -3.0258469e9 / t ** 3 + 2.1070379e6 / t ** 2 + 0.2226347e3 / t + 0.240390
+    if t <= 2222:
+        y = -1.1063814 * x ** 3 - 1.34811020 * x ** 2 + 2.18555832 * x - 0.20219683
+    elif t <= 4000:
+        y = -0.9549476 * x ** 3 - 1.37418593 * x ** 2 + 2.09137015 * x - 0.16748867
+    else:
+        y = 3.0817580 * x ** 3 - 5.87338670 * x ** 2 + 3.75112997 * x - 0.37001483
+    rgb = XYZ_TO_SRGB @ np.array([x / y, 1.0, (1.0 - x - y) / y])
+    return (np.clip(rgb, 0.0, None) / rgb.max()).astype(np.float32)
