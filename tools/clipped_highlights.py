@@ -42,7 +42,7 @@ def main() -> int:
     ap = argparse.ArgumentParser()
     ap.add_argument("--doc")
     a = ap.parse_args()
-    from fogcli.io.colour import linear_to_srgb
+    from fogcli.io.colour import srgb_codes
     from helpers import write_img
 
     with tempfile.TemporaryDirectory() as d:
@@ -56,7 +56,7 @@ def main() -> int:
                                       "float")).reshape(spec.height, spec.width)
         inp.close()
         write_img(d / "z.exr", z, ["Z"])
-        q = np.clip(np.rint(linear_to_srgb(hdr) * 255), 0, 255).astype(np.uint8)
+        q = srgb_codes(hdr)
         write_img(d / "ldr.png", q, ["R", "G", "B"], fmt="uint8")
         clipped = int((q.max(-1) == 255).sum())
         rows = []

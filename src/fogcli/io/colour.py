@@ -15,6 +15,16 @@ def linear_to_srgb(v: np.ndarray) -> np.ndarray:
     return np.where(v <= 0.0031308, v * 12.92, 1.055 * np.power(v, 1 / 2.4) - 0.055).astype(np.float32)
 
 
+def codes(v: np.ndarray, top: int = 255) -> np.ndarray:
+    """Values in [0, 1] as a file's integer codes, rounded (top 255: 8 bits, 65535: 16)."""
+    return np.clip(np.rint(np.asarray(v, np.float32) * top), 0, top).astype(np.uint8 if top <= 255 else np.uint16)
+
+
+def srgb_codes(linear: np.ndarray, top: int = 255) -> np.ndarray:
+    """Linear light as the sRGB codes a display file holds (clipped at white)."""
+    return codes(linear_to_srgb(linear), top)
+
+
 CLIPPED = 0.999     # linear value at or above which a display-referred pixel is taken as clipped (8-bit 255: 1.0)
 KNEE = 0.8          # where camera.highlight_gain's ramp starts (linear; sRGB 231 of 255)
 

@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
-from fogcli.io.colour import linear_to_srgb
+from fogcli.io.colour import codes, linear_to_srgb
 from fogcli.errors import ProcessingError, UserError
 
 DISPLAY_EXT = {".png", ".tif", ".tiff", ".jpg", ".jpeg"}
@@ -254,7 +254,7 @@ def _write_display(path: Path, rgb: np.ndarray, alpha: np.ndarray | None, exposu
         planes.append(np.clip(alpha, 0, 1)[:, :, None])
     data = np.concatenate(planes, axis=2)
     top = 65535 if ext in (".tif", ".tiff") else 255
-    q = np.clip(np.rint(data * top), 0, top).astype(np.uint16 if top == 65535 else np.uint8)
+    q = codes(data, top)
     q = np.ascontiguousarray(q[:, :, [2, 1, 0, 3][: q.shape[2]]])     # OpenCV is BGR(A)
     params = [cv2.IMWRITE_JPEG_QUALITY, 95] if ext in (".jpg", ".jpeg") else []
     ok, buf = cv2.imencode(".tiff" if ext == ".tif" else ext, q, params)

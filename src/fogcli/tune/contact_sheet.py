@@ -11,7 +11,7 @@ from fogcli.config.presets import assemble, presets, visibility_m
 from fogcli.errors import UserError
 from fogcli.frame.job import Job, load
 from fogcli.io import outputs
-from fogcli.io.colour import linear_to_srgb
+from fogcli.io.colour import srgb_codes
 from fogcli.tune.quick_look import reduced, render
 
 COLUMNS = 3
@@ -62,7 +62,7 @@ def _assemble(tiles: list, tw: int, th: int) -> np.ndarray:
     for i, ((name, detail), rgb) in enumerate(tiles):
         r, c = divmod(i, cols)
         y, x = gap + r * (th + band + gap), gap + c * (tw + gap)
-        disp = np.clip(np.rint(linear_to_srgb(rgb) * 255), 0, 255).astype(np.uint8)[:, :, ::-1]
+        disp = srgb_codes(rgb)[:, :, ::-1]
         sheet[y:y + th, x:x + tw] = disp
         cv2.putText(sheet, name, (x + 4, y + th + 17), cv2.FONT_HERSHEY_SIMPLEX, 0.55, (235, 235, 235), 1, cv2.LINE_AA)
         if detail:

@@ -22,7 +22,7 @@ from fogcli.errors import UserError
 from fogcli.frame.job import Job, compute, load, store
 from fogcli.frame.scene import median_depth
 from fogcli.io import outputs
-from fogcli.io.colour import linear_to_srgb
+from fogcli.io.colour import srgb_codes
 from fogcli.physics import pixel_rays
 from fogcli.physics.luminance import luminance
 from fogcli.tune.quick_look import reduced, render
@@ -267,7 +267,7 @@ def _rgb_planes(planes: dict) -> dict:
 # sRGB's 8-bit code of each 16-bit linear value: the page's frames through a table (a
 # power per channel cost 25 ms of a 0.5 MPx preview's 40 ms encoding)
 _STEPS = 65535
-_SRGB8 = np.clip(np.rint(linear_to_srgb(np.arange(_STEPS + 1, dtype=np.float32) / _STEPS) * 255), 0, 255).astype(np.uint8)
+_SRGB8 = srgb_codes(np.arange(_STEPS + 1, dtype=np.float32) / _STEPS)
 
 
 def encode(rgb: np.ndarray, exposure: float, quality: int) -> bytes:
