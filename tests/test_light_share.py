@@ -110,6 +110,27 @@ def test_a_ground_to_the_horizon_dark_near_surfaces_and_the_sky_beside_them_move
     assert (_on_device(rt, img2, wall) == wall).all()
 
 
+def test_a_sky_pixel_on_a_buildings_depth_takes_the_skys_and_the_facade_stays(rt, rng):
+    """The other way: a pixel half covered by a bright sky that carries the building's depth
+    (a depth upsampled 2 x 2: edges a pixel off) takes the sky's depth, its light being
+    mostly the sky's; a facade's texture beside the sky (a pixel 2.5 times its darkest
+    neighbour, 0.6 % of the sky) and a lit window brighter than the sky stay on the
+    building. Planted (no farther side; no cover; no 'at most the sky's brightest'): fails."""
+    w, h = 48, 40
+    z = np.full((h, w), 30.0, np.float32)
+    img = rng.uniform(0.02, 0.05, (h, w, 3)).astype(np.float32)
+    z[:15], img[:15] = 150.0, (4.0, 5.0, 6.0)           # the sky over the building
+    z[15:, :10], img[15:, :10] = 150.0, (4.0, 5.0, 6.0)  # and to its left
+    img[15, 12:40] = 0.5 * np.array([4.0, 5.0, 6.0]) + 0.5 * img[15, 12:40]     # half sky
+    img[20:30, 10] = (0.02, 0.02, 0.02)
+    img[20:30:2, 10] = (0.05, 0.05, 0.05)               # texture at the facade's edge
+    img[32:34, 10] = (8.0, 8.0, 8.0)                     # a lit window brighter than the sky
+    got = _on_device(rt, img, z)
+    assert (got[15, 12:40] == 150.0).all(), got[15, 12:40]
+    assert (got[16:, 10:] == 30.0).all()
+    assert (got[:15] == 150.0).all() and (got[15:, :10] == 150.0).all()
+
+
 def test_the_lamp_scene_in_haze_is_closer_to_path_tracing():
     """The path-traced lamps in haze (tools/groundtruth): the default within 0.075 relative
     L1 (0.092 with each rim pixel at the wall's depth)."""

@@ -619,18 +619,23 @@ def slab_lookup(tab: np.ndarray, mu: np.ndarray, u: np.ndarray) -> np.ndarray:
     return (a + (b - a) * fx) * (1 - fy) + (d + (e - d) * fx) * fy
 
 
-def light_share_depth(depth, rgb, radius: int, nearer: float, same: float) -> np.ndarray:
+def light_share_depth(depth, rgb, radius: int, nearer: float, same: float, far_radius: int,
+                      far_cover: float) -> np.ndarray:
     """kernels/light_share.h: a pixel within `radius` of a nearer surface (depth below `nearer`
     of its own, the pixel opposite in the frame and on its own surface) whose luminance,
     read as a c_near + (1 - a) c_far (c_near the brightest nearer pixel, first in row order;
     c_far the darkest of its own surface's, depth within `same`), is more than half the
-    nearer surface's light takes that pixel's depth. Edge pixels repeat past the frame."""
+    nearer surface's light takes that pixel's depth; likewise within `far_radius` of a
+    farther surface (`nearer` of its depth above the own), when the pixel is no brighter
+    than that surface's brightest and b >= far_cover; where both would, the larger part.
+    Edge pixels repeat past the frame."""
     z = np.asarray(depth, np.float64)
     lum = luminance(np.asarray(rgb, np.float64))
     h, w = z.shape
     zp, yp = np.pad(z, radius, mode="edge"), np.pad(lum, radius, mode="edge")
     zo = np.pad(z, radius, constant_values=np.nan)       # an opposite pixel past the edge is none
     near_y, near_z, far_y = np.zeros((h, w)), z.copy(), np.full((h, w), np.inf)
+    back_y, back_z = np.zeros((h, w)), z.copy()
     with np.errstate(invalid="ignore"):
         for dj in range(-radius, radius + 1):
             for di in range(-radius, radius + 1):
@@ -640,8 +645,14 @@ def light_share_depth(depth, rgb, radius: int, nearer: float, same: float) -> np
                 across = (zm >= (1 - same) * z) & (zm <= (1 + same) * z)
                 take = (zn < nearer * z) & across & (yn > near_y)
                 near_y, near_z = np.where(take, yn, near_y), np.where(take, zn, near_z)
+                back = (max(abs(di), abs(dj)) <= far_radius) & (nearer * zn > z) & across & (yn > back_y)
+                back_y, back_z = np.where(back, yn, back_y), np.where(back, zn, back_z)
                 own = (zn >= (1 - same) * z) & (zn <= (1 + same) * z)
                 far_y = np.where(own, np.minimum(far_y, yn), far_y)
-        span = near_y - far_y
+        span, span_b = near_y - far_y, back_y - far_y
         a = np.minimum(np.where(span > 0, (lum - far_y) / np.where(span > 0, span, 1.0), 0.0), 1.0)
-        return np.where((span > 0) & (a * near_y > 0.5 * lum), near_z, z)
+        b = np.where(span_b > 0, (lum - far_y) / np.where(span_b > 0, span_b, 1.0), 0.0)
+        part = np.where(span > 0, a * near_y, 0.0)
+        part_b = np.where((span_b > 0) & (lum <= back_y) & (b >= far_cover), b * back_y, 0.0)
+        pick = np.where(part >= part_b, near_z, back_z)
+        return np.where(np.maximum(part, part_b) > 0.5 * lum, pick, z)

@@ -166,9 +166,10 @@ BUFFERS = (
 ALIASES = {"up_planes": "depth", "out": "direct"}
 
 # light_share_depth (kernels/light_share.h, built in: its loops unrolled): how far a pixel
-# looks for a nearer surface (pixels), what depth is nearer (below this share of its own),
-# and what is its own surface's (within this share)
-LIGHT_SHARE = {"radius": 2, "nearer": 0.9, "same": 0.05}
+# looks for a nearer surface (pixels), what depth is nearer (below this share of its own;
+# farther: this share of it is above the own), what is its own surface's (within this
+# share); how far it looks for a farther surface, and how much of the pixel that must cover
+LIGHT_SHARE = {"radius": 2, "nearer": 0.9, "same": 0.05, "far_radius": 1, "far_cover": 0.25}
 
 # the reference's planes (reference.py), allocated when it runs
 REFERENCE_BUFFERS = (Buffer("src", F4, FRAME), Buffer("tmp", F4, FRAME), Buffer("acc", F4, FRAME))
@@ -308,7 +309,8 @@ class Plan:
                    PRE_SPREAD=int(not (self.apsf and self.source) or bool(self.aovs)),
                    CAM_Z=int(cfg.camera.depth != "distance"))   # planar depth: view_cosines_inner without roots
         pre.update(SHARE_RADIUS=LIGHT_SHARE["radius"], SHARE_NEARER=f"{LIGHT_SHARE['nearer']!r}f",
-                   SHARE_SAME=f"{LIGHT_SHARE['same']!r}f")
+                   SHARE_SAME=f"{LIGHT_SHARE['same']!r}f", SHARE_FAR_RADIUS=LIGHT_SHARE["far_radius"],
+                   SHARE_FAR_COVER=f"{LIGHT_SHARE['far_cover']!r}f")
         self.k_pre_prog = rt.program("preprocess", **pre)
         self.k_pre_whole = rt.program("preprocess", WHOLE_GROUPS=1, **pre)
         self.pre_defines = pre         # device/ground.py builds its variant (PRE_GROUND) from them

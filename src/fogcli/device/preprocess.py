@@ -270,22 +270,23 @@ def realign(plan, t: Timings) -> None:
 
 
 def light_share(plan, t: Timings) -> None:
-    """A pixel at a depth edge whose light is mostly that of the nearer, brighter surface
-    takes its depth (kernels/light_share.h: each row's least depth into `chain`, the least
-    within the radius into `direct`, the depth over it; copied back)."""
+    """A pixel at a depth edge whose light is mostly that of a nearer or a farther, brighter
+    surface takes its depth (kernels/light_share.h: each row's least and largest depth into
+    `chain`, those within the radius into `direct`, the depth over them into `chain`; copied
+    back)."""
     whole, checked = plan.k_pre_whole, plan.k_pre_prog
     r, (lx, ly) = LIGHT_SHARE["radius"], plan.rt.local2d
     frame = dict(width=np.int32(plan.w), height=np.int32(plan.h))
     nx, ny = (plan.w - 2 * r) // lx * lx, (plan.h - 2 * r) // ly * ly
     plan.launch_inner(t, "preprocess", (r, r + nx, 0, plan.h // ly * ly) if nx > 0 and plan.h >= ly else None,
                       whole.light_share_rows_inner, (whole.light_share_rows, checked.light_share_rows),
-                      plan.w, plan.h, dict(depth=plan.depth, rowmin=plan.chain, **frame))
+                      plan.w, plan.h, dict(depth=plan.depth, rowext=plan.chain, **frame))
     plan.launch_inner(t, "preprocess", (0, plan.w // lx * lx, r, r + ny) if ny > 0 and plan.w >= lx else None,
                       whole.light_share_cols_inner, (whole.light_share_cols, checked.light_share_cols),
-                      plan.w, plan.h, dict(rowmin=plan.chain, out=plan.direct, **frame))
+                      plan.w, plan.h, dict(rowext=plan.chain, ext=plan.direct, **frame))
     t.add("preprocess", plan.rt.launch1d((whole.light_share_pick, checked.light_share_pick), -(-plan.w * plan.h // 8),
-                                         depth=plan.depth, image=plan.image, out=plan.direct, **frame))
-    t.add("preprocess", plan.rt.cl.enqueue_copy(plan.rt.queue, plan.depth, plan.direct, byte_count=4 * plan.w * plan.h))
+                                         depth=plan.depth, image=plan.image, ext=plan.direct, out=plan.chain, **frame))
+    t.add("preprocess", plan.rt.cl.enqueue_copy(plan.rt.queue, plan.depth, plan.chain, byte_count=4 * plan.w * plan.h))
 
 
 def preprocess(plan, t: Timings) -> None:
