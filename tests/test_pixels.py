@@ -60,6 +60,11 @@ def test_pack_rgba_into_a_foreign_buffer(with_alpha):
     dst2 = np.zeros((31, 47, 4), np.float32)
     pack_rgba(dst2, rgb[:, :, ::-1], alpha)                      # a view: numpy's path
     _same(dst2[:, :, :3], np.ascontiguousarray(rgb[:, :, ::-1]))
+    _same(np.ascontiguousarray(dst2[:, :, 3]), alpha if with_alpha else np.ones((31, 47), np.float32))
+    dst3 = np.full((31, 47, 4), np.nan, np.float32)
+    pack_rgba(dst3, rgb.astype(np.float16), alpha)                # half: numpy's path
+    _same(dst3, np.dstack([rgb.astype(np.float16).astype(np.float32),
+                           alpha if with_alpha else np.ones((31, 47), np.float32)]))
 
 
 @pytest.mark.parametrize("dtype", [np.float16, np.float32, np.float64])
