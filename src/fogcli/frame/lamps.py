@@ -158,6 +158,8 @@ def recover(rgb: np.ndarray, depth: np.ndarray, cfg: Config) -> np.ndarray:
     from fogcli.io.colour import CLIPPED, kelvin_rgb, recover_highlights
 
     cam = cfg.camera
+    if cam.highlight_kelvin is None and cam.highlight_gain == cam.highlight_area_gain:
+        return recover_highlights(rgb, float(cam.highlight_gain))     # no lamp is told apart
     lamps = lamp_pixels(rgb, depth, cfg)
     gains = np.where(lamps, np.float32(cam.highlight_gain), np.float32(cam.highlight_area_gain))
     if cam.highlight_kelvin is not None:

@@ -39,7 +39,7 @@ def recover_highlights(rgb: np.ndarray, gain) -> np.ndarray:
     by 1 + (gain - 1) s, s rising smoothly from 0 at KNEE to 1 at white (of its largest
     channel), so that a clipped core is `gain` times as bright and its anti-aliased rim
     follows without a step; the hue (channel ratios) is kept. `gain`: one for the frame, or
-    one per pixel (frame.lamps.highlight_gains)."""
+    one per pixel (frame.lamps.recover)."""
     if np.isscalar(gain) and gain == 1.0:
         return rgb
     m = np.asarray(rgb, np.float32).max(axis=-1)
