@@ -110,3 +110,39 @@ def test_commands_without_pixels_load_no_device_or_image_library():
         r = subprocess.run([sys.executable, "-c", code, *args], capture_output=True, text=True, env=marked_env("x"),
                            timeout=120)
         assert r.stderr.strip().splitlines()[-1:] in ([], [""]), (args, r.stderr)
+
+
+BLAS_WATCH = """
+import os, sys, threading, time
+import numpy
+# the threads numpy's BLAS (OpenBLAS) started as it loaded (nothing else runs yet); they
+# spin as they start: counted from when that is over
+blas = [t for t in os.listdir("/proc/self/task") if int(t) != threading.get_native_id()]
+def ticks():
+    return sum(int(open(f"/proc/self/task/{t}/stat").read().rsplit(")", 1)[1].split()[11]) for t in blas)
+time.sleep(0.3)
+start = ticks()
+from fogcli.cli import main
+try:
+    main()
+except SystemExit as exc:
+    assert not exc.code, exc.code
+time.sleep(0.3)            # a spin that began at the end would still count
+print(len(blas), ticks() - start)
+"""
+
+
+def test_numpys_blas_threads_stay_idle_through_a_frame(tmp_path):
+    """numpy hands a large matrix product (129 x 154 x 64 is one) to BLAS threads that then
+    spin for about 0.1 s: beside the frame's kernels, on the same cores. On 2 cores that took
+    a core from the device for most of a frame (2 MPx, one PoCL thread: 281 core-ms of device
+    stage for 174 ms of wall; two batch workers lost 15 % to it). The host's products in a
+    frame stay on the calling thread (einsum or elementwise)."""
+    frames(tmp_path / "in", 1)
+    env = dict(marked_env("blas"), OPENBLAS_NUM_THREADS="2")     # a thread to watch on any machine
+    r = subprocess.run([sys.executable, "-c", BLAS_WATCH, "apply", str(tmp_path / "in" / "f00.exr"),
+                        "-o", str(tmp_path / "o.exr")], capture_output=True, text=True, env=env, timeout=300)
+    assert r.returncode == 0, r.stderr
+    threads, ticks = map(int, r.stdout.split()[-2:])
+    assert threads >= 1, "OpenBLAS started no thread: nothing was watched"
+    assert ticks <= 2, f"numpy's BLAS threads ran {ticks * 10} ms in one frame"

@@ -107,7 +107,10 @@ def init_worker(cfg, aovs, device, threads: int | None, started=None) -> None:
         os.environ.setdefault("POCL_MAX_PTHREAD_COUNT", str(threads))
         import OpenImageIO as oiio
 
+        # OpenEXR's own pool (zip compression) keeps a thread per core unless told: with
+        # workers on every core, those threads only fought over them (tools/throughput.py)
         oiio.attribute("threads", threads)
+        oiio.attribute("exr_threads", threads)
     _WORKER.update(cfg=cfg, aovs=aovs, device=device, started=started)
 
 

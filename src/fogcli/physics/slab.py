@@ -51,7 +51,10 @@ def phase0(mu: np.ndarray, mu_nodes: np.ndarray, g: float) -> np.ndarray:
     Legendre series sum (2l + 1) g^l P_l(mu) P_l(mu') (normalised: 1/2 int p0 dmu' = 1)."""
     lmax = 1 if g <= 0 else int(min(4096, max(8, np.ceil(np.log(LEGENDRE_TOL) / np.log(g)))))
     coef = (2 * np.arange(lmax + 1) + 1) * float(g) ** np.arange(lmax + 1)
-    return (_legendre(mu, lmax) * coef) @ _legendre(mu_nodes, lmax).T
+    # einsum, not a matmul: a product this size (129 x 154 x 64 at g 0.9) goes to BLAS on
+    # threads, which then spin for about 100 ms beside the frame's kernels on the same
+    # cores (tests/test_one_process.py)
+    return np.einsum("il,jl->ij", _legendre(mu, lmax) * coef, _legendre(mu_nodes, lmax))
 
 
 @functools.lru_cache(maxsize=16)
