@@ -11,7 +11,7 @@ from fogcli import apply
 from fogcli.api import make_config
 from fogcli.physics.luminance import luminance
 from metrics import rel_l1
-from fogcli.device.plan import EXT_LEVEL, Timings, border_margin
+from fogcli.device.plan import EXT_LEVEL, Timings, border_margin, ext_level
 from fogcli.device.run import read_chain
 from fogcli.device.border import extend
 from fogcli.device.composite import composite_source
@@ -20,16 +20,19 @@ from fogcli.device.pyramid import collapse, reduce
 from helpers import FOG, download as _download, random_frame as _frame
 
 
-def test_border_kernels_match_oracle(rt, rng):
+@pytest.mark.parametrize("margin,level", [(0.6, 3), (0.075, 1)])
+def test_border_kernels_match_oracle(rt, rng, margin, level):
     """border_sources: each cell of the padded low-resolution frame is the mean of its
     scale x scale pixels past the edge (copies of the nearest edge pixel, none inside the
     frame or past the margin), log P weighted by luminance; border_inject: the extension's
     result joins level EXT_LEVEL of the collapse, so the image gains it up-sampled by the
     chain's energy-conserving filters (oracles._up2_conserving). float32 vs float64: 1e-5
-    relative (1e-4 through the up-sampling)."""
+    relative (1e-4 through the up-sampling). At the default margin, 3 px and 2 px here, the
+    extension runs at level 1 (plan.ext_level: two level pixels across the margin)."""
     w, h = 45, 29
     img, depth = _frame(rng, w, h)
-    plan, cfg = plan_for(rt, w, h, *FOG, "render.psf=apsf", "render.border=extend", aovs=("scattered",))
+    plan, cfg = plan_for(rt, w, h, *FOG, "render.psf=apsf", "render.border=extend",
+                         f"render.border_margin={margin}", aovs=("scattered",))
     t = Timings()
     upload(plan, img, depth, t)
     preprocess(plan, t)
@@ -51,7 +54,7 @@ def test_border_kernels_match_oracle(rt, rng):
     ext = plan._ext
     L = plan._ext_level
     s = 2 ** L
-    assert (L, s) == (EXT_LEVEL, 8)
+    assert L == level == ext_level(cfg, w, h)
     mx, my = border_margin(cfg, w, h)
     ox, oy = -(-mx // s) * s, -(-my // s) * s
     pw, ph = ext.w, ext.h

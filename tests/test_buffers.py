@@ -6,7 +6,7 @@ import pytest
 
 from helpers import plan_for
 from fogcli.errors import ProcessingError
-from fogcli.device.plan import ALIASES, BUFFERS, buffer_bytes, check_memory, plan_features, planned_bytes
+from fogcli.device.plan import ALIASES, BUFFERS, buffer_bytes, check_memory, ext_level, plan_features, planned_bytes
 
 
 @pytest.mark.parametrize("sets,aovs", [((), ()), (("render.psf=apsf", "render.border=extend"), ("scattered", "transmittance")),
@@ -52,6 +52,11 @@ def test_planned_bytes_counts_what_a_frame_may_add():
     declared = sum(buffer_bytes(n, t, plan_features(base), 25).values())
     assert planned_bytes(n, t, plan_features(base), base, 25) == declared
     assert planned_bytes(n, t, plan_features(ref), ref, 25) == sum(buffer_bytes(n, t, plan_features(ref), 25).values()) + 48 * n
-    d_ext = sum(buffer_bytes(n, t, plan_features(ext), 25).values())
     f = ext.render.border_margin
-    assert f > 0 and planned_bytes(n, t, plan_features(ext), ext, 25) == d_ext + int(d_ext * (1 + 2 * f) ** 2 / 64)   # level 3
+    # the extension's plan: the padded frame at its level's resolution (plan.ext_level: 1/2 for
+    # a 40 x 25 frame's 3 px margin, 1/8 at 2 MPx)
+    for (w, h), level in (((40, 25), 1), ((1920, 1080), 3)):
+        d_ext = sum(buffer_bytes(w * h, t, plan_features(ext), h).values())
+        assert ext_level(ext, w, h) == level
+        assert f > 0 and planned_bytes(w * h, t, plan_features(ext), ext, h) == \
+            d_ext + int(d_ext * (1 + 2 * f) ** 2 / 4 ** level)

@@ -100,7 +100,7 @@ def test_psf_border_and_emission_profile_keys():
     fetch are Gaussian models: asking them for apsf is an error, leaving it out is not."""
     cfg = make_config("fog")
     assert (cfg.render.psf, cfg.render.border, cfg.render.emission_profile, cfg.render.ground) == \
-        ("apsf", "open", "lambertian", "auto")
+        ("apsf", "extend", "lambertian", "auto")
     assert make_config("fog", sets=["render.method=naive"]).render.psf == "gaussian"
     assert make_config("fog", sets=["render.fetch=receiver"]).render.psf == "gaussian"
     with pytest.raises(UserError, match="render.psf: apsf needs render.method pyramid"):

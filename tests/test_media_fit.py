@@ -59,18 +59,20 @@ def test_media_lists_visibility_in_metres():
 
 
 def test_a_medium_too_thin_to_see_says_so_and_what_would_show_it():
-    """Issue 41: the default fog in a 2 m room changes the frame by about 2 %, with no hint.
+    """Issue 41: the default fog in a small room changes the frame by about 2 %, with no hint.
     The hint's relative visibility changes it plainly (it aims at 20 %), and then says
-    nothing. Planted (no hint, or one that keeps the metres): each assert fails."""
+    nothing. Planted (no hint, or one that keeps the metres): each assert fails. The room is
+    at a median of 1.5 m (2.3 %): at 2 m it changed by 2.8 % with the open border and by 3.1 % with
+    `extend` (the walls past the frame's edges send their light in), over FAINT's 3 %."""
     rgb, z, fov = room(160, 120)
-    z = (z * (2.0 / float(np.median(z)))).astype(np.float32)          # the room at a median of 2 m
+    z = (z * (1.5 / float(np.median(z)))).astype(np.float32)          # the room at a median of 1.5 m
     cfg = fogcli.make_config("fog", sets=[f"camera.fov={fov}"])
     out, said = _apply(rgb, z, cfg)
     change = float(np.abs(luminance(out) - luminance(rgb)).mean() / luminance(rgb).mean())
     faint = [s for s in said if "hardly visible" in s]
     assert change < 0.03 and len(faint) == 1, (change, said)
     vis = faint[0].split("medium.visibility: ")[1].split("%")[0]
-    assert "median depth of 2 m" in faint[0] and 300 <= float(vis) <= 3000, faint[0]
+    assert "median depth of 1.5 m" in faint[0] and 300 <= float(vis) <= 3000, faint[0]
     out, said = _apply(rgb, z, fogcli.make_config("fog", sets=[f"camera.fov={fov}", f"medium.visibility={vis}%"]))
     change = float(np.abs(luminance(out) - luminance(rgb)).mean() / luminance(rgb).mean())
     assert 0.1 < change < 0.4 and not said, (change, said)

@@ -25,7 +25,7 @@ from fogcli.api import make_config  # noqa: E402
 from metrics import rel_l1  # noqa: E402
 
 G = comparison()
-MARGINS = (0.0, 0.25, 0.5, 0.75, 1.5, 3.0)
+MARGINS = (0.0, 0.05, 0.075, 0.1, 0.25, 0.5, 1.5)
 BEGIN, END = markers("border-margin")
 
 
@@ -58,7 +58,7 @@ def main() -> int:
     for held, title in ((False, "mean, calibration scenes"), (True, "mean, held out")):
         if means[held]:
             mean = np.mean(means[held], axis=0)
-            lines.append(f"| {title} | | " + " | ".join(f"{v:.3f}" for v in mean) + " |")
+            lines.append(f"| {title} | | " + " | ".join(f"{v:.4f}" for v in mean) + " |")
     lines.append(END)
     block = "\n".join(lines)
     print(block)

@@ -26,7 +26,8 @@ from groundtruth.load import cases, comparison
 # (column, --set values): the border policies without the ground's slab, then the default
 VARIANTS = (("open, no ground", ["render.border=open", "render.ground=none"]),
             ("extend, no ground", ["render.border=extend", "render.ground=none"]),
-            ("open, ground (default)", ["render.border=open"]))
+            ("open, ground", ["render.border=open"]),
+            ("default (extend, ground)", []))
 BANDS = (("sky", 0, None), ("far ground (20 rows)", 0, 20), ("middle ground (40 rows)", 20, 60), ("near ground", 60, None))
 
 
@@ -66,9 +67,9 @@ def main(argv=None) -> int:
         from docblock import cpu_name, markers, write_block
         begin, end = markers("ground-regions")
         head = (f"Written by `python tools/ground_regions.py --doc {args.doc}` on {cpu_name()}. The default "
-                "pipeline with two border policies without the ground's slab (`render.ground: none`; extend was the "
-                "default before it) and the default (border open, the ground's slab) on the `ground` renders, per band "
-                "of rows.\n\n")
+                "pipeline with two border policies without the ground's slab (`render.ground: none`), the open border "
+                "with it, and the default (border extend, the ground's slab) on the `ground` renders, per band of "
+                "rows.\n\n")
         write_block(Path(args.doc), begin, end, f"{begin}\n{head}{text}\n{end}", new_doc="")
     return 0
 

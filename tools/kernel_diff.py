@@ -106,6 +106,9 @@ TOLERANCE = {
     # shadows: a march whose visibility steps where a depth compare flips
     "epi_march": 1e-4, "shadow_march": 1e-4, "epi_unwarp": 1e-4, "epi_samples": 1e-4, "add_light": 1e-4,
     "add_airlight": 1e-4,
+    # splits a chain level that the light's airlight (above) was added to: 1.4e-5 on Intel in
+    # `point light, epipolar shadows` once the extended border fed that level too
+    "split_level": 1e-4,
     # the reference: sums over every pixel pair of a 64 x 36 frame
     "ref_brute": 1e-4, "ref_brute_norm": 1e-4, "ref_finish": 1e-4,
 }

@@ -268,6 +268,18 @@ def scene_yard():           # held out; closed by a black wall, lights in and be
     return S
 
 
+def scene_panel():          # held out, continues past the frame: lit panels cut by the frame's edges
+    # issue 40's hidden case, as its text describes it: a bright panel half outside the
+    # frame (here the right edge cuts it at 8 m) and one across the bottom-left corner
+    # (4 m); a black wall closes the view, so all scattered light is the panels'
+    S = [frustum_rect(60.0, None),
+         dict(kind="rectangle", pos=[8.0 * TAN_X, 0.4, -8.0], scale=[1.6, 1.0, 1],
+              radiance=("bitmap", tex_text(41, [1.5, 1.4, 1.2], [5.0, 4.4, 3.4]), [1, 1])),
+         dict(kind="rectangle", pos=[-4.0 * TAN_X, -4.0 * TAN_Y, -4.0], scale=[0.7, 0.45, 1],
+              radiance=("bitmap", tex_windows(42, [0.25, 0.3, 0.45], [1.8, 2.2, 3.0], n_x=4, n_y=3), [1, 1]))]
+    return S
+
+
 LIGHTS = {
     "quay": [((-3.0, 2.5, -12.0), _c(WARM, 20.0)), ((5.0, 3.5, -28.0), _c(COLD, 50.0)),
              ((-16.0, 3.0, -9.0), _c(WARM, 40.0)), ((2.0, 3.0, 4.0), [20.0, 20.0, 20.0])],
@@ -285,6 +297,7 @@ SCENES = {
     "plaza":   dict(build=scene_plaza,   outside=True,  heldout=True),
     "quay":    dict(build=scene_quay,    outside=True,  heldout=False, lights=True),
     "yard":    dict(build=scene_yard,    outside=False, heldout=True,  lights=True),
+    "panel":   dict(build=scene_panel,   outside=True,  heldout=True),
 }
 
 

@@ -340,10 +340,10 @@ class Render(_Model):
     psf: Literal["apsf", "gaussian"] = Field(
         "apsf", description="apsf: the point spread of multiple scattering by radiative transfer | gaussian: one Gaussian per source")
     border: Literal["open", "closed", "extend"] = Field(
-        "open", description="open: light scattered across the frame edge leaves it | closed: it stays in the frame | "
+        "extend", description="open: light scattered across the frame edge leaves it | closed: it stays in the frame | "
                             "extend: the world goes on past the edge like the edge itself (border_margin)")
     border_margin: Annotated[Num, Field(ge=0)] = Field(
-        0.25, description="extend: how far past each side the edge continues, in frame widths (heights); the default "
+        0.075, description="extend: how far past each side the edge continues, in frame widths (heights); the default "
         "is the margin closest to path tracing on the calibration scenes (tools/border_margin.py)")
     emission_profile: Literal["lambertian", "isotropic"] = Field(
         "lambertian", description="apsf: weight each source by a matte surface's emission towards the camera (normals from depth)")
@@ -382,7 +382,7 @@ class Render(_Model):
             d = {**d, "psf": "gaussian"}
         if d.get("psf") == "gaussian" and "border" not in d:
             # the Gaussian model's calibration (docs/calibration.md) is for the closed border,
-            # what it always did (the default `open` is the tabulated point spread's)
+            # what it always did (the default `extend` is the tabulated point spread's)
             d = {**d, "border": "closed"}
         if d.get("psf") == "gaussian" and d.get("border") == "extend":
             raise ValueError("border: extend continues the frame's edge for the tabulated point spread; it needs "

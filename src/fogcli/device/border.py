@@ -1,12 +1,12 @@
 """render.border: extend (kernels/pyramid.cl border_sources): the frame's edge continued past
 each side, its light spread by a second, smaller plan and added to the main chain's level
-EXT_LEVEL (pyramid.inject)."""
+ext_level (pyramid.inject)."""
 from __future__ import annotations
 
 import numpy as np
 
 from fogcli.device.composite import composite_source
-from fogcli.device.plan import EXT_LEVEL, Plan, Timings, border_margin
+from fogcli.device.plan import Plan, Timings, border_margin, ext_level
 from fogcli.device.preprocess import upload_lut
 from fogcli.device.pyramid import collapse, reduce
 
@@ -14,12 +14,12 @@ from fogcli.device.pyramid import collapse, reduce
 def extend(plan, t: Timings) -> bool:
     """render.border: extend. The frame's edge continued `border_margin` past each side:
     those sources' light is spread by a second apsf chain on the padded frame at the
-    resolution of level EXT_LEVEL (their light reaches the frame only through blurs of
-    several pixels and more; the open main chain has the frame's own); collapse(ext=True)
-    adds it to that level. About 1/16 of the main chain's pixels at margin 0.5. Returns
+    resolution of level ext_level (3, finer for a narrow margin; their light reaches the
+    frame only through blurs of several pixels and more; the open main chain has the
+    frame's own); collapse(ext=True) adds it to that level. About 1/16 of the main chain's pixels at margin 0.5. Returns
     whether there is one."""
     mx, my = border_margin(plan.cfg, plan.w, plan.h)
-    plan._ext_level = min(EXT_LEVEL, len(plan.sizes) - 1)
+    plan._ext_level = min(ext_level(plan.cfg, plan.w, plan.h), len(plan.sizes) - 1)
     if not (mx or my) or plan._ext_level == 0:
         return False
     s = 2 ** plan._ext_level

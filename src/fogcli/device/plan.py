@@ -89,6 +89,19 @@ def border_margin(cfg: Config, width: int, height: int) -> tuple[int, int]:
     return int(round(f * width)), int(round(f * height))
 
 
+def ext_level(cfg: Config, width: int, height: int) -> int:
+    """The level at whose resolution `border: extend` spreads the continued edge: EXT_LEVEL,
+    or finer where the margin is narrow, so that it is at least two of the level's pixels
+    across. One cell wider than the margin puts the continued light half a cell out, too far
+    to reach the frame through the narrowest blurs: a 7 px margin at level 3 added 0.76 of
+    what the exact padding adds (tests/test_border_extend.py, 96 x 64 at the default margin)."""
+    m = min([v for v in border_margin(cfg, width, height) if v] or [0])
+    level = EXT_LEVEL
+    while level > 1 and m < 2 * 2 ** level:
+        level -= 1
+    return level
+
+
 def uses_apsf(cfg: Config) -> bool:
     """The tabulated point spread runs in the source collapse and in the reference."""
     r = cfg.render
@@ -192,14 +205,14 @@ def buffer_bytes(n: int, t: int, f: Features, rows: int) -> dict:
 def planned_bytes(n: int, t: int, f: Features, cfg: Config, rows: int) -> int:
     """Everything one frame may allocate: the declared buffers, the reference's planes, the
     airlight of a second light (two planes), and the extension plan of `border: extend`
-    (the padded frame at 1/2^EXT_LEVEL: about (1 + 2 margin)^2 / 64 of a plan)."""
+    (the padded frame at 1/2^ext_level: about (1 + 2 margin)^2 / 64 of a plan at level 3)."""
     total = sum(buffer_bytes(n, t, f, rows).values())
     if f.reference:
         total += sum(b.bytes(n, t, f, rows) for b in REFERENCE_BUFFERS)
     if f.lights and len(cfg.lights) > 1:
         total += 32 * n
     if cfg.render.border == "extend" and f.source and uses_apsf(cfg):
-        total += int(total * (1 + 2 * cfg.render.border_margin) ** 2 / 4 ** EXT_LEVEL)
+        total += int(total * (1 + 2 * cfg.render.border_margin) ** 2 / 4 ** ext_level(cfg, n // rows, rows))
     return total
 
 
