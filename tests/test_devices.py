@@ -21,10 +21,12 @@ import numpy as np
 import pytest
 
 from helpers import ROOT, SAMPLE, read
+from kernel_diff import NOT_A_FRAME_KERNEL
 
-KERNELS = sorted(ln.split("void", 1)[1].split("(", 1)[0].strip()
-                 for f in sorted((ROOT / "src" / "fogcli" / "device" / "kernels").glob("*.[ch]*"))
-                 for ln in f.read_text().splitlines() if ln.startswith("__kernel"))
+# every kernel of a frame (not the runtime's probe)
+KERNELS = sorted(name for f in sorted((ROOT / "src" / "fogcli" / "device" / "kernels").glob("*.[ch]*"))
+                 for ln in f.read_text().splitlines() if ln.startswith("__kernel")
+                 for name in [ln.split("void", 1)[1].split("(", 1)[0].strip()] if name not in NOT_A_FRAME_KERNEL)
 LIGHTS = ROOT / "samples" / "harbour-lights.yaml"
 
 

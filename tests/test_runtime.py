@@ -243,3 +243,21 @@ def test_a_simulator_is_used_only_when_named():
     assert runtime.choose(devices, "oclgrind")[1] == "s"
     assert runtime.choose(devices, "0:0")[1] == "s"
     assert runtime.choose([(sim, "s")], None)[1] == "s"        # the only one there is
+
+
+def test_lanes_follow_what_the_compiler_emits(rt):
+    """LANES 8 (kernels/lanes.h) where the code is 8 floats wide. PoCL 3.0's LLVM 14 compiles
+    for znver3 (AVX2) on a Zen 4, a device that reports 16 floats: the scalar LANES 1 code made
+    a point light in fog 2.7x slower there. The compiler's word first, the device's where it
+    gives none; GPUs never."""
+    from fogcli.device.runtime import lanes_for
+
+    assert lanes_for(8, 16, False) == 8         # a Zen 4 under LLVM 14
+    assert lanes_for(16, 16, False) == 1        # AVX-512 code: the vectoriser's own
+    assert lanes_for(4, 8, False) == 1          # SSE code on an AVX2 device
+    assert lanes_for(0, 8, False) == 8 and lanes_for(0, 16, False) == 1
+    assert lanes_for(8, 8, True) == 1
+    if rt.pocl and rt.device.type & rt.cl.device_type.CPU:
+        width = rt._compiled_simd_width()
+        assert width in (4, 8, 16), width       # PoCL's clang says, for x86
+        assert rt.lanes == lanes_for(width, rt.device.native_vector_width_float, False)

@@ -105,7 +105,9 @@ def init_worker(cfg, aovs, device, threads: int | None, started=None) -> None:
         # PoCL 3.0's pthread device reads POCL_MAX_PTHREAD_COUNT, later ones POCL_CPU_MAX_CU_NUM
         os.environ.setdefault("POCL_CPU_MAX_CU_NUM", str(threads))
         os.environ.setdefault("POCL_MAX_PTHREAD_COUNT", str(threads))
-        import OpenImageIO as oiio
+        from fogcli.io import openimageio
+
+        oiio = openimageio.load()
 
         # OpenEXR's own pool (zip compression) keeps a thread per core unless told: with
         # workers on every core, those threads only fought over them (tools/throughput.py)

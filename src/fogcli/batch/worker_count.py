@@ -46,7 +46,9 @@ def auto_jobs(frames: int | None, pixels: int | None, cores: int | None = None) 
 def frame_pixels(path: str) -> int | None:
     """A frame's pixel count from its header (None: unreadable; the frame's own error comes later)."""
     try:
-        import OpenImageIO as oiio
+        from fogcli.io import openimageio
+
+        oiio = openimageio.load()
 
         inp = oiio.ImageInput.open(path)
         if inp is None:

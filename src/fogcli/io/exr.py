@@ -11,6 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
+from fogcli.io import openimageio
 from fogcli.io import pixels
 from fogcli.errors import ProcessingError, UserError
 
@@ -136,7 +137,7 @@ def write_passthrough(path: Path, tmp: str, views: list, out_type: str, compress
     """Write `tmp` (renamed to `path` by the caller): the input EXR with each processed
     view's colour (and alpha) replaced and its AOVs added to its part. views: (frame, rgb
     (h, w, 3), alpha or None, aovs) of each, the first the frame the file is named by."""
-    import OpenImageIO as oiio
+    oiio = openimageio.load()
 
     frame = views[0][0]
 

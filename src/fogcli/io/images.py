@@ -10,6 +10,7 @@ from pathlib import Path
 
 import numpy as np
 
+from fogcli.io import openimageio
 from fogcli.io import pixels
 from fogcli.io.quiet import quiet_stderr
 from fogcli.io.colour import srgb_to_linear
@@ -20,9 +21,7 @@ DEPTH_NAMES = ("z", "depth", "distance")
 
 
 def _oiio():
-    import OpenImageIO as oiio
-
-    return oiio
+    return openimageio.load()
 
 
 @dataclass

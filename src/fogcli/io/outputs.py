@@ -11,6 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
+from fogcli.io import openimageio
 from fogcli.io.colour import codes, linear_to_srgb
 from fogcli.errors import ProcessingError, UserError
 
@@ -121,7 +122,7 @@ def is_partial(name: str) -> bool:
 
 def output_is_whole(path: Path) -> bool:
     """An output of a previous run that can be read back entirely (--skip-existing)."""
-    import OpenImageIO as oiio
+    oiio = openimageio.load()
 
     from fogcli.io.quiet import quiet_stderr
 
@@ -144,7 +145,7 @@ def output_is_whole(path: Path) -> bool:
 
 def write_plane(path: Path, plane: np.ndarray, channel: str) -> None:
     """One float channel (EXR / TIFF), e.g. the cleaned depth."""
-    import OpenImageIO as oiio
+    oiio = openimageio.load()
 
     h, w = plane.shape
     spec = oiio.ImageSpec(w, h, 1, "float")
@@ -182,7 +183,7 @@ def write(path: Path, rgb: np.ndarray, alpha: np.ndarray | None, aovs: dict, fra
 def _write_linear(path: Path, rgb: np.ndarray, alpha: np.ndarray | None, aovs: dict, frame, out_type: str,
                   compression: str) -> None:
     """EXR (with alpha and AOVs, the input EXR's window and attributes) or Radiance HDR."""
-    import OpenImageIO as oiio
+    oiio = openimageio.load()
 
     ext = path.suffix.lower()
     h, w = rgb.shape[:2]
