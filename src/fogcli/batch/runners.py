@@ -16,6 +16,7 @@ from collections import deque
 from pathlib import Path
 
 from fogcli.errors import UserError
+from fogcli.io import openimageio
 from fogcli.frame.job import Job
 from fogcli.batch.discover import STALE, check_report, check_side_outputs, discover, remove_stale_temporaries
 from fogcli.batch.progress import Progress, Summary, write_report
@@ -105,8 +106,6 @@ def init_worker(cfg, aovs, device, threads: int | None, started=None) -> None:
         # PoCL 3.0's pthread device reads POCL_MAX_PTHREAD_COUNT, later ones POCL_CPU_MAX_CU_NUM
         os.environ.setdefault("POCL_CPU_MAX_CU_NUM", str(threads))
         os.environ.setdefault("POCL_MAX_PTHREAD_COUNT", str(threads))
-        from fogcli.io import openimageio
-
         oiio = openimageio.load()
 
         # OpenEXR's own pool (zip compression) keeps a thread per core unless told: with

@@ -3,6 +3,8 @@ from __future__ import annotations
 
 import os
 
+from fogcli.io import openimageio
+
 # --jobs auto. One process already keeps a 2-core machine busy (PoCL's threads in the
 # kernels, reads and writes on threads beside them: 90-94 % of both cores, tools/throughput.py),
 # and spawned workers were slower there, by their start-up on small batches and by as much
@@ -46,8 +48,6 @@ def auto_jobs(frames: int | None, pixels: int | None, cores: int | None = None) 
 def frame_pixels(path: str) -> int | None:
     """A frame's pixel count from its header (None: unreadable; the frame's own error comes later)."""
     try:
-        from fogcli.io import openimageio
-
         oiio = openimageio.load()
 
         inp = oiio.ImageInput.open(path)

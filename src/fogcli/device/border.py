@@ -16,8 +16,8 @@ def extend(plan, t: Timings) -> bool:
     those sources' light is spread by a second apsf chain on the padded frame at the
     resolution of level ext_level (3, finer for a narrow margin; their light reaches the
     frame only through blurs of several pixels and more; the open main chain has the
-    frame's own); collapse(ext=True) adds it to that level. About 1/16 of the main chain's pixels at margin 0.5. Returns
-    whether there is one."""
+    frame's own); collapse(ext=True) adds it to that level. About 1/16 of the main chain's
+    pixels at margin 0.5. Returns whether there is one."""
     mx, my = border_margin(plan.cfg, plan.w, plan.h)
     plan._ext_level = min(ext_level(plan.cfg, plan.w, plan.h), len(plan.sizes) - 1)
     if not (mx or my) or plan._ext_level == 0:

@@ -20,10 +20,6 @@ from fogcli.physics.limits import check_radiance
 DEPTH_NAMES = ("z", "depth", "distance")
 
 
-def _oiio():
-    return openimageio.load()
-
-
 @dataclass
 class Frame:
     """One input image as the pipeline needs it. A float EXR's colour stays in the pixels
@@ -124,7 +120,7 @@ def _check_size(path: Path, inp, admit=None) -> None:
 
 
 def _open(path: Path, admit=None):
-    oiio = _oiio()
+    oiio = openimageio.load()
     check_regular(path)
     inp = oiio.ImageInput.open(str(path))
     if inp is None:
@@ -153,7 +149,7 @@ def _read_pixels(inp, path: Path, fmt: str, subimage: int = 0):
         px = None
         err = str(exc)
     else:
-        err = _oiio().geterror() if px is None else ""
+        err = openimageio.load().geterror() if px is None else ""
     if px is None or (hasattr(inp, "has_error") and inp.has_error):
         detail = (err or inp.geterror() or "read failed").strip().splitlines()
         inp.close()
