@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 import oracles
-from helpers import plan_for
+from helpers import BORDER_TIE, plan_for
 from fogcli import apply
 from fogcli.api import make_config
 from fogcli.physics.luminance import luminance
@@ -132,9 +132,6 @@ def test_black_edges_add_nothing(rng):
     np.testing.assert_allclose(a, b, rtol=1e-6, atol=1e-7)
 
 
-BORDER_TIE = 0.002
-
-
 def test_default_border_is_the_measured_one():
     """The default border policy is the one closest to path tracing on the scenes that continue
     past the frame (or within BORDER_TIE of it), as tools/groundtruth.py last wrote it
@@ -149,6 +146,5 @@ def test_default_border_is_the_measured_one():
     lam = " lamb" if r.emission_profile == "lambertian" else ""
     assert doc["default"] == f"apsf {r.border}{lam}"
     l1 = {b: doc["summary"][f"continues past the frame|apsf {b}{lam}"][0] for b in ("open", "closed", "extend")}
-    # a mean of 12 renders whose own noise is 0.03-0.26 cannot rank policies closer than this;
-    # within it the energies decide (docs/physics.md, Which border): open's are nearer 1
+    # within BORDER_TIE the energies decide (docs/physics.md, Which border)
     assert l1[r.border] <= min(l1.values()) + BORDER_TIE, l1

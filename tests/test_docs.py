@@ -2,7 +2,7 @@
 every document or image they point at exists."""
 import re
 
-from helpers import ROOT
+from helpers import BORDER_TIE, ROOT
 
 TEXTS = [ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md")), *sorted((ROOT / "src" / "fogcli").rglob("*.py")),
          *sorted((ROOT / "src" / "fogcli" / "device" / "kernels").glob("*"))]
@@ -26,17 +26,24 @@ def test_documents_and_images_referred_to_exist():
 
 
 def test_default_border_margin_is_the_calibrations_choice():
-    """render.border_margin's default (the margin of `border: extend`) is the margin of the
-    lowest mean relative L1 on the calibration scenes in the table tools/border_margin.py
-    wrote into docs/physics.md, among margins above 0 (margin 0 is the open border: which
-    policy is the default, test_border_extend.test_default_border_is_the_measured_one)."""
+    """render.border_margin's default (the margin of `border: extend`) is, on the calibration
+    scenes of the table tools/border_margin.py wrote into docs/physics.md, within BORDER_TIE of
+    the lowest mean relative L1 and within it of the lowest mean distance of the energy from
+    the path tracer's, among margins above 0 (margin 0 is the open border: which policy is the
+    default, test_border_extend.test_default_border_is_the_measured_one). The renders do not
+    rank margins closer than that (0.05 to 0.25 were within 0.0008 in session 39)."""
     from fogcli.config.model import Render
 
     block = (ROOT / "docs" / "physics.md").read_text().split("<!-- border-margin: begin -->")[1].split("<!-- border-margin: end -->")[0]
     head = next(ln for ln in block.splitlines() if ln.startswith("| case |"))
     margins = [float(c.split()[-1]) for c in head.strip("|").split("|") if c.strip().startswith("margin")]
-    row = next(ln for ln in block.splitlines() if ln.startswith("| mean, calibration scenes"))
-    means = [float(c) for c in row.strip("|").split("|")[2:]]
-    assert len(means) == len(margins) >= 3
-    ext = [(m, v) for m, v in zip(margins, means) if m > 0]
-    assert Render().border_margin == min(ext, key=lambda mv: mv[1])[0]
+
+    def row(title):
+        ln = next(ln for ln in block.splitlines() if ln.startswith(f"| {title}"))
+        return {m: float(c) for m, c in zip(margins, ln.strip("|").split("|")[2:]) if m > 0}
+
+    l1, energy = row("mean, calibration scenes"), row("mean abs(energy - 1), calibration scenes")
+    assert len(l1) == len(energy) == len(margins) - 1 >= 3
+    f = Render().border_margin
+    assert l1[f] <= min(l1.values()) + BORDER_TIE, (f, l1)
+    assert energy[f] <= min(energy.values()) + BORDER_TIE, (f, energy)

@@ -86,3 +86,38 @@ def test_vacuum_image_matches_mitsubas(eq):
         L = z["L"].astype(np.float64)
     assert abs(img.sum() / L.sum() - 1) < 2e-3
     assert eq.rel_l1(img, L) < 0.05
+
+
+def test_a_small_lamps_single_scattering_is_a_point_lights(eq):
+    """Next-event estimation of an emissive sphere (a point along the segment, a direction in
+    its cone): a sphere of 2 cm emitting I / (pi r^2) scatters what a point light of
+    intensity I does, away from the pixels that see the sphere itself."""
+    S = eq.S
+    lp, I, r = np.array([0.5, 1.2, -7.0]), np.array([10.0, 6.2, 3.0]), 0.02
+    ss, st, g = 0.12, 0.12012, 0.85
+    lamp = dict(kind="sphere", pos=list(lp), scale=r, radiance=list(I / (np.pi * r * r)))
+    a = eq.Tracer("yard", shapes=[lamp], lights=[]).render(256, 3, ss, st, g, max_depth=1, jitter=False)
+    b = eq.Tracer("yard", shapes=[], lights=[(tuple(lp), list(I))]).render(256, 3, ss, st, g, max_depth=1, jitter=False)
+    p = lp / -lp[2]
+    jj, ii = np.mgrid[0:S.HEIGHT, 0:S.WIDTH]
+    away = np.hypot(ii + 0.5 - (p[0] * S.FOCAL + S.WIDTH / 2), jj + 0.5 - (-p[1] * S.FOCAL + S.HEIGHT / 2)) > 4
+    ratio = a[away].sum(0) / b[away].sum(0)
+    assert np.all(np.abs(ratio - 1) < 0.01), ratio
+
+
+def test_next_event_counts_every_path_once(eq):
+    """A lamp and a sign in haze inside a black sphere (it ends the walks), whole walks: with
+    next-event estimation of the lamp (its points and the walk's own hits weighted by the
+    balance heuristic; the sign is the walk's alone) the scattered light is the walks' alone
+    within 1 % (measured 0.1-0.25 %); counting both in full adds it again (measured 1.8x)."""
+    lamp = dict(kind="sphere", pos=[1.0, 0.5, -6.0], scale=0.6, radiance=[4.0, 3.0, 2.0])
+    sign = dict(kind="rectangle", pos=[-2.0, -0.5, -9.0], scale=[1.5, 0.8, 1], radiance=[1.0, 2.0, 3.0])
+    wall = dict(kind="sphere", pos=[0, 0, 0], scale=15.0, radiance=None, flip=True)
+    tr = eq.Tracer("yard", shapes=[lamp, sign, wall], lights=[])
+    assert tr.nn == 1
+    ss, st, g = 0.1, 0.111, 0.7
+    a = tr.render(64, 5, ss, st, g, **eq.roulette(True), nee=True) / 64
+    b = tr.render(512, 6, ss, st, g, **eq.roulette(True), nee=False) / 512
+    direct = tr.render(16, 7, 0.0, st, g, nee=False) / 16
+    ratio = (a - direct).sum((0, 1)) / (b - direct).sum((0, 1))
+    assert np.all(np.abs(ratio - 1) < 0.01), ratio

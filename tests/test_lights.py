@@ -133,6 +133,35 @@ def test_detected_lamp_position_and_intensity():
     assert out[far].mean() > 0 and np.isfinite(base[far]).all()
 
 
+def test_a_lamp_that_blinded_the_sensor_takes_its_rims_depth():
+    """A depth sensor reads nothing where a lamp blinds it: the lamp takes the depth of a
+    2 px ring around its core. detect_lamps places it there; lamp_pixels tells a clipped lamp
+    of a display-referred frame from a lit wall by it (0.4 m across at 12 m is a lamp; the
+    same pixels with a rim at 200 m are 6 m across: a wall)."""
+    from fogcli.config.model import AutoLights
+    from fogcli.frame.lamps import detect_lamps, lamp_pixels
+
+    L, c = np.array([300.0, 250.0, 200.0]), np.array([1.0, 1.5, -12.0])
+    rgb, z, f = lamp_frame(L=L, c=c, r=0.2)
+    core = rgb.max(axis=-1) > 0.5 * L.max()
+    jj, ii = np.nonzero(core)
+    around = np.zeros_like(core)
+    around[jj.min() - 4:jj.max() + 5, ii.min() - 4:ii.max() + 5] = True
+    cfg = fogcli.make_config("fog", sets=["lights=[{type: auto}]"])
+    ldr = np.where(core[..., None], 1.0, 0.05).astype(np.float32)
+    for rim, lamp in ((12.0, True), (200.0, False)):
+        blind = np.where(around, np.float32(rim), z).astype(np.float32)
+        blind[core] = np.nan
+        assert lamp_pixels(ldr, blind, cfg)[core].all() == lamp, rim
+    blind = np.where(around, np.float32(12.0), z).astype(np.float32)
+    blind[core] = np.nan
+    lamps, _, notes = detect_lamps(rgb, blind, cfg, AutoLights(type="auto"))
+    assert len(lamps) == 1, notes
+    dist = np.linalg.norm(lamps[0].position) - lamps[0].radius
+    ray = 12.0 * np.linalg.norm(c) / -c[2]      # z 12 m along the lamp's ray
+    assert abs(dist - ray) < 0.02 * ray, (dist, ray)
+
+
 def test_sample_lights_file_is_valid():
     from fogcli.config.presets import check_file
     from helpers import ROOT

@@ -77,6 +77,25 @@ def _bitmap(r):
 
 
 KINDS = {"rectangle": 0, "sphere": 1, "cube": 2, "disk": 3}
+NEE_STRIDE = 16
+NEE_MAX = 32             # equiangular.cl's NEE_MAX
+
+
+def nee_rows(shapes):
+    """equiangular.cl's next-event rows: every emissive sphere seen from outside (a lamp):
+    shape id, the weight that picks it (mean radiance times pi r^2), radius, centre."""
+    rows = []
+    for sid, s in enumerate(shapes):
+        if s.get("radiance") is None or s["kind"] != "sphere" or s.get("flip"):
+            continue
+        M = _matrix(s)
+        r = float(np.linalg.norm(M[:3, 0]))
+        row = np.zeros(NEE_STRIDE, np.float32)
+        row[0], row[2], row[3], row[4:7] = sid, float(_bitmap(s["radiance"])[0].mean()) * math.pi * r * r, r, M[:3, 3]
+        rows.append(row)
+    if len(rows) > NEE_MAX:
+        raise SystemExit(f"equiangular.py: {len(rows)} lamps; equiangular.cl takes at most {NEE_MAX}")
+    return rows
 
 
 def scene_buffers(name, shapes=None, lights=None):
@@ -97,9 +116,11 @@ def scene_buffers(name, shapes=None, lights=None):
             texel.append(arr.reshape(-1))
         shp.append(row)
     lights = [list(p) + list(i) + [0.0, 0.0] for p, i in (S.LIGHTS.get(name, []) if lights is None else lights)]
+    nee = nee_rows(shapes)
     return (np.asarray(shp or [np.zeros(16)], np.float32), np.asarray(tex or [[0] * 8], np.float32),
             np.concatenate(texel) if texel else np.zeros(3, np.float32),
-            np.asarray(lights or [[0] * 8], np.float32), len(shapes), len(lights))
+            np.asarray(lights or [[0] * 8], np.float32), len(shapes), len(lights),
+            np.asarray(nee or [np.zeros(NEE_STRIDE)], np.float32), len(nee))
 
 
 class Tracer:
@@ -113,18 +134,20 @@ class Tracer:
             src = (HERE / "equiangular.cl").read_text()
             _PROGRAMS[self.ctx] = cl.Program(self.ctx, src).build(options=["-cl-fast-relaxed-math"])
         self.kernel = cl.Kernel(_PROGRAMS[self.ctx], "trace")
-        shp, tex, texel, lights, self.ns, self.nl = scene_buffers(name, shapes, lights)
+        shp, tex, texel, lights, self.ns, self.nl, nee, self.nn = scene_buffers(name, shapes, lights)
         mf = cl.mem_flags
         self.bufs = [cl.Buffer(self.ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=a)
-                     for a in (shp, tex, texel, lights)]
+                     for a in (shp, tex, texel, lights, nee)]
         self.out = cl.Buffer(self.ctx, mf.READ_WRITE, S.WIDTH * S.HEIGHT * 3 * 4)
 
-    def render(self, spp, seed, ss, st, g, neq=1, rr_depth=3, rr_q=0.7, max_depth=-1, jitter=True):
-        """Sum of `spp` samples per pixel, (H, W, 3) float64."""
+    def render(self, spp, seed, ss, st, g, neq=1, rr_depth=3, rr_q=0.7, max_depth=-1, jitter=True, nee=True):
+        """Sum of `spp` samples per pixel, (H, W, 3) float64. nee: next-event estimation of
+        the lamps (nee_rows)."""
         cl = self.cl
-        shp, tex, texel, lights = self.bufs
+        shp, tex, texel, lights, nee_buf = self.bufs
         self.kernel(self.queue, (S.WIDTH, S.HEIGHT), None, shp, np.int32(self.ns), tex, texel,
-                       lights, np.int32(self.nl), np.int32(S.WIDTH), np.int32(S.HEIGHT),
+                       lights, np.int32(self.nl), nee_buf, np.int32(self.nn if nee else 0),
+                       np.int32(S.WIDTH), np.int32(S.HEIGHT),
                        np.float32(S.FOCAL), np.int32(spp), np.uint32(seed), np.float32(ss),
                        np.float32(st), np.float32(g), np.int32(neq), np.int32(rr_depth), np.float32(rr_q),
                        np.int32(max_depth), np.int32(jitter), self.out)
@@ -156,7 +179,7 @@ def grey_parts(m):
     return [(s[c], s[c] + a[c], c) for c in range(3)]
 
 
-def render_medium(tr, medium, budget, target, seed0, max_spp, log=print, start=None, analog=False):
+def render_medium(tr, medium, budget, target, seed0, max_spp, log=print, start=None, analog=False, nee=True):
     """Two halves A, B alternating passes; stops at the budget, the noise target or max_spp.
     start: (mean A, mean B, spp A, spp B) of an earlier run to continue (--resume); B None:
     an earlier image without halves, which becomes half A while the new passes fill half B up to
@@ -172,7 +195,7 @@ def render_medium(tr, medium, budget, target, seed0, max_spp, log=print, start=N
     def one_pass(k):
         img = np.zeros((S.HEIGHT, S.WIDTH, 3))
         for ss, st, c in parts:
-            part = tr.render(PASS_SPP, seed0 + 7919 * k + (c or 0) * 104729, ss, st, m["g"], **roulette(analog))
+            part = tr.render(PASS_SPP, seed0 + 7919 * k + (c or 0) * 104729, ss, st, m["g"], nee=nee, **roulette(analog))
             if c is None:
                 img = part
             else:
@@ -249,6 +272,7 @@ def main():
     ap.add_argument("--out", default=None, help="where --write stores (default: the scene's renders-lights/ or renders/)")
     ap.add_argument("--analog", action="store_true", help="Russian roulette by the walk's own weight only, which never grows (for fog's walks of thousands of steps, where roulette with weight growth is heavy-tailed)")
     ap.add_argument("--resume", action="store_true", help="add samples to the halves stored by an earlier --write")
+    ap.add_argument("--no-nee", action="store_true", help="no next-event estimation of the lamps (emissive spheres), as the renders before session 39")
     ap.add_argument("--table", action="store_true", help="rewrite the README table from the renders")
     args = ap.parse_args()
     if args.table:
@@ -272,7 +296,8 @@ def main():
                 if start is not None:
                     el0 = m0["seconds_medium"]
         img, noise, spp, el, halves = render_medium(tr, medium, args.budget, args.target, seed0,
-                                                    args.max_spp, start=start, analog=args.analog)
+                                                    args.max_spp, start=start, analog=args.analog,
+                                                    nee=not args.no_nee)
         el += el0
         compare(scene, medium, img, noise)
         if args.write and not args.check:
@@ -285,6 +310,7 @@ def main():
                 meta["mitsuba_noise"], meta["mitsuba_spp"] = meta["noise"], meta["spp"]
                 meta["mitsuba_seconds"] = meta.get("seconds_medium")
             meta.update(integrator="equiangular (tools/groundtruth/equiangular.py)", spp=spp,
+                        nee_emitters=0 if args.no_nee else tr.nn,
                         noise=noise, noise_definition=NOISE_DEF, seconds_medium=round(el, 1),
                         seed0=seed0, **roulette(args.analog),
                         spp_halves=[int(halves[2]), int(halves[3])])

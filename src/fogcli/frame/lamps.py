@@ -49,10 +49,7 @@ def detect_lamps(rgb: np.ndarray, depth: np.ndarray, cfg: Config, spec) -> tuple
     omega = (1.0 / dlen) ** 3 / (f * fy)          # each pixel's solid angle
     own, lent = _unmix(rgb, cores, omega)
     for core, extra in zip(cores, lent):
-        t = ray[core & np.isfinite(ray) & (ray < cam.max_depth)]
-        if t.size == 0:         # the sensor has a hole there: a ring around the core
-            ring = (cv2.dilate(core.astype(np.uint8), kernel) > 0) & ~core
-            t = ray[ring & np.isfinite(ray) & (ray < cam.max_depth)]
+        t = core_ray_lengths(core, ray, cam.max_depth)
         if t.size == 0:
             notes.append(f"a lamp at pixel ({int(ii[core].mean())}, {int(jj[core].mean())}) has no depth; left out")
             continue
@@ -74,6 +71,19 @@ def detect_lamps(rgb: np.ndarray, depth: np.ndarray, cfg: Config, spec) -> tuple
             notes.append(f"lamp at {dist:.3g} m is clipped in this display-referred image: its intensity "
                          f"({float(intensity.mean()):.3g}) is a lower bound")
     return lights, mask, notes
+
+
+def core_ray_lengths(core: np.ndarray, ray: np.ndarray, max_depth: float) -> np.ndarray:
+    """The ray lengths of a lamp's core (a mask over `ray`), or where the core has none (a
+    sensor blinded by the lamp) those of a 2 px ring around it; empty when neither has one."""
+    import cv2
+
+    ring = (cv2.dilate(core.astype(np.uint8), np.ones((5, 5), np.uint8)) > 0) & ~core
+    for where in (core, ring):
+        ok = where & np.isfinite(ray) & (ray > 0) & (ray < max_depth)
+        if ok.any():
+            return ray[ok]
+    return ray[:0]
 
 
 def _unmix(rgb: np.ndarray, cores: list, omega: np.ndarray) -> tuple[np.ndarray, list]:
@@ -192,19 +202,14 @@ def lamp_pixels(rgb: np.ndarray, depth: np.ndarray, cfg: Config) -> np.ndarray:
         x, y, bw, bh, px = (int(v) for v in st[k])
         if max(bw, bh) > STREAK * min(bw, bh):
             continue
-        box = (slice(max(y - 2, 0), y + bh + 2), slice(max(x - 2, 0), x + bw + 2))
-        core = lab[box] == k
-        near = cv2.dilate(core.astype(np.uint8), np.ones((5, 5), np.uint8)) > 0
-        d = depth[box]
-        for where in (core, near):          # the core's depth, else its rim's (a sensor blinded by the lamp)
-            ok = where & np.isfinite(d) & (d > 0) & (d < cam.max_depth)
-            if ok.any():
-                break
-        if not ok.any():
+        box = (slice(max(y - 2, 0), min(y + bh + 2, h)), slice(max(x - 2, 0), min(x + bw + 2, w)))
+        ray = depth[box]
+        if cam.depth == "z":
+            jj, ii = np.mgrid[box]
+            ray = ray * pixel_rays.length(pixel_rays.directions(ii, jj, f, fy, cx, cy))
+        t = core_ray_lengths(lab[box] == k, ray, cam.max_depth)
+        if t.size == 0:
             is_lamp[k] = px <= LAMP_SHARE * h * w
             continue
-        jj, ii = np.nonzero(ok)
-        t = d[ok] * (pixel_rays.length(pixel_rays.directions(ii + box[1].start, jj + box[0].start, f, fy, cx, cy))
-                     if cam.depth == "z" else 1.0)
         is_lamp[k] = 2.0 * float(np.median(t)) * math.sqrt(px / math.pi) / f <= LAMP_ACROSS_M
     return cv2.dilate(is_lamp[lab].astype(np.uint8), np.ones((5, 5), np.uint8)) > 0
