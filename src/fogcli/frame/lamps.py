@@ -78,12 +78,11 @@ def core_ray_lengths(core: np.ndarray, ray: np.ndarray, max_depth: float) -> np.
     sensor blinded by the lamp) those of a 2 px ring around it; empty when neither has one."""
     import cv2
 
-    ring = (cv2.dilate(core.astype(np.uint8), np.ones((5, 5), np.uint8)) > 0) & ~core
-    for where in (core, ring):
-        ok = where & np.isfinite(ray) & (ray > 0) & (ray < max_depth)
-        if ok.any():
-            return ray[ok]
-    return ray[:0]
+    valid = np.isfinite(ray) & (ray > 0) & (ray < max_depth)
+    ok = core & valid
+    if not ok.any():        # the ring only then: in detect_lamps it is a dilation of the whole frame
+        ok = (cv2.dilate(core.astype(np.uint8), np.ones((5, 5), np.uint8)) > 0) & ~core & valid
+    return ray[ok]
 
 
 def _unmix(rgb: np.ndarray, cores: list, omega: np.ndarray) -> tuple[np.ndarray, list]:
