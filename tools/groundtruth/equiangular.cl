@@ -172,6 +172,23 @@ inline float hg_cdf_inv(float g, float c) {
     return clamp((1.0f + g * g - 1.0f / (X * X)) / (2.0f * g), -1.0f, 1.0f);
 }
 
+// The segment x + s w, 0 <= s < t, seen from a point c (a light, a lamp's centre): s = d1 + R
+// tan th, th in [ta, tb] (span); c_lo and Z: the HG CDF at mu = -sin tb and its mass over the
+// span (mu = -sin th is the cosine towards c). False when the span is empty.
+typedef struct { float d1, R, ta, tb, span, c_lo, Z; } seg_t;
+
+inline int segment_from(float3 c, float3 x, float3 w, float t, float g, seg_t *q) {
+    float3 dl = c - x;
+    q->d1 = dot(dl, w);
+    q->R = fmax(length(cross(w, dl)), 1e-6f);
+    q->ta = atan2(-q->d1, q->R);
+    q->tb = isinf(t) ? 0.5f * PI_F - 1e-6f : atan2(t - q->d1, q->R);
+    q->span = q->tb - q->ta;
+    q->c_lo = hg_cdf(g, -sin(q->tb));
+    q->Z = hg_cdf(g, -sin(q->ta)) - q->c_lo;
+    return q->span > 0.0f;
+}
+
 // One light's single scattering along the segment x + s w, 0 <= s < t. In the angle th seen
 // from the light (s = d1 + R tan th, Kulla & Fajardo's equiangular sampling) the 1/r^2 is gone,
 // but the HG peak is not: looking towards a light, mu = -sin th goes to 1 at the start of the
@@ -180,15 +197,9 @@ inline float hg_cdf_inv(float g, float c) {
 // heuristic (both pdfs in th: 1 / span and p_HG(mu) cos th / Z).
 inline float3 light_segment(__global const float *shp, int ns, float3 x, float3 w, float t,
                             float3 lp, float3 li, float ss, float st, float g, int neq, rng_t *r) {
-    float3 dl = lp - x;
-    float d1 = dot(dl, w);
-    float R = fmax(length(cross(w, dl)), 1e-6f);
-    float ta = atan2(-d1, R);
-    float tb = isinf(t) ? 0.5f * PI_F - 1e-6f : atan2(t - d1, R);
-    float span = tb - ta;
-    if (!(span > 0.0f)) return (float3)(0.0f);
-    float mu_hi = -sin(ta), mu_lo = -sin(tb);
-    float c_lo = hg_cdf(g, mu_lo), c_hi = hg_cdf(g, mu_hi), Z = c_hi - c_lo;
+    seg_t q;
+    if (!segment_from(lp, x, w, t, g, &q)) return (float3)(0.0f);
+    float d1 = q.d1, R = q.R, ta = q.ta, tb = q.tb, span = q.span, c_lo = q.c_lo, Z = q.Z;
     float acc = 0.0f;
     for (int k = 0; k < 2 * neq; ++k) {
         float xi = ((float)(k >> 1) + rnd(r)) / (float)neq;
@@ -239,22 +250,17 @@ inline float nee_weight(__global const float *e, float3 x, float3 w, float t, fl
 
 // The pdf (per metre) of the segment point s = d1 + R tan(th) under the half-and-half mixture
 // of th uniform on its span and th by HG restricted to the segment (Z: HG's mass there).
-inline float seg_pdf(float span, float Z, float R, float d1, float s, float th, float g) {
-    float e2 = s - d1;
-    float p_h = Z > 0.0f ? 2.0f * PI_F * hg(g, -sin(th)) * cos(th) / Z : 0.0f;
-    return 0.5f * (1.0f / span + p_h) * R / (R * R + e2 * e2);
+inline float seg_pdf(const seg_t *q, float s, float th, float g) {
+    float e2 = s - q->d1;
+    float p_h = q->Z > 0.0f ? 2.0f * PI_F * hg(g, -sin(th)) * cos(th) / q->Z : 0.0f;
+    return 0.5f * (1.0f / q->span + p_h) * q->R / (q->R * q->R + e2 * e2);
 }
 
 // The same for the segment x + s w, 0 <= s < t, towards lamp e, from s alone.
 inline float nee_s_pdf(__global const float *e, float3 x, float3 w, float t, float g, float s) {
-    float3 dl = (float3)(e[4], e[5], e[6]) - x;
-    float d1 = dot(dl, w);
-    float R = fmax(length(cross(w, dl)), 1e-6f);
-    float ta = atan2(-d1, R), tb = isinf(t) ? 0.5f * PI_F - 1e-6f : atan2(t - d1, R);
-    float span = tb - ta;
-    if (!(span > 0.0f)) return 0.0f;
-    float Z = hg_cdf(g, -sin(ta)) - hg_cdf(g, -sin(tb));
-    return seg_pdf(span, Z, R, d1, s, atan2(s - d1, R), g);
+    seg_t q;
+    if (!segment_from((float3)(e[4], e[5], e[6]), x, w, t, g, &q)) return 0.0f;
+    return seg_pdf(&q, s, atan2(s - q.d1, q.R), g);
 }
 
 // The solid-angle pdf of a direction in lamp e's cone seen from x.
@@ -294,17 +300,12 @@ inline float3 nee_segment(__global const float *shp, int ns, __global const floa
     float pk = nee_pick(nee, nn, x, w, t, st, rnd(r), &k);
     if (k < 0 || !(pk > 0.0f)) return (float3)(0.0f);
     __global const float *e = nee + k * NEE_STRIDE;
-    float3 dl = (float3)(e[4], e[5], e[6]) - x;
-    float d1 = dot(dl, w);
-    float R = fmax(length(cross(w, dl)), 1e-6f);
-    float ta = atan2(-d1, R), tb = isinf(t) ? 0.5f * PI_F - 1e-6f : atan2(t - d1, R);
-    float span = tb - ta;
-    if (!(span > 0.0f)) return (float3)(0.0f);
-    float c_lo = hg_cdf(g, -sin(tb)), c_hi = hg_cdf(g, -sin(ta)), Z = c_hi - c_lo;
+    seg_t q;
+    if (!segment_from((float3)(e[4], e[5], e[6]), x, w, t, g, &q)) return (float3)(0.0f);
     float xi = rnd(r);
-    float th = rnd(r) < 0.5f ? ta + span * xi : asin(-hg_cdf_inv(g, c_lo + xi * Z));
-    th = clamp(th, ta, tb);
-    float s = d1 + R * tan(th);
+    float th = rnd(r) < 0.5f ? q.ta + q.span * xi : asin(-hg_cdf_inv(g, q.c_lo + xi * q.Z));
+    th = clamp(th, q.ta, q.tb);
+    float s = q.d1 + q.R * tan(th);
     if (!(s >= 0.0f) || !(s < t)) return (float3)(0.0f);
     float3 xs = x + s * w;
     float3 c = (float3)(e[4], e[5], e[6]) - xs;
@@ -321,7 +322,7 @@ inline float3 nee_segment(__global const float *shp, int ns, __global const floa
     if (id != (int)e[0]) return (float3)(0.0f);
     float3 le = emission(shp + id * SHAPE_STRIDE, tex, texel, xs, v, th2);
     float mu = dot(w, v);
-    float p_nee = pk * seg_pdf(span, Z, R, d1, s, th, g) * nee_dir_pdf(e, xs);
+    float p_nee = pk * seg_pdf(&q, s, th, g) * nee_dir_pdf(e, xs);
     float p_w = walk_goes_on ? walk_pdf(st, t, s, g, mu) : 0.0f;
     if (!(p_nee > 0.0f)) return (float3)(0.0f);
     float f = ss * exp(-st * (s + th2)) * hg(g, mu);
