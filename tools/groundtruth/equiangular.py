@@ -183,14 +183,13 @@ def render_medium(tr, medium, budget, target, seed0, max_spp, log=print, start=N
     """Two halves A, B alternating passes; stops at the budget, the noise target or max_spp.
     start: (mean A, mean B, spp A, spp B) of an earlier run to continue (--resume); B None:
     an earlier image without halves, which becomes half A while the new passes fill half B up to
-    the same spp (two independent renders are two halves as well)."""
+    the same spp (two independent renders are two halves as well), then both go on."""
     m = S.MEDIA[medium]
     parts = grey_parts(m)
-    acc, n, only_b = (0.0, 0.0), (0, 0), False
+    acc, n = (0.0, 0.0), (0, 0)
     if start is not None:
-        only_b = start[1] is None
-        acc = (start[0] * start[2], 0.0 if only_b else start[1] * start[3])
-        n = (start[2], 0 if only_b else start[3])
+        acc = (start[0] * start[2], 0.0 if start[1] is None else start[1] * start[3])
+        n = (start[2], 0 if start[1] is None else start[3])
 
     def one_pass(k):
         img = np.zeros((S.HEIGHT, S.WIDTH, 3))
@@ -203,10 +202,9 @@ def render_medium(tr, medium, budget, target, seed0, max_spp, log=print, start=N
         return img
 
     def stop(na, nb, noise, el):
-        return el > budget or (nb >= na if only_b else (noise <= target or na + nb >= max_spp))
+        return el > budget or noise <= target or na + nb >= max_spp
 
-    sa, sb, na, nb, noise, el = alternate_halves(one_pass, PASS_SPP, stop, log, (n[0] + n[1]) // PASS_SPP, acc, n,
-                                                 only_b)
+    sa, sb, na, nb, noise, el = alternate_halves(one_pass, PASS_SPP, stop, log, (n[0] + n[1]) // PASS_SPP, acc, n)
     return (sa + sb) / (na + nb), noise, na + nb, el, (sa / na, sb / nb, na, nb)
 
 

@@ -31,20 +31,21 @@ def halves_noise(A, B):
     return float(np.abs(A - B).sum() / max((A + B).sum(), 1e-30))
 
 
-def alternate_halves(render_pass, pass_spp, stop, log, k0=0, acc=(0.0, 0.0), n=(0, 0), only_b=False):
-    """Passes of pass_spp samples alternate between two independent halves A and B (all go to
-    B with only_b) until stop(spp A, spp B, noise, seconds), asked after each pass into B.
-    render_pass(k) is the sum of pass k's samples; k counts on from k0 (an earlier run's
-    passes). acc, n: the halves' sums and spp so far. Returns (sum A, sum B, spp A, spp B,
-    noise, seconds)."""
+def alternate_halves(render_pass, pass_spp, stop, log, k0=0, acc=(0.0, 0.0), n=(0, 0)):
+    """Passes of pass_spp samples go to whichever of two independent halves A and B has fewer
+    (A on a tie, so from nothing they alternate A, B, A, ...) until stop(spp A, spp B, noise,
+    seconds), asked after each pass that leaves B with at least A's samples. render_pass(k) is
+    the sum of pass k's samples; k counts on from k0 (an earlier run's passes). acc, n: the
+    halves' sums and spp so far (an earlier image without halves is a half A of its own: the new
+    passes fill B up to it, then alternate). Returns (sum A, sum B, spp A, spp B, noise, seconds)."""
     acc, n = list(acc), list(n)
     t0, k = time.time(), k0
     while True:
-        h = 1 if only_b else k % 2
+        h = 1 if n[1] < n[0] else 0
         acc[h] = acc[h] + render_pass(k)
         n[h] += pass_spp
         k += 1
-        if h == 1:
+        if n[1] >= n[0]:
             noise = halves_noise(acc[0] / n[0], acc[1] / n[1])
             el = time.time() - t0
             if stop(n[0], n[1], noise, el):

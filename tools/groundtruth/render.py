@@ -125,13 +125,42 @@ class MediumRenderer:
         return out
 
 
-def render_medium(mi, name, medium, spp, max_depth, rr_depth, budget_s, target, seed0, log):
+def render_medium(mi, name, medium, spp, max_depth, rr_depth, budget_s, target, seed0, log, start=None):
+    """start: (sum A, sum B, spp A, spp B) of an earlier render to add samples to (--resume)."""
     sc = MediumRenderer(mi, name, S.MEDIA[medium] if isinstance(medium, str) else medium,
                         max_depth=max_depth, rr_depth=rr_depth)
+    acc, n = (start[:2], start[2:]) if start else ((0.0, 0.0), (0, 0))
     sa, sb, na, nb, noise, el = alternate_halves(
         lambda k: sc.render(PASS_SPP, seed0 + k) * PASS_SPP, PASS_SPP,
-        lambda na, nb, noise, el: na + nb >= spp or el > budget_s or noise <= target, log)
-    return (sa / na + sb / nb) / 2, noise, na + nb, el
+        lambda na, nb, noise, el: na + nb >= spp or el > budget_s or noise <= target, log,
+        (n[0] + n[1]) // PASS_SPP, acc, n)
+    return (sa + sb) / (na + nb), noise, na + nb, el, (sa / na, sb / nb, na, nb)
+
+
+def resume_case(mi, variant, scene, medium, args, log):
+    """More samples for a stored Mitsuba render: its halves go on, or, where only the mean was
+    kept, that mean is half A and the new passes (seeds after the old ones) fill B, then both."""
+    path = os.path.join(OUT, f"{scene}-{medium}.npz")
+    with np.load(path) as z:
+        d = {k: z[k] for k in z.files}
+    meta = json.loads(str(d["meta"]))
+    if meta.get("integrator") != "volpath":
+        raise SystemExit(f"{path}: its medium is by {meta.get('integrator')}; resume it with that tool")
+    if "half_a" in d:
+        na, nb = meta["spp_halves"]
+        start = (d["half_a"].astype(np.float64) * na, d["half_b"].astype(np.float64) * nb, na, nb)
+    else:
+        start = (d["medium"].astype(np.float64) * meta["spp"], 0.0, meta["spp"], 0)
+    img, noise, spp, tm, halves = render_medium(mi, scene, medium, args.spp, args.max_depth, args.rr_depth,
+                                                args.budget, args.target, meta["seed0"], log, start)
+    meta.update(spp=spp, noise=noise, seconds_medium=round(meta["seconds_medium"] + tm, 1),
+                spp_halves=[int(halves[2]), int(halves[3])], resumed_variant=variant)
+    d.update(medium=img.astype(np.float32), noise=np.float64(noise), meta=json.dumps(meta),
+             half_a=halves[0].astype(np.float32), half_b=halves[1].astype(np.float32))
+    tmp = path[:-4] + ".tmp.npz"
+    np.savez_compressed(tmp, **d)
+    os.replace(tmp, path)
+    return meta
 
 
 def case_names(only, lights=False):
@@ -150,8 +179,8 @@ def render_case(mi, variant, scene, medium, args, log):
     depth = render_depth(mi, scene, centre=True)
     depth_mean = render_depth(mi, scene, centre=False)
     seed0 = 1000 * (list(S.SCENES).index(scene) * 10 + list(S.MEDIA).index(medium)) + 1
-    img, noise, spp, tm = render_medium(mi, scene, medium, args.spp, args.max_depth, args.rr_depth,
-                                        args.budget, args.target, seed0, log)
+    img, noise, spp, tm, _ = render_medium(mi, scene, medium, args.spp, args.max_depth, args.rr_depth,
+                                           args.budget, args.target, seed0, log)
     m = S.MEDIA[medium]
     meta = dict(scene=scene, medium=medium, fov=S.FOV, fov_axis="horizontal", width=S.WIDTH,
                 height=S.HEIGHT, sigma_a=m["sigma_a"], sigma_s=m["sigma_s"], g=m["g"],
@@ -346,6 +375,7 @@ def main():
     ap.add_argument("--check", action="store_true", help="run the convention checks only")
     ap.add_argument("--table", action="store_true", help="rewrite the README table from the renders")
     ap.add_argument("--lights", action="store_true", help="the night scenes with point lights (renders-lights/)")
+    ap.add_argument("--resume", action="store_true", help="add samples to the stored render (halves kept from then on)")
     args = ap.parse_args()
     if args.table:
         write_table()
@@ -364,7 +394,7 @@ def main():
         return
     for scene, medium in case_names(args.only, args.lights):
         log(f"{scene}-{medium}")
-        m = render_case(mi, variant, scene, medium, args, log)
+        m = (resume_case if args.resume else render_case)(mi, variant, scene, medium, args, log)
         log(f"  done in {m['seconds']} s, noise {m['noise']:.4f}, spp {m['spp']}")
 
 
