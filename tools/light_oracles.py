@@ -29,7 +29,7 @@ def airlight_reference(cfg: Config, light, c: np.ndarray, w: np.ndarray, D: floa
         edges = np.concatenate([[0.0], np.geomspace(1e-3, D, nodes // 32)]) if D > 1e-3 else np.array([0.0, D])
     else:
         d1 = float(w @ (pos - c))
-        R = math.sqrt(float(np.sum(np.cross(w, pos - c) ** 2)) + light.radius ** 2)
+        R = math.sqrt(max(float(np.sum(np.cross(w, pos - c) ** 2)), light.radius ** 2))
         phi = np.linspace(math.atan2(-d1, R), math.atan2(D - d1, R), nodes // 32 + 1)
         edges = np.clip(d1 + R * np.tan(phi), 0.0, D)
     for d in m.density:     # kinks: sphere boundaries, and where the light leg grazes a sphere
@@ -74,7 +74,8 @@ def airlight_reference(cfg: Config, light, c: np.ndarray, w: np.ndarray, D: floa
     else:
         to = pos - x
         tl = np.linalg.norm(to, axis=1)
-        R2 = float(np.sum(np.cross(w, pos - c) ** 2)) + light.radius ** 2
+        R02 = float(np.sum(np.cross(w, pos - c) ** 2))
+        R2 = max(R02, light.radius ** 2)     # at least the radius (lights.h: AL_RADIUS_GAIN)
         d1 = float(w @ (pos - c))
         teff2 = (s - d1) ** 2 + R2
         cosa = -(s - d1) / np.sqrt(teff2)
@@ -86,7 +87,11 @@ def airlight_reference(cfg: Config, light, c: np.ndarray, w: np.ndarray, D: floa
             tt = np.clip((ct - cc_o) / max(cc_i - cc_o, 1e-12), 0, 1)
             I = I * (tt * tt * (3 - 2 * tt))[:, None]
         Pl = optical_depth(x, to / tl[:, None], tl, cfg) + m.homogeneous * (np.sqrt(teff2) - tl)   # widened like 1 / t^2
-        geo = 1.0 / teff2
+        # within the radius the airlight at it, times 3 - 2 (R0 / r)^2 on the share of the near
+        # field the ray covers (lights.h: AL_RADIUS_GAIN)
+        R = math.sqrt(R2)
+        share = (math.atan2(D - d1, R) - math.atan2(-d1, R)) / math.pi
+        geo = (1.0 + 2.0 * share * max(1.0 - R02 / max(light.radius ** 2, 1e-30), 0.0)) / teff2
     phase = (1 - g * g) / (4 * math.pi * (1 + g * g - 2 * g * cosa) ** 1.5)
     src = (ws * rho * phase * geo)[:, None] * ss[None, :] * I * np.exp(-st[None, :] * Pl[:, None])
     tdir = np.exp(-st[None, :] * P[:, None])
@@ -225,7 +230,7 @@ def airlight_double_march(cfg: Config, light, c: np.ndarray, w: np.ndarray, D: f
         edges = np.linspace(0.0, D, nodes + 1)
     else:
         d1 = float(w @ (pos - c))
-        R = math.sqrt(float(np.sum(np.cross(w, pos - c) ** 2)) + light.radius ** 2)
+        R = math.sqrt(max(float(np.sum(np.cross(w, pos - c) ** 2)), light.radius ** 2))
         phi = np.linspace(math.atan2(-d1, R), math.atan2(D - d1, R), nodes + 1)
         edges = np.clip(d1 + R * np.tan(phi), 0.0, D)
     n0, n1 = (float(v[0]) for v in _span(c[None, :], w[None, :], cfg, 0.0, D))

@@ -266,7 +266,7 @@ class PointLight(_Model):
     position: Vec3 = Field(description="m, where the light is")
     intensity: RGB = Field(description="radiant intensity in image radiance x m^2 (a pixel of radiance L at d m, "
                                        "footprint a m^2 sends L a)")
-    radius: Annotated[Num, Field(gt=0)] = Field(0.05, description="m, size of the emitter: keeps a light on a pixel ray finite")
+    radius: Annotated[Num, Field(gt=0)] = Field(0.05, description="m, size of the emitter: a ray closer to the light sees the airlight at this distance, raised towards the centre so that the light's energy stays (finite on the ray through it)")
     frame: Frame = Field("camera", description=_FRAME)
 
 

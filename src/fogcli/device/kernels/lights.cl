@@ -8,8 +8,8 @@
  * integrand over phi in [atan2(-d1, R), atan2(D - d1, R)], lights behind the camera
  * included (Pradhan & Kumar's split at the foot of the perpendicular, phi = 0). Gauss-
  * Legendre nodes on each piece between phi = 0, the spot cone's crossings and the sphere
- * primitives' crossings. R is computed from the cross product and widened by the emitter's
- * radius, so a light on a pixel ray stays finite. The camera leg splits A into what reaches
+ * primitives' crossings. R is computed from the cross product and kept at least the emitter's
+ * radius, so a light on a pixel ray stays finite (its energy kept: lights.h, AL_RADIUS_GAIN). The camera leg splits A into what reaches
  * the camera unscattered (a_dir, exp(-st P)) and what scatters again on the way
  * (a_sc, exp(-sa P) (1 - exp(-ss P))), which the pyramid spreads; a_sc.w holds its luminance
  * times the optical depth where the ray passes the light (a directional light: the
@@ -67,10 +67,11 @@ __kernel void airlight_pk(__global const float *depth, __global float4 *a_dir, _
     float3 w = (float3)(wx, wy, wz), v = L.pos.xyz - cam.pos.xyz;
     float d1 = dot(w, v);
     float3 cr = cross(w, v);
-    float R = sqrt(dot(cr, cr) + L.radius * L.radius);
+    float R = sqrt(fmax(dot(cr, cr), L.radius * L.radius));
     float p0 = atan2(-d1, R), p1 = atan2(D - d1, R);
     float3 st = (m.sa.xyz + m.ss.xyz) * m.homogeneous, sa = m.sa.xyz * m.homogeneous;
-    float3 pre = m.ss.xyz * m.homogeneous * L.intensity.xyz / (12.566370614f * R);
+    float3 pre = m.ss.xyz * m.homogeneous * L.intensity.xyz / (12.566370614f * R)
+                 * AL_RADIUS_GAIN(dot(cr, cr), L.radius * L.radius, p0, p1);
     /* the direct part has exp(-st (s + t)); the twice-scattered part
      * exp(-st t) (exp(-sa s) - exp(-st s)), whose first term is not of PK's form: it is
      * left at the direct part's share, (1 - exp(-ss s_foot)) exp(-sa s_foot) / exp(-st s_foot) */
@@ -118,7 +119,13 @@ __kernel void airlight(__global const float *depth, __global float4 *a_dir, __gl
             al_accumulate(src, P, sa, st, &dir, &sc, &wp);
         }
     }
-    if (L.type != LIGHT_DIRECTIONAL) al_point_gain(&L, dir, &sc, &wp, optical_depth(prims, &m, c, w, clamp(d1, 0.0f, D)));
+    if (L.type != LIGHT_DIRECTIONAL) {
+        float3 cr = cross(w, L.pos.xyz - c);
+        float rg = AL_RADIUS_GAIN(dot(cr, cr), L.radius * L.radius, atan2(-d1, R), atan2(D - d1, R));
+        dir *= rg;
+        sc *= rg;
+        al_point_gain(&L, dir, &sc, &wp, optical_depth(prims, &m, c, w, clamp(d1, 0.0f, D)));
+    }
     float4 od = (float4)(dir, 0.0f), os = (float4)(sc, wp);
     a_dir[idx] = od;
     a_sc[idx] = os;
@@ -167,6 +174,16 @@ ALWAYS_INLINE lanef al_fetch(__global const float *tab, lanef u, lanef v, int e)
     lanef p0 = LANE_LOAD(tab, k), p1 = LANE_LOAD(tab, k + 2), p2 = LANE_LOAD(tab, k + 2 * AL_NX), p3 = LANE_LOAD(tab, k + 2 * AL_NX + 2);
     lanef a = p0 + (p1 - p0) * fv, b = p2 + (p3 - p2) * fv;
     return a + (b - a) * fu;
+}
+
+/* atan(e) for e > 0 (the tables' e^x, x = asinh((s - d1) / R), so that phi = 2 atan(e^x) - pi/2):
+ * a polynomial on [0, 1] (within 1e-5 rad) and atan(e) = pi/2 - atan(1/e) above; the library's
+ * atan is a call per lane in PoCL */
+ALWAYS_INLINE lanef al_atan_pos(lanef e)
+{
+    lanef t = e > 1.0f ? 1.0f / e : e, t2 = t * t;
+    lanef a = t * (0.99997726f + t2 * (-0.33262347f + t2 * (0.19354346f + t2 * (-0.11643287f + t2 * (0.05265332f + t2 * -0.01172120f)))));
+    return e > 1.0f ? 1.5707963268f - a : a;
 }
 
 ALWAYS_INLINE lanef al_ex(lanef q, lanef R)
@@ -284,12 +301,14 @@ ALWAYS_INLINE float8 al_pixel_ray(const camera_t *c, int i0, int j, float8 dep, 
     lanef cy = AFTER(wz * vx - wx * vz, cx);                                                  \
     lanef cz = AFTER(wx * vy - wy * vx, cy);                                                  \
     lanef d1 = AFTER(wx * vx + wy * vy + wz * vz, cz);                                        \
-    lanef R = LANE_SQRT(cx * cx + cy * cy + cz * cz + rad2);                                       \
+    lanef R02 = cx * cx + cy * cy + cz * cz;                                                     \
+    lanef R = LANE_SQRT(R02 > rad2 ? R02 : rad2);                                                \
     lanef ex0 = al_ex(-d1, R);                                                                   \
     lanef ex1 = al_ex(AFTER(D - d1, ex0), R);                                                 \
     lanef x0 = lane_log(ex0);                                                                      \
     lanef x1 = lane_log(AFTER(ex1, x0));                                                        \
     lanef lR = lane_log(AFTER(R, x1));                                                          \
+    lanef rg = AL_RADIUS_GAIN(R02, rad2, 2.0f * al_atan_pos(ex0), 2.0f * al_atan_pos(ex1));      \
     /* Simpson's rule on [x0, x1] where a table difference would lose its digits: e^x at the  \
      * middle (sqrt of the ends' product, clamped as al_h does), its inverse, h at the nodes;  \
      * h does not depend on the channel */                                                    \
@@ -304,12 +323,12 @@ ALWAYS_INLINE float8 al_pixel_ray(const camera_t *c, int i0, int j, float8 dep, 
  * ln(ss I) per channel (lk), the gain; A_sc spread at the optical depth where the ray passes
  * the light (hf clamp(d1, 0, D)). */
 #define AL_STORE                                                                               \
-    lanef d0r = lane_exp(lk0 + ld0);                                                               \
-    lanef d1r = lane_exp(AFTER(lk1 + ld1, d0r));                                                \
-    lanef d2r = lane_exp(AFTER(lk2 + ld2, d1r));                                                \
-    lanef t0 = lane_exp(AFTER(lk0 + lt0, d2r));                                                 \
-    lanef t1 = lane_exp(AFTER(lk1 + lt1, t0));                                                  \
-    lanef t2 = lane_exp(AFTER(lk2 + lt2, t1));                                                  \
+    lanef d0r = rg * lane_exp(lk0 + ld0);                                                          \
+    lanef d1r = rg * lane_exp(AFTER(lk1 + ld1, d0r));                                           \
+    lanef d2r = rg * lane_exp(AFTER(lk2 + ld2, d1r));                                           \
+    lanef t0 = rg * lane_exp(AFTER(lk0 + lt0, d2r));                                            \
+    lanef t1 = rg * lane_exp(AFTER(lk1 + lt1, t0));                                             \
+    lanef t2 = rg * lane_exp(AFTER(lk2 + lt2, t1));                                             \
     AL_STORE_RGB
 
 /* Grey media: one exponential each for A and A + A_sc, scaled per channel by the host's
@@ -317,8 +336,8 @@ ALWAYS_INLINE float8 al_pixel_ray(const camera_t *c, int i0, int j, float8 dep, 
  * Each exponential is a dependent step of the chain that keeps LLVM from pairing them,
  * and the chain is the kernel's latency: 2 steps instead of 6 (-15 % of the kernel). */
 #define AL_STORE_GREY                                                                          \
-    lanef ed = lane_exp(lkm + ld0);                                                                \
-    lanef et = lane_exp(AFTER(lkm + lt0, ed));                                                  \
+    lanef ed = rg * lane_exp(lkm + ld0);                                                           \
+    lanef et = rg * lane_exp(AFTER(lkm + lt0, ed));                                             \
     lanef d0r = k0 * ed, d1r = AFTER(k1 * ed, d0r), d2r = AFTER(k2 * ed, d1r);             \
     lanef t0 = AFTER(k0 * et, d2r), t1 = AFTER(k1 * et, t0), t2 = AFTER(k2 * et, t1);   \
     AL_STORE_RGB

@@ -239,6 +239,17 @@ inline void al_accumulate(float3 src, float P, float3 sa, float3 st, float3 *dir
     *wp += luminance(add) * P;
 }
 
+/* The emitter's radius r keeps a light on a pixel ray finite: R, the ray's distance from the
+ * light, is taken at least r (R^2 = max(R0^2, r^2)). Near the light the airlight goes as
+ * 1 / R0, so the rays within r would lose energy (R widened to sqrt(R0^2 + r^2), as before,
+ * lost 2 pi r over the image: a lamp of 0.25 m at 20 m in sea water a third of its airlight).
+ * Within r the airlight at r is taken times 3 - 2 (R0 / r)^2: continuous at r, and its
+ * integral over the disc is 1 / R0's. phi0, phi1: the ray's ends as angles seen from the
+ * light (atan2(s - d1, R)); the share (phi1 - phi0) / pi of the near field the ray covers
+ * scales it, so a ray that ends before the light (the light's own pixels) takes less. */
+#define AL_RADIUS_GAIN(R02, rad2, phi0, phi1) \
+    (1.0f + ((phi1) - (phi0)) * 0.63661977237f * fmax(1.0f - (R02) / fmax(rad2, 1e-30f), 0.0f))
+
 /* Points and spots, after their quadrature: what all orders of scattering carry beyond single
  * scattering (the gain) joins sc, and sc spreads at Pd, the optical depth where the ray passes
  * the light (as the table kernel does); a directional light keeps the luminance-weighted
@@ -252,7 +263,7 @@ inline void al_point_gain(const light_t *L, float3 dir, float3 *sc, float *wp, f
 /* The pieces of a pixel's ray [0, D] that its quadrature treats apart: where the light's
  * foot is (phi = 0), the phase function's forward peak, e-folds of the camera leg, sphere
  * primitives and their grazing light rays, a spot's cone. *d1, *R: the light's place in
- * the plane of the ray (d1 along it, R from it, widened by the emitter's radius). Sorted. */
+ * the plane of the ray (d1 along it, R from it, at least the emitter's radius). Sorted. */
 inline int ray_cuts(const light_t *L, const lmedium_t *m, __global const float4 *prims, float3 c, float3 w,
                     float D, float *d1_, float *R_, float *cuts)
 {
@@ -265,7 +276,7 @@ inline int ray_cuts(const light_t *L, const lmedium_t *m, __global const float4 
         float3 v = l - c;
         d1 = dot(w, v);
         float3 cr = cross(w, v);
-        R = sqrt(dot(cr, cr) + L->radius * L->radius);
+        R = sqrt(fmax(dot(cr, cr), L->radius * L->radius));
         if (d1 > 0.0f && d1 < D) cuts[n++] = d1;                     /* phi = 0 */
         /* the phase function's forward peak (light ahead, scattered back along the ray to
          * the camera) sits at phi = -pi/2, about 2 (1 - g) wide: a piece of its own */
