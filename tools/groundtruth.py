@@ -24,6 +24,10 @@ _spec = importlib.util.spec_from_file_location("gt_load", ROOT / "groundtruth" /
 gt_load = importlib.util.module_from_spec(_spec)
 _spec.loader.exec_module(gt_load)
 
+_spec = importlib.util.spec_from_file_location("gt_scenes", ROOT / "groundtruth" / "scenes.py")
+gt_scenes = importlib.util.module_from_spec(_spec)
+_spec.loader.exec_module(gt_scenes)
+
 from fogcli import apply  # noqa: E402
 from fogcli.api import make_config  # noqa: E402
 from metrics import rel_l1, ssim  # noqa: E402
@@ -90,6 +94,59 @@ def run_case(case, variants=VARIANTS, reference=True, profile="lambertian") -> d
             pyr = out[f"apsf {border}" + (" lamb" if profile == "lambertian" else "")]
             res[f"reference {border}"]["vs_ref"] = (rel_l1(pyr, ref), ssim(pyr, ref))
     return res, out
+
+
+def unseen_lamps(scene: str) -> list[dict]:
+    """The lamps (emissive spheres) of a scene whose centre the frame does not show, outside
+    it or behind the camera, as fogcli point lights of the same intensity (radiance x pi r^2,
+    a sphere's in every direction): what a user who knows them gives as `lights:`."""
+    S = gt_scenes
+    out = []
+    for sh in S.SCENES[scene]["build"]():
+        if sh.get("kind") != "sphere" or not isinstance(sh.get("radiance"), list):
+            continue
+        x, y, z = sh["pos"]
+        r = float(sh["scale"])
+        if x * x + y * y + z * z <= r * r:        # the sky dome, around the camera
+            continue
+        if z < 0 and abs(x / -z) <= S.TAN_X and abs(y / -z) <= S.TAN_Y:
+            continue
+        out.append({"type": "point", "position": [float(x), float(y), float(z)], "radius": r,
+                    "intensity": [float(v) * np.pi * r * r for v in sh["radiance"]]})
+    return out
+
+
+def unseen_rows(rows, default_imgs) -> list[str]:
+    """The cases with lamps the frame cannot show: the default without and with them given as
+    lights (relative L1 / SSIM, energy), and the held-out mean either way."""
+    out, means = [], []
+    for case, res in rows:
+        lamps = unseen_lamps(case["scene"])
+        base = (res[default_imgs]["rel_l1"], res[default_imgs]["ssim"])
+        if not lamps:
+            if case["meta"]["heldout"]:
+                means.append((base, base))
+            continue
+        img = apply(case["L"], case["depth"], make_config(None, sets=case_sets(case["meta"]) + [
+            f"lights={json.dumps(lamps)}"]))
+        gt, direct = case["medium"], blend(case)
+        lit = (rel_l1(img, gt), ssim(img, gt))
+        if case["meta"]["heldout"]:
+            means.append((base, lit))
+        out.append(f"| {case['name']} | {'yes' if case['meta']['heldout'] else ''} | {len(lamps)} | {base[0]:.3f} / {base[1]:.3f} | {lit[0]:.3f} / {lit[1]:.3f} | "
+                   f"{res[default_imgs]['energy']:.2f} | {float((img - direct).sum() / (gt - direct).sum()):.2f} |")
+    if not out:
+        return []
+    m = np.mean([[b[0], b[1], w[0], w[1]] for b, w in means], axis=0)
+    return ["### What the frame cannot show, given as lights\n",
+            "Cases with lamps whose centre is outside the frame or behind the camera: the default, "
+            "and the default with those lamps given as `lights:` (point lights of the lamp's position, "
+            "intensity radiance x pi r^2 and radius r), as a user who knows them would.\n",
+            "| case | held out | lamps given | default | with them | energy | energy with them |",
+            "|---|---|---|---|---|---|---|",
+            *out, "",
+            f"Held-out mean (all {len(means)} cases, the others as they are): {m[0]:.3f} / {m[1]:.3f} without, "
+            f"{m[2]:.3f} / {m[3]:.3f} with the unseen lamps given.", ""]
 
 
 def _png(path: Path, row: list[np.ndarray]) -> None:
@@ -198,6 +255,7 @@ def main():
                          + " |")
     worse = [case["name"] for case, res in rows if res[default]["rel_l1"] >= res["blend"]["rel_l1"]]
     lines.append("")
+    lines += unseen_rows(rows, default)
     lines.append(f"Default (`{default}`) cases not closer than blending in relative L1: "
                  f"{', '.join(worse) if worse else 'none'}.")
     text = "\n".join(lines)
