@@ -121,3 +121,33 @@ def test_next_event_counts_every_path_once(eq):
     direct = tr.render(16, 7, 0.0, st, g, nee=False) / 16
     ratio = (a - direct).sum((0, 1)) / (b - direct).sum((0, 1))
     assert np.all(np.abs(ratio - 1) < 0.01), ratio
+
+
+def test_more_samples_for_an_image_without_halves_fill_the_second_half_first():
+    """load.alternate_halves, as render.py --resume and equiangular.py --resume use it: an
+    earlier image of 64 spp without halves is half A; the new passes (seeds counted on from
+    the old ones) go to B until it has as many, then alternate, and the noise is only asked
+    for when B has caught up."""
+    sys.path.insert(0, str(GT))
+    try:
+        spec = importlib.util.spec_from_file_location("gt_load_halves", GT / "load.py")
+        load = importlib.util.module_from_spec(spec)
+        spec.loader.exec_module(load)
+    finally:
+        sys.path.remove(str(GT))
+    passes, asked = [], []
+
+    def render_pass(k):
+        passes.append(k)
+        assert len(passes) < 20, "half B never caught up with A"
+        return np.full((2, 2, 3), float(k))
+
+    def stop(na, nb, noise, el):
+        asked.append((na, nb))
+        return na + nb >= 160
+
+    sa, sb, na, nb, _, _ = load.alternate_halves(render_pass, 16, stop, lambda s: None, k0=4,
+                                                 acc=(np.ones((2, 2, 3)) * 64, 0.0), n=(64, 0))
+    assert passes == [4, 5, 6, 7, 8, 9]                  # 4 passes into B, then A and B once
+    assert (na, nb) == (80, 80) and asked == [(64, 64), (80, 80)]
+    assert sb[0, 0, 0] == 4 + 5 + 6 + 7 + 9 and sa[0, 0, 0] == 64 + 8
