@@ -8,10 +8,11 @@
  * integrand over phi in [atan2(-d1, R), atan2(D - d1, R)], lights behind the camera
  * included (Pradhan & Kumar's split at the foot of the perpendicular, phi = 0). Gauss-
  * Legendre nodes on each piece between phi = 0, the spot cone's crossings and the sphere
- * primitives' crossings. R is computed from the cross product and kept at least the emitter's
- * radius, so a light on a pixel ray stays finite (its energy kept: lights.h, AL_RADIUS_GAIN). The camera leg splits A into what reaches
- * the camera unscattered (a_dir, exp(-st P)) and what scatters again on the way
- * (a_sc, exp(-sa P) (1 - exp(-ss P))), which the pyramid spreads; a_sc.w holds its luminance
+ * primitives' crossings. R is computed from the cross product and kept at least the
+ * emitter's radius, so a light on a pixel ray stays finite (its energy kept: lights.h,
+ * AL_RADIUS_GAIN). The camera leg splits A into what reaches the camera unscattered
+ * (a_dir, exp(-st P)) and what scatters again on the way (a_sc, exp(-sa P)
+ * (1 - exp(-ss P))), which the pyramid spreads; a_sc.w holds its luminance
  * times the optical depth where the ray passes the light (a directional light: the
  * luminance-weighted optical depth of the scatter points). This kernel serves spots and media
  * with exponential or sphere primitives; points and directional lights in homogeneous media
