@@ -104,6 +104,42 @@ def test_the_ground_is_found_under_a_pitched_camera_and_in_noisy_depth(rng):
     assert g.sky_distance == 1000.0
 
 
+def test_a_sky_at_one_distance_all_round_is_a_dome():
+    """A sky at 150 m in every direction above the horizon (a dome around the camera, as a
+    render's sky sphere gives it) is a dome; a flat ceiling 150 m up (its rays the longer the
+    lower they look), an infinite sky and one clamped at max_depth are not (the open sky
+    above a medium, the slab's own plane)."""
+    img, z = _ground_frame(160, 120)
+    sky = ~np.isfinite(z)
+    f = 80 / np.tan(np.radians(30.0))
+    y = -(np.arange(120) + 0.5 - 60) / f
+    x = (np.arange(160) + 0.5 - 80) / f
+    X, Y = np.meshgrid(x, y)
+    norm = np.sqrt(X * X + Y * Y + 1.0)           # ray length over z depth (the frame's depth is z)
+    dome = np.where(sky, 150.0 / norm, np.minimum(z, 150.0 / norm)).astype(np.float32)   # the ground ends at it
+    plane = np.where(sky, 150.0 / np.maximum(Y, 1e-3), z).astype(np.float32)
+    clamped = np.where(sky, 1000.0, z).astype(np.float32)
+    got = {name: _found(img, d) for name, d in [("dome", dome), ("inf", z), ("clamped", clamped)]}
+    got["plane"] = _found(img, plane, "camera.max_depth=100000")    # every ray of the ceiling short of it
+    assert all(g is not None for g in got.values()), got
+    assert got["dome"].dome and abs(got["dome"].sky_distance - 150.0) < 1.0, got["dome"]
+    assert not got["plane"].dome and not got["inf"].dome and not got["clamped"].dome, got
+
+
+@pytest.mark.parametrize("tau_R", [0.5, 4.0, 30.0])
+def test_the_domes_plane_lets_the_domes_unscattered_light_through(tau_R):
+    """slab.dome_height: the plane sky whose unscattered light reaches the camera
+    (cosine-weighted over the upper hemisphere) as a dome's of optical radius tau_R does,
+    exp(-tau_R), by a midpoint sum over elevations independent of slab.py's quadrature
+    (within 1e-4 of it); nearer than the dome, farther than tau_R minus ln((tau_R + 2) / 2)
+    less 5 % (where 2 E_3 goes as its asymptote)."""
+    h = slab.dome_height(tau_R)
+    mu = (np.arange(200000) + 0.5) / 200000
+    through = float(np.mean(2.0 * mu * np.exp(-h / mu)))
+    assert abs(through / np.exp(-tau_R) - 1) < 1e-4, (h, through)
+    assert 0.95 * (tau_R - np.log((tau_R + 2) / 2)) < h < tau_R
+
+
 def test_the_ground_colour_is_that_of_its_area_in_reach_not_of_its_pixels():
     """Bright markings on the first 10 m of a dark ground fill the bottom of the frame (the
     pixels' mean is over 0.5) but little of the ground haze reaches (~100 m): the ground's

@@ -26,6 +26,8 @@ TOL_HEIGHT = 0.05         # plane_tolerance's share of the camera's height
 TOL_DIST = 0.002          # and of the distance
 TOL_PIXELS = 1.5          # and of the height one pixel's angle spans there (preprocess.cl gets all three)
 HORIZON_PX = 3.0          # rows this close to the horizon do not count in the ground's colour
+DOME_SPAN = 1.25          # a finite sky whose samples' elevation sines span this factor is a dome:
+                          # a plane sky's samples, within SKY_NEAR of the farthest, span 1 / SKY_NEAR
 ITERATIONS = 96
 SCORED = 1024
 
@@ -55,6 +57,7 @@ class Ground:
     sky_distance: float    # the sky's median ray length: the slab's top is this high (m)
     sky_from: float        # rays at least this long above the horizon are sky (m; inf: none)
     share: float           # share of the valid samples on the ground
+    dome: bool = False     # the sky is a dome around the camera at sky_distance (DOME_SPAN)
 
 
 def _dot(a, v):
@@ -178,9 +181,25 @@ def find(dist: np.ndarray, dirs: np.ndarray, colour: np.ndarray, max_depth: floa
     far = np.where(np.isfinite(dist), np.minimum(dist, max_depth), max_depth)
     sky_from = SKY_NEAR * np.percentile(far, SKY_FAR)
     sky = (far >= sky_from) & (_dot(dirs, n) > 0)
+    dome = False
     if sky.mean() >= MIN_SKY:
         sky_colour, sky_distance = colour[sky].mean(0), float(np.median(far[sky]))
+        dome = _is_dome(dist[sky], _dot(dirs[sky], n), max_depth)
     else:
         sky_colour, sky_distance, sky_from = np.zeros(3), float(max_depth), np.inf
     return Ground(tuple(map(float, n)), float(h), tuple(map(float, ground_colour)),
-                  tuple(map(float, sky_colour)), max(sky_distance, 2.0 * float(h)), float(sky_from), share)
+                  tuple(map(float, sky_colour)), max(sky_distance, 2.0 * float(h)), float(sky_from), share,
+                  dome)
+
+
+def _is_dome(dist, sin_elev, max_depth) -> bool:
+    """Whether the sky's samples (their ray lengths and elevation sines) are a dome around the
+    camera: nearly all at a finite distance short of max_depth (an infinite or clamped sky is
+    the open sky above a medium, which the slab's plane is), at elevations whose sines span
+    DOME_SPAN: all at one distance though some look up far more steeply than others."""
+    finite = np.isfinite(dist) & (dist < max_depth)
+    if finite.mean() < 0.9:
+        return False
+    s = sin_elev[finite]
+    lo = max(float(np.percentile(s, 5)), 1e-3)
+    return float(np.percentile(s, 95)) >= DOME_SPAN * lo

@@ -141,3 +141,46 @@ def inscatter(omega: float, g: float, tau_h: float, tau_H: float, mu_v, t_d) -> 
         p = psi[i0] * (1 - f) + psi[i0 + 1] * f
         out.append((p * integ).sum(-1).reshape(mu_v.shape))
     return tuple(out)
+
+
+def _log_two_e3(x: float) -> float:
+    """ln 2 E_3(x) = ln of int_0^1 2 mu exp(-x / mu) dmu: the share of a unit sky's unscattered
+    light that reaches a point x optical units below a plane sky (cosine-weighted), by
+    Gauss-Legendre on mu (nodes crowd at mu = 1, where the integrand lives for large x)."""
+    m, w = _e3_nodes()
+    v = np.log(2.0 * m * w) - x / m
+    top = v.max()
+    return float(top + np.log(np.exp(v - top).sum()))
+
+
+@functools.lru_cache(maxsize=1)
+def _e3_nodes():
+    x, w = np.polynomial.legendre.leggauss(512)
+    return 0.5 * (x + 1.0), 0.5 * w
+
+
+def dome_height(tau_R: float) -> float:
+    """The optical height above the camera of the slab's sky that stands for a sky dome of
+    optical radius tau_R around it: the plane whose unscattered light reaches the camera
+    with the dome's irradiance, 2 E_3(tau) = exp(-tau_R) (the dome is tau_R away in every
+    direction above, a plane tau / mu along a ray whose elevation has sine mu). It is below
+    tau_R: a plane at the dome's distance would be farther than the dome everywhere but
+    straight up, and its light would miss a camera under a near dome (`skyline`'s sky at
+    150 m: 0.49 of the path tracer's scattered light in haze)."""
+    if tau_R <= 0.0:
+        return 0.0
+    lo, hi = 0.0, float(tau_R)
+    for _ in range(60):
+        mid = 0.5 * (lo + hi)
+        if _log_two_e3(mid) > -tau_R:
+            lo = mid
+        else:
+            hi = mid
+    return 0.5 * (lo + hi)
+
+
+def sky_height(st: float, height: float, sky_distance: float, dome: bool) -> float:
+    """The slab's optical thickness for a medium of extinction st: the camera's height above
+    the ground plus the sky's above the camera, a dome's (physics/ground.Ground.dome) as
+    dome_height gives it."""
+    return st * height + (dome_height(st * sky_distance) if dome else st * sky_distance)
