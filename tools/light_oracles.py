@@ -15,6 +15,14 @@ from fogcli.device.noise import primitives
 from fogcli.device.structs import NOISE_MAX_STEPS
 
 
+def radius_gain(light, R02: float, R: float, d1: float, D: float) -> float:
+    """lights.h AL_RADIUS_GAIN: within the light's radius its airlight at the radius, times
+    3 - 2 (R0 / r)^2 on the share of the near field the ray covers (R02 = R0^2; R the floored
+    distance; the ray from 0 to D, the light's foot at d1)."""
+    share = (math.atan2(D - d1, R) - math.atan2(-d1, R)) / math.pi
+    return 1.0 + 2.0 * share * max(1.0 - R02 / max(light.radius ** 2, 1e-30), 0.0)
+
+
 def airlight_reference(cfg: Config, light, c: np.ndarray, w: np.ndarray, D: float, nodes: int = 1024):
     """(A_dir, A_sc) in float64 for one ray from c along unit w to distance D: composite
     Gauss-Legendre in s over 64 pieces refined towards the light's foot (points, spots),
@@ -87,11 +95,7 @@ def airlight_reference(cfg: Config, light, c: np.ndarray, w: np.ndarray, D: floa
             tt = np.clip((ct - cc_o) / max(cc_i - cc_o, 1e-12), 0, 1)
             I = I * (tt * tt * (3 - 2 * tt))[:, None]
         Pl = optical_depth(x, to / tl[:, None], tl, cfg) + m.homogeneous * (np.sqrt(teff2) - tl)   # widened like 1 / t^2
-        # within the radius the airlight at it, times 3 - 2 (R0 / r)^2 on the share of the near
-        # field the ray covers (lights.h: AL_RADIUS_GAIN)
-        R = math.sqrt(R2)
-        share = (math.atan2(D - d1, R) - math.atan2(-d1, R)) / math.pi
-        geo = (1.0 + 2.0 * share * max(1.0 - R02 / max(light.radius ** 2, 1e-30), 0.0)) / teff2
+        geo = radius_gain(light, R02, math.sqrt(R2), d1, D) / teff2
     phase = (1 - g * g) / (4 * math.pi * (1 + g * g - 2 * g * cosa) ** 1.5)
     src = (ws * rho * phase * geo)[:, None] * ss[None, :] * I * np.exp(-st[None, :] * Pl[:, None])
     tdir = np.exp(-st[None, :] * P[:, None])
@@ -244,6 +248,7 @@ def airlight_double_march(cfg: Config, light, c: np.ndarray, w: np.ndarray, D: f
     else:       # the midpoint in phi, its weight d phi / R times R^2 / t^2: 1/t^2 ds exactly
         pa, pb = np.arctan2(a - d1, R), np.arctan2(b - d1, R)
         s, wgt = d1 + R * np.tan(0.5 * (pa + pb)), (pb - pa) / R
+        wgt = wgt * radius_gain(light, float(np.sum(np.cross(w, pos - c) ** 2)), R, d1, D)
     x = c + s[:, None] * w
     rho_n = density_sum(x, cfg)
     acc = np.concatenate([[0.0], np.cumsum(rho_n * (b - a))])[:-1]

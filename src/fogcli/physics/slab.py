@@ -26,6 +26,7 @@ same sum in float64, for tests and oracles.
 from __future__ import annotations
 
 import functools
+import math
 
 import numpy as np
 
@@ -144,19 +145,38 @@ def inscatter(omega: float, g: float, tau_h: float, tau_H: float, mu_v, t_d) -> 
 
 
 def _log_two_e3(x: float) -> float:
-    """ln 2 E_3(x) = ln of int_0^1 2 mu exp(-x / mu) dmu: the share of a unit sky's unscattered
-    light that reaches a point x optical units below a plane sky (cosine-weighted), by
-    Gauss-Legendre on mu (nodes crowd at mu = 1, where the integrand lives for large x)."""
-    m, w = _e3_nodes()
-    v = np.log(2.0 * m * w) - x / m
-    top = v.max()
-    return float(top + np.log(np.exp(v - top).sum()))
-
-
-@functools.lru_cache(maxsize=1)
-def _e3_nodes():
-    x, w = np.polynomial.legendre.leggauss(512)
-    return 0.5 * (x + 1.0), 0.5 * w
+    """ln 2 E_3(x), 2 E_3(x) = int_0^1 2 mu exp(-x / mu) dmu: the share of a unit sky's
+    unscattered light that reaches a point x optical units below a plane sky (cosine-weighted).
+    E_n as Numerical Recipes' expint: the series below 1, the continued fraction (modified
+    Lentz) above, in logs where it underflows; scalar steps, no LAPACK (leggauss's eigenvalues
+    go to BLAS threads that spin beside the device: tests/test_one_process.py)."""
+    n = 3
+    if x <= 0.0:
+        return 0.0
+    if x > 1.0:
+        b, c = x + n, 1e300
+        d = 1.0 / b
+        h = d
+        for i in range(1, 500):
+            an = -i * (n - 1 + i)
+            b += 2.0
+            d = 1.0 / (an * d + b)
+            c = b + an / c
+            h *= c * d
+            if abs(c * d - 1.0) < 1e-15:
+                break
+        return math.log(2.0) - x + math.log(h)
+    ans, fact = 1.0 / (n - 1), 1.0
+    for i in range(1, 500):
+        fact *= -x / i
+        if i != n - 1:
+            term = -fact / (i - n + 1)
+        else:
+            term = fact * (-math.log(x) + (-0.5772156649015329 + 1.0 + 0.5))   # psi(3) = -gamma + 1 + 1/2
+        ans += term
+        if abs(term) < abs(ans) * 1e-16:
+            break
+    return math.log(2.0 * ans)
 
 
 def dome_height(tau_R: float) -> float:

@@ -120,13 +120,8 @@ __kernel void airlight(__global const float *depth, __global float4 *a_dir, __gl
             al_accumulate(src, P, sa, st, &dir, &sc, &wp);
         }
     }
-    if (L.type != LIGHT_DIRECTIONAL) {
-        float3 cr = cross(w, L.pos.xyz - c);
-        float rg = AL_RADIUS_GAIN(dot(cr, cr), L.radius * L.radius, atan2(-d1, R), atan2(D - d1, R));
-        dir *= rg;
-        sc *= rg;
-        al_point_gain(&L, dir, &sc, &wp, optical_depth(prims, &m, c, w, clamp(d1, 0.0f, D)));
-    }
+    if (L.type != LIGHT_DIRECTIONAL)
+        al_point_gain(&L, c, w, d1, R, D, &dir, &sc, &wp, optical_depth(prims, &m, c, w, clamp(d1, 0.0f, D)));
     float4 od = (float4)(dir, 0.0f), os = (float4)(sc, wp);
     a_dir[idx] = od;
     a_sc[idx] = os;
@@ -177,13 +172,13 @@ ALWAYS_INLINE lanef al_fetch(__global const float *tab, lanef u, lanef v, int e)
     return a + (b - a) * fu;
 }
 
-/* atan(e) for e > 0 (the tables' e^x, x = asinh((s - d1) / R), so that phi = 2 atan(e^x) - pi/2):
- * a polynomial on [0, 1] (within 1e-5 rad) and atan(e) = pi/2 - atan(1/e) above; the library's
- * atan is a call per lane in PoCL */
+/* atan(e), e > 0 (phi = 2 atan(e^x) - pi/2 from the tables' e^x): a polynomial on [0, 1] (1e-5
+ * rad), pi/2 - atan(1/e) above; the library's atan is a call per lane in PoCL */
 ALWAYS_INLINE lanef al_atan_pos(lanef e)
 {
     lanef t = e > 1.0f ? 1.0f / e : e, t2 = t * t;
-    lanef a = t * (0.99997726f + t2 * (-0.33262347f + t2 * (0.19354346f + t2 * (-0.11643287f + t2 * (0.05265332f + t2 * -0.01172120f)))));
+    lanef a = t * (0.99997726f + t2 * (-0.33262347f + t2 * (0.19354346f + t2 * (-0.11643287f
+                                       + t2 * (0.05265332f + t2 * -0.01172120f)))));
     return e > 1.0f ? 1.5707963268f - a : a;
 }
 
@@ -302,8 +297,7 @@ ALWAYS_INLINE float8 al_pixel_ray(const camera_t *c, int i0, int j, float8 dep, 
     lanef cy = AFTER(wz * vx - wx * vz, cx);                                                  \
     lanef cz = AFTER(wx * vy - wy * vx, cy);                                                  \
     lanef d1 = AFTER(wx * vx + wy * vy + wz * vz, cz);                                        \
-    lanef R02 = cx * cx + cy * cy + cz * cz;                                                     \
-    lanef R = LANE_SQRT(R02 > rad2 ? R02 : rad2);                                                \
+    lanef R02 = cx * cx + cy * cy + cz * cz, R = LANE_SQRT(R02 > rad2 ? R02 : rad2);            \
     lanef ex0 = al_ex(-d1, R);                                                                   \
     lanef ex1 = al_ex(AFTER(D - d1, ex0), R);                                                 \
     lanef x0 = lane_log(ex0);                                                                      \

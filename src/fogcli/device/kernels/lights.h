@@ -250,13 +250,19 @@ inline void al_accumulate(float3 src, float P, float3 sa, float3 st, float3 *dir
 #define AL_RADIUS_GAIN(R02, rad2, phi0, phi1) \
     (1.0f + ((phi1) - (phi0)) * 0.63661977237f * fmax(1.0f - (R02) / fmax(rad2, 1e-30f), 0.0f))
 
-/* Points and spots, after their quadrature: what all orders of scattering carry beyond single
+/* Points and spots, after their quadrature over the ray from c along w to D (d1, R: ray_cuts'):
+ * the radius' energy back (AL_RADIUS_GAIN); what all orders of scattering carry beyond single
  * scattering (the gain) joins sc, and sc spreads at Pd, the optical depth where the ray passes
  * the light (as the table kernel does); a directional light keeps the luminance-weighted
  * optical depth of its scatter points. */
-inline void al_point_gain(const light_t *L, float3 dir, float3 *sc, float *wp, float Pd)
+inline void al_point_gain(const light_t *L, float3 c, float3 w, float d1, float R, float D,
+                          float3 *dir, float3 *sc, float *wp, float Pd)
 {
-    *sc += (L->gain.xyz - 1.0f) * (dir + *sc);
+    float3 cr = cross(w, L->pos.xyz - c);
+    float rg = AL_RADIUS_GAIN(dot(cr, cr), L->radius * L->radius, atan2(-d1, R), atan2(D - d1, R));
+    *dir *= rg;
+    *sc *= rg;
+    *sc += (L->gain.xyz - 1.0f) * (*dir + *sc);
     *wp = luminance(*sc) * Pd;
 }
 

@@ -110,8 +110,8 @@ inline void noise_ray(float3 c, float3 w, float D, const light_t *L, const lmedi
         }
     }
     if (!directional)       /* the noise's share of Pd: the camera leg's up to the light's foot */
-        al_point_gain(L, dir, &sc, &wp, optical_depth(prims, m, c, w, clamp(d1, 0.0f, D))
-                                        + (d1 >= D ? nc.acc : (d1 > 0.0f ? acc_d1 : 0.0f)));
+        al_point_gain(L, c, w, d1, R, D, &dir, &sc, &wp, optical_depth(prims, m, c, w, clamp(d1, 0.0f, D))
+                      + (d1 >= D ? nc.acc : (d1 > 0.0f ? acc_d1 : 0.0f)));
     *od = (float4)(dir, 0.0f);
     *os = (float4)(sc, wp);
 }
