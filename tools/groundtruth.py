@@ -20,13 +20,18 @@ from pathlib import Path
 import numpy as np
 
 ROOT = Path(__file__).resolve().parent
-_spec = importlib.util.spec_from_file_location("gt_load", ROOT / "groundtruth" / "load.py")
-gt_load = importlib.util.module_from_spec(_spec)
-_spec.loader.exec_module(gt_load)
 
-_spec = importlib.util.spec_from_file_location("gt_scenes", ROOT / "groundtruth" / "scenes.py")
-gt_scenes = importlib.util.module_from_spec(_spec)
-_spec.loader.exec_module(gt_scenes)
+
+def _groundtruth_module(name: str):
+    """tools/groundtruth/<name>.py by path: `groundtruth` here is this file, not that folder."""
+    spec = importlib.util.spec_from_file_location(f"gt_{name}", ROOT / "groundtruth" / f"{name}.py")
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
+gt_load = _groundtruth_module("load")
+gt_scenes = _groundtruth_module("scenes")
 
 from fogcli import apply  # noqa: E402
 from fogcli.api import make_config  # noqa: E402

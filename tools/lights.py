@@ -235,18 +235,12 @@ def detection_path_traced() -> list[tuple]:
     the scene's lamps: (centre, radius, distance error, intensity error per channel, worst),
     matched by direction. A sphere of radiance L and radius r sends L pi r^2 towards the
     camera; the facing disc L pi r^2 cos(theta)."""
-    import importlib.util
-
     from fogcli.config.model import AutoLights
     from fogcli.frame.lamps import detect_lamps
 
-    spec = importlib.util.spec_from_file_location("gt_load", ROOT / "tools" / "groundtruth" / "load.py")
-    load = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(load)
-    spec = importlib.util.spec_from_file_location("gt_scenes", ROOT / "tools" / "groundtruth" / "scenes.py")
-    S = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(S)
-    case = next(load.cases(scene="lamps", medium="fog"))
+    G = comparison()
+    S = G.gt_scenes
+    case = next(G.gt_load.cases(scene="lamps", medium="fog"))
     cfg = fogcli.make_config(None, sets=[f"camera.fov={case['meta']['fov']}", "camera.depth=distance",
                                          "camera.max_depth=100000"])
     lamps = detect_lamps(case["L"], case["depth"], cfg, AutoLights(type="auto"))[0]

@@ -66,10 +66,12 @@ def table(plan, g: gmod.Ground, t: Timings) -> None:
     st = sa + ss
     d = defines(cfg)
     grey = "MEDIUM_GREY" in d          # the preprocess build's own test: one u for R, G, B
+    # the slab's optical thickness per channel, once: a dome's is a bisection (slab.dome_height)
+    thick = [slab.sky_height(x, g.height, g.sky_distance, g.dome) for x in st]
     psi, lam, ref = [], [], []
     for c in range(1 if grey else 3):
         om = ss[c] / st[c] if st[c] > 0 else 0.0
-        l_, r_, pg, ps = slab.modes(om, m.asymmetry, slab.sky_height(st[c], g.height, g.sky_distance, g.dome))
+        l_, r_, pg, ps = slab.modes(om, m.asymmetry, thick[c])
         # grey: the ground's and the sky's unit rows, mixed by the kernel; else mixed here
         psi += [pg, ps] if grey else [g.colour[c] * pg + g.sky_colour[c] * ps]
         lam.append(l_)
@@ -81,7 +83,7 @@ def table(plan, g: gmod.Ground, t: Timings) -> None:
     cl, mf = rt.cl, rt.cl.mem_flags
     bufs = [cl.Buffer(rt.ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=a) for a in (psi, lam, ref)]
     tau_h = np.array([*(st * g.height), 0.0], np.float32)
-    tau_H = np.array([*(slab.sky_height(x, g.height, g.sky_distance, g.dome) for x in st), 0.0], np.float32)
+    tau_H = np.array([*thick, 0.0], np.float32)
     if plan.ground_table is None:      # the table, and the optical lengths of its u nodes
         u = np.arange(NU) / (NU - 1.0)
         with np.errstate(divide="ignore"):
