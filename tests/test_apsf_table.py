@@ -62,10 +62,12 @@ def test_format(tab):
     assert tab["weights"].shape == (G, A, T, J)
     for k in ("energy", "energy_sphere", "fit_error", "ratio"):
         assert tab[k].shape == (G, A, T), k
-    assert tab["emit_mu"].shape == (G, A, T, 20)
+    assert tab["emit_mu"].shape == (G, A, T, len(tab["emit_theta"]) - 1, len(tab["emit_mu_edges"]) - 1)
+    np.testing.assert_array_equal(tab["emit_mu_edges"], mc.MU_EDGES.astype(np.float32))
+    np.testing.assert_array_equal(tab["emit_theta"], mc.EMIT_THETA.astype(np.float32))
     assert tab["photons"].shape == (G, 2) and tab["photons"].dtype.kind == "i"   # point, crossing
     np.testing.assert_allclose(tab["sigma_u"], 2.0 ** (-14 + np.arange(J) / 2), rtol=1e-6)
-    assert TABLE.stat().st_size < 6e6
+    assert TABLE.stat().st_size < 9e6     # every process reads it whole (uncompressed: faster)
     assert np.all(np.diff(tab["tau"]) > 0) and np.all(np.diff(tab["albedo"]) > 0) and np.all(np.diff(tab["g"]) > 0)
 
 
@@ -87,9 +89,9 @@ def test_ratio_matches_energy(tab):
 def test_emit_mu_is_a_distribution(tab):
     em = tab["emit_mu"].astype(np.float64)
     assert np.all(em >= 0)
-    s = em.sum(-1)
+    s = em.sum((-2, -1))
     ok = tab["energy"] > 0
-    np.testing.assert_allclose(s[ok], 1.0, atol=1e-4)
+    np.testing.assert_allclose(s[ok], 1.0, atol=2e-3)        # float16
 
 
 def test_forward_energy_below_sphere_energy(tab):
@@ -173,13 +175,14 @@ def test_isotropic_thin_limit_closed_form(tab):
 
 
 def test_forward_phase_emits_towards_the_camera(tab):
-    """For g = 0.96 at small tau the light seen left the source towards the camera: the last
-    emission-cosine bin (mu0 > 0.9) holds most of it; for g = 0 less than half."""
+    """For g = 0.96 at small tau the light seen left the source towards the camera: the
+    emission-cosine bins above 0.9 hold most of it; for g = 0 less than half."""
     ia = int(np.argmin(np.abs(tab["albedo"] - 1.0)))
     ig1 = int(np.argmin(np.abs(tab["g"] - 0.96)))
     ig0 = int(np.argmin(np.abs(tab["g"] - 0.0)))
-    assert tab["emit_mu"][ig1, ia, 0, -1] > 0.6
-    assert tab["emit_mu"][ig0, ia, 0, -1] < 0.5
+    top = mc.MU_EDGES[:-1] >= 0.9 - 1e-9
+    assert tab["emit_mu"][ig1, ia, 0][:, top].sum() > 0.6
+    assert tab["emit_mu"][ig0, ia, 0][:, top].sum() < 0.5
 
 
 # ---------------------------------------------------------------- regenerate table entries

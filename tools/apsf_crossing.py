@@ -6,8 +6,8 @@ import math
 
 import numpy as np
 
-from apsf_mc import (N_MU, Tally, _add_scores, _excess_bin, _mu_bin, _survivors, _theta_bin, excess_edges, hg_sample,
-                     rotate, theta_edges)
+from apsf_mc import (N_MU, N_TH, Tally, _add_scores, _emit_index, _excess_bin, _survivors, _theta_bin, excess_edges,
+                     hg_sample, rotate, theta_edges)
 
 
 def _score_crossings(pos, d, d0, w, length, step, radii, order_k, th_edges, x_edges, buf_m: list, buf_e: list):
@@ -41,13 +41,13 @@ def _score_crossings(pos, d, d0, w, length, step, radii, order_k, th_edges, x_ed
         val = w[hit] / np.maximum(np.abs(cm), 1e-12)
         ex = np.maximum(length[hit] + th - R, 0.0)
         ix = _excess_bin(ex, x_edges)
-        ib = _theta_bin(np.arccos(cm), th_edges)
+        theta = np.arccos(cm)
+        ib = _theta_bin(theta, th_edges)
         kk = order_k[ks]
         buf_m.append(((kk * nb + ib) * nx + ix, val, ex))
         fw = cm > 0
         mu0 = np.einsum("ij,ij->i", d0[hit[fw]], p[fw]) / R[fw]     # emission against the camera's direction
-        im = _mu_bin(mu0)
-        buf_e.append(((kk[fw] * N_MU + im) * nx + ix[fw], val[fw], ex[fw]))
+        buf_e.append((_emit_index(kk[fw], theta[fw], mu0) * nx + ix[fw], val[fw], ex[fw]))
 
 
 def simulate_far(g: float, tau, photons: int, seed: int, *, r_max: float | None = None, rr_order: int = 30,
@@ -78,7 +78,7 @@ def simulate_far(g: float, tau, photons: int, seed: int, *, r_max: float | None 
     order_k = np.argsort(tau, kind="stable")          # sphere radii ascending, and their camera index
     radii = tau[order_k]
     m = [np.zeros(nT * nb * nx) for _ in range(3)]
-    e = [np.zeros(nT * N_MU * nx) for _ in range(3)]
+    e = [np.zeros(nT * N_TH * N_MU * nx) for _ in range(3)]
     rng = np.random.default_rng(seed)
     esc_w, esc_l, esc_mu = [np.zeros(0)], [np.zeros(0)], [np.zeros(0)]
     done = 0
@@ -111,5 +111,5 @@ def simulate_far(g: float, tau, photons: int, seed: int, *, r_max: float | None 
         _add_scores(((buf_m, m), (buf_e, e)))
     # per photon of unit power the crossings sum to 4 pi d^2 L dOmega, and f = L 4 pi d^2
     return Tally(g, tau, th_edges, x_edges, photons, np.stack([a.reshape(nT, nb, nx) for a in m]),
-                 np.stack([a.reshape(nT, N_MU, nx) for a in e]), np.full(nT, 1.0 / photons), {"estimator": "crossing"},
+                 np.stack([a.reshape(nT, N_TH, N_MU, nx) for a in e]), np.full(nT, 1.0 / photons), {"estimator": "crossing"},
                  r_max, np.concatenate(esc_w), np.concatenate(esc_l), 1, np.concatenate(esc_mu))

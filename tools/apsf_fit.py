@@ -8,7 +8,7 @@ from functools import lru_cache
 
 import numpy as np
 
-from apsf_mc import N_MU, Tally, _mu_bin, hg_phase
+from apsf_mc import EMIT_THETA, N_MU, N_TH, Tally, _mu_bin, hg_phase
 
 J = 31
 
@@ -67,8 +67,8 @@ def shell_fluence(d, r_max: float, sa: float, g: float):
 
 
 def profiles(t: Tally, albedo, relative: bool = False, background: bool = True):
-    """f(theta) per steradian (A, T, nb) and the forward-hemisphere energy per emission
-    cosine bin (A, T, N_MU), for each albedo. relative=False includes the factor
+    """f(theta) per steradian (A, T, nb) and the forward-hemisphere energy per class of theta
+    and bin of the emission cosine (A, T, N_TH, N_MU), for each albedo. relative=False includes the factor
     exp(-sa d) of the shortest path; relative=True leaves it out (no underflow at large
     sa d; multiply by exp(-sa d) to get f).
     background: add the light of the photons dropped at r_max, in diffusion theory
@@ -77,26 +77,28 @@ def profiles(t: Tally, albedo, relative: bool = False, background: bool = True):
     albedo = np.atleast_1d(np.asarray(albedo, np.float64))
     dom = 2 * math.pi * (np.cos(t.th_edges[:-1]) - np.cos(t.th_edges[1:]))
     f = np.empty((len(albedo), len(t.tau), len(dom)))
-    em = np.empty((len(albedo), len(t.tau), N_MU))
+    em = np.empty((len(albedo), len(t.tau), N_TH, N_MU))
     for i, a in enumerate(albedo):
         sa = (1 - a) / a
         shift = 0.0 if relative else 1.0
         base = np.exp(-sa * t.tau * shift)[:, None] * t.norm[:, None]
         f[i] = absorption_factor(t, sa, t.m) * base / dom
-        em[i] = absorption_factor(t, sa, t.e) * base
+        em[i] = absorption_factor(t, sa, t.e) * base[..., None]
         if background and len(t.esc_w):
             # exp(-sa l) relative to exp(-sa d) per camera (l >= r_max > d: no overflow)
             wl = t.esc_w[None, :] * np.exp(-sa * (t.esc_l[None, :] - t.tau[:, None] * (1 - shift)))
             fbg = t.tau ** 2 / t.photons * wl.sum(1) * shell_fluence(t.tau, t.r_max, sa, t.g)
             f[i] += fbg[:, None]
-            # its forward half, split by emission cosine (cameras on +z and -z: both signs)
+            # its forward half, split by emission cosine (cameras on +z and -z: both signs);
+            # isotropic at the camera, so over the theta classes by their solid angles
             h = np.zeros((len(t.tau), N_MU))
             for sgn in (1.0, -1.0):
                 im = _mu_bin(sgn * t.esc_mu)
                 for k in range(len(t.tau)):
                     h[k] += np.bincount(im, wl[k], minlength=N_MU)
             h /= np.maximum(h.sum(1, keepdims=True), 1e-300)
-            em[i] += 2 * math.pi * fbg[:, None] * h
+            dom_c = 2 * math.pi * (np.cos(EMIT_THETA[:-1]) - np.cos(EMIT_THETA[1:]))
+            em[i] += fbg[:, None, None] * dom_c[None, :, None] * h[:, None, :]
     return f, em
 
 

@@ -46,6 +46,8 @@ VARIANTS = {
     "apsf extend lamb": ["render.psf=apsf", "render.border=extend", "render.emission_profile=lambertian"],
     "apsf extend lamb, no ground": ["render.psf=apsf", "render.border=extend", "render.emission_profile=lambertian",
                                     "render.ground=none"],
+    "apsf extend lamb, halo none": ["render.psf=apsf", "render.border=extend", "render.emission_profile=lambertian",
+                                    "render.halo_depth=none"],
 }
 BORDERS = ("open", "closed", "extend")
 
@@ -96,7 +98,11 @@ def run_case(case, variants=VARIANTS, reference=True, profile="lambertian") -> d
     for border in BORDERS:
         if f"reference {border}" in out:
             ref = out[f"reference {border}"]
-            pyr = out[f"apsf {border}" + (" lamb" if profile == "lambertian" else "")]
+            # the reference spreads every pixel alike whatever the receiver's depth: the pyramid
+            # against it without its receiver weight (render.halo_depth)
+            pyr = apply(L, depth, make_config(None, sets=sets + [
+                "render.psf=apsf", f"render.border={border}", f"render.emission_profile={profile}",
+                "render.halo_depth=none"]))
             res[f"reference {border}"]["vs_ref"] = (rel_l1(pyr, ref), ssim(pyr, ref))
     return res, out
 
@@ -239,7 +245,7 @@ def main():
             lines.append(f"| {gname} | {len(sel)} | " + " | ".join(cells) + " |")
         lines.append("")
     lines.append(f"### Pyramid against its own reference (`psf: apsf`, emission profile {r.emission_profile}, "
-                 "same border), relative L1 / SSIM\n")
+                 "same border, `halo_depth: none`: the reference has no receiver weight), relative L1 / SSIM\n")
     lines.append("| group | " + " | ".join(BORDERS) + " |\n|---|" + "---|" * len(BORDERS))
     for gname, pred in groups.items():
         sel = [res for case, res in rows if pred(case)]

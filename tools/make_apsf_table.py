@@ -115,7 +115,7 @@ def reduce_tally(t: mc.Tally, albedo=ALBEDO) -> dict:
     W, E_rel, err = fit.fit_gaussians(t.th_edges, f_rel)
     dom = 2 * math.pi * (np.cos(t.th_edges[:-1]) - np.cos(t.th_edges[1:]))
     att = np.exp(-np.outer((1 - albedo) / albedo, t.tau))             # exp(-sa d)
-    em_sum = em_rel.sum(-1, keepdims=True)
+    em_sum = em_rel.sum((-2, -1), keepdims=True)
     return dict(
         weights=W * att[..., None], energy=E_rel * att, ratio=E_rel / -np.expm1(-t.tau)[None, :],
         energy_sphere=(f_rel * dom).sum(-1) * att, profile=f_rel * att[..., None],
@@ -218,8 +218,10 @@ def main(argv=None) -> int:
             out, g=G.astype(f32), albedo=ALBEDO.astype(f32), tau=TAU.astype(f32),
             sigma_u=fit.SIGMA_U.astype(f32), weights=stack["weights"].astype(f32),
             energy=stack["energy"].astype(f32), energy_sphere=stack["energy_sphere"].astype(f32),
-            ratio=stack["ratio"].astype(f32), emit_mu=stack["emit_mu"].astype(f32),
-            theta_edges=th_edges.astype(f32), t_far=np.float32(T_FAR),
+            ratio=stack["ratio"].astype(f32), theta_edges=th_edges.astype(f32), t_far=np.float32(T_FAR),
+            # half precision (3 significant digits, ample for a weight's average): 4.8 MB
+            emit_mu=stack["emit_mu"].astype(np.float16), emit_mu_edges=mc.MU_EDGES.astype(f32),
+            emit_theta=mc.EMIT_THETA.astype(f32),
             photons=np.array(photons, np.int64), seed=np.int64(SEED),
             fit_error=stack["fit_error"].astype(f32), r_max=np.float32(R_MAX),
             rr_order=np.array([rr_order_for(g) for g in G], np.int64))
@@ -316,9 +318,12 @@ def write_doc(ctx: dict, doc: str | None) -> None:
       "projection on unit 2-D Gaussians of widths `sigma_u` = 2^(-14 + j/2), j = 0..30 "
       "(non-negative, summing exactly to `energy`). `ratio` (float32, not underflowing) = energy / "
       "(exp(-sa d)(1 - exp(-d))); `energy` and `weights` underflow float32 where sa d > ~85 "
-      "(a = 0.02 beyond tau ~ 1.7): use `ratio` there. `emit_mu`: distribution of the cosine "
-      "between the emission direction and the source->camera direction of the forward-hemisphere "
-      "energy (20 bins over [-1, 1]). The raw f(theta) per steradian is not shipped (4 MB; "
+      "(a = 0.02 beyond tau ~ 1.7): use `ratio` there. `emit_mu` (float16): the joint distribution "
+      "of the forward-hemisphere energy over the angle theta at which it arrives (classes "
+      "`emit_theta`, " + ", ".join(f"{math.degrees(v):g}" for v in mc.EMIT_THETA) + " degrees) and the "
+      "cosine between its emission direction and the source->camera direction (bins `emit_mu_edges`: "
+      "12 equal over [-1, 0.8], then 0.9, 0.95, 0.98, 0.995, 1); a frame sees only the classes "
+      "within its field of view (`apsf.lambert_weight`). The raw f(theta) per steradian is not shipped (4 MB; "
       "`reduce_tally` returns it as `profile`).")
     L("")
     L(f"Grid: g = {', '.join(f'{g:g}' for g in G)}; albedo = {', '.join(f'{a:g}' for a in ALBEDO)}; "

@@ -265,11 +265,41 @@ def _frame_share(n, n0, scale, sigma):
     return np.array([0.5 * (math.erf((n0 - v) * k) + math.erf(v * k)) for v in x0])
 
 
-def apsf_collapse(sc, lp0, lut, levels, taps, cubic, a, open_border=False, slots=None):
+def receiver_depths(lp0, levels):
+    """render.halo_depth: receiver: per level the receivers' mean log P, each level the 2 x 2
+    mean of the one below (clamped at the edge); level 0 each pixel's own."""
+    out = [np.asarray(lp0, np.float64)]
+    for _ in range(levels):
+        r = out[-1]
+        h, w = r.shape
+        y0, x0 = np.arange((h + 1) // 2) * 2, np.arange((w + 1) // 2) * 2
+        y1, x1 = np.minimum(y0 + 1, h - 1), np.minimum(x0 + 1, w - 1)
+        out.append(0.25 * (r[y0][:, x0] + r[y0][:, x1] + r[y1][:, x0] + r[y1][:, x1]))
+    return out
+
+
+def recv_weight(lut, base, level, lp, lr, nu):
+    """The share a receiver at log P lr keeps of level `level`'s light from sources at log P
+    lp: the table at `base` (apsf.lut_offsets "recv"), bilinear in (log P, u = P_r / P)."""
+    n = int(lut[2])
+    t = np.clip((lp - lut[0]) * lut[1], 0.0, n - 1.001)
+    i = np.floor(t).astype(np.int64)
+    f = t - i
+    u = np.clip(np.exp(lr - lp), 0.0, 1.0) * (nu - 1)
+    ui = np.minimum(u.astype(np.int64), nu - 2)
+    uf = u - ui
+    at = lambda ii, uu: lut[base + (level * n + ii) * nu + uu]  # noqa: E731
+    a = at(i, ui) * (1 - uf) + at(i, ui + 1) * uf
+    b = at(i + 1, ui) * (1 - uf) + at(i + 1, ui + 1) * uf
+    return a * (1 - f) + b * f
+
+
+def apsf_collapse(sc, lp0, lut, levels, taps, cubic, a, open_border=False, slots=None, recv=None):
     """The whole apsf source collapse from level 0 (scattered colour, log P): every level
     keeps its sharp and half-blurred shares and passes the rest up. The chain itself is
     closed; with the open border each level's kept light is scaled by the frame share of
-    its slot's Gaussian (slots: the slot widths, apsf.slot_widths)."""
+    its slot's Gaussian (slots: the slot widths, apsf.slot_widths). recv: (table offset, NU)
+    of render.halo_depth: receiver: levels 1 .. K keep their light times recv_weight."""
     H0, W0 = sc.shape[:2]
     cols, lps, preps = [sc.astype(np.float64)], [lp0.astype(np.float64)], []
     for k in range(levels + 1):
@@ -288,6 +318,11 @@ def apsf_collapse(sc, lp0, lut, levels, taps, cubic, a, open_border=False, slots
     E = cols[levels] - preps[levels][..., :3] if levels > 0 else cols[0]   # the top's `up`: lost
     if open_border and levels > 0:
         E = E * share(levels, 0)
+    rds = receiver_depths(lp0, levels) if recv else None
+
+    def weight(k):
+        return recv_weight(lut, recv[0], k, lps[k], rds[k], recv[1])[..., None] if recv and k > 0 else 1.0
+    E = E * weight(levels)
     for k in range(levels - 1, -1, -1):
         half = apsf_shares(lut, k, lps[k], cols[k], 1)
         if open_border:
@@ -295,7 +330,7 @@ def apsf_collapse(sc, lp0, lut, levels, taps, cubic, a, open_border=False, slots
             keep = _blur3(hs, a) + (cols[k] - preps[k][..., :3] - half) * share(k, 0)
         else:
             keep = _blur3(half, a) + cols[k] - preps[k][..., :3] - half
-        E = keep + _up2_conserving(E, keep.shape[0], keep.shape[1], cubic, open_border)
+        E = keep * weight(k) + _up2_conserving(E, keep.shape[0], keep.shape[1], cubic, open_border)
     return E
 
 

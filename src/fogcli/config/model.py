@@ -350,6 +350,9 @@ class Render(_Model):
     ground: Literal["auto", "none"] = Field(
         "auto", description="auto: a ground plane found in the depth and the sky above it light the medium as the "
         "boundaries of a slab (homogeneous media; docs/method.md) | none: every pixel is a point source in an infinite medium")
+    halo_depth: Literal["receiver", "none"] = Field(
+        "receiver", description="apsf pyramid: receiver: a surface nearer than a source gets only the part of the "
+        "source's glow that scatters in front of it (docs/method.md) | none: every pixel gets the whole glow")
     spread_model: Literal["angular", "paper"] = Field("angular", description="psf gaussian: the blur width model")
     spread_scale: Annotated[Num, Field(ge=0)] = Field(1.0, description="widens (> 1) or narrows the blur")
     kernel: Literal[2, 4, 6] = Field(4, description="pyramid filter taps")

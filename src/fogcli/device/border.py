@@ -8,7 +8,7 @@ import numpy as np
 from fogcli.device.composite import composite_source
 from fogcli.device.plan import Plan, Timings, border_margin, ext_level
 from fogcli.device.preprocess import upload_lut
-from fogcli.device.pyramid import collapse, reduce
+from fogcli.device.pyramid import collapse, receiver_depth, reduce
 
 
 def extend(plan, t: Timings) -> bool:
@@ -44,6 +44,14 @@ def extend(plan, t: Timings) -> bool:
           ext.k_border_src(q, *plan.rt.nd(pw, ph), chain0=plan.chain, w=i32(plan.w), h=i32(plan.h), chain=ext.chain,
                            prep=ext.prep, pw=i32(pw), ph=i32(ph), ox=i32(ox), oy=i32(oy), mx=i32(mx), my=i32(my),
                            scale=i32(s), lut=ext.lut))
+    if ext.features.recv:
+        # its receivers: the main frame's at ext_level, the continued edge's past it (not its
+        # own level 0's log P, which lights have joined by now)
+        o, mw, mh, _ = (int(v) for v in plan.lv[plan._ext_level])
+        t.add("pyramid", plan.rt.launch2d(ext.k_recv_ext, pw, ph, main_rd=plan.rdepth, main_off=i32(o), mw=i32(mw),
+                                          mh=i32(mh), rd=ext.rdepth, pw=i32(pw), ph=i32(ph), ox=i32(ox // s),
+                                          oy=i32(oy // s)))
+        receiver_depth(ext, t, from_rd0=True)
     reduce(ext, t, masked=True)
     collapse(ext, t)
     composite_source(ext, t)

@@ -14,7 +14,7 @@ import numpy as np
 from fogcli.config.model import Config
 from fogcli.errors import ProcessingError
 from fogcli.physics.airlight_table import DEFINES
-from fogcli.physics.apsf import COS_MIN, NC, NP, conservation_tables, edge_tables, load_table, lut_offsets
+from fogcli.physics.apsf import COS_MIN, NC, NP, NU, conservation_tables, edge_tables, load_table, lut_offsets
 from fogcli.physics.calibration import FILTERS
 from fogcli.device.runtime import Runtime
 
@@ -60,9 +60,11 @@ def defines(cfg: Config) -> dict:
     if uses_apsf(cfg):
         d["PSF_APSF"] = 1
         d["APSF_NP"] = NP
+        d.update(APSF_NC=NC, APSF_J=len(load_table()["sigma_u"]))     # the table's layout
         if cfg.render.emission_profile == "lambertian":
-            d.update(EMISSION_LAMBERT=1, APSF_NC=NC, APSF_COS_MIN=f"{COS_MIN!r}f",
-                     APSF_J=len(load_table()["sigma_u"]))
+            d.update(EMISSION_LAMBERT=1, APSF_COS_MIN=f"{COS_MIN!r}f")
+        if halo_depth(cfg):
+            d.update(RECEIVER_DEPTH=1, APSF_NU=NU)
     if open_border(cfg):
         d["BORDER_OPEN"] = 1
     m = cfg.medium
@@ -102,6 +104,12 @@ def ext_level(cfg: Config, width: int, height: int) -> int:
     return level
 
 
+def halo_depth(cfg: Config) -> bool:
+    """render.halo_depth: receiver weights the source collapse's levels by the receivers' depth."""
+    r = cfg.render
+    return uses_apsf(cfg) and r.method == "pyramid" and r.halo_depth == "receiver"
+
+
 def uses_apsf(cfg: Config) -> bool:
     """The tabulated point spread runs in the source collapse and in the reference."""
     r = cfg.render
@@ -121,6 +129,7 @@ class Features:
     epipolar: bool        # lights with screen shadows, method epipolar: a flag per pixel
     spread0: bool         # the source collapse reads level 0 of the spread chain (a Gaussian
                           # spread, the AOVs, or the P of a heterogeneous medium); no level above
+    recv: bool = False    # render.halo_depth: receiver: the receivers' log depth per level
 
 
 @dataclass(frozen=True)
@@ -158,6 +167,7 @@ BUFFERS = (
     Buffer("chain", F4, PYRAMID),                                    # the colour chain
     Buffer("spread", F1, PYRAMID, size=lambda n, t, f, r: 4 * (n * f.spread0 if f.source else t)),
     Buffer("prep", F4, PYRAMID, lambda f: f.source),
+    Buffer("rdepth", F1, PYRAMID, lambda f: f.recv),                 # mean log P of each level's receivers
     Buffer("up_planes", F1, FRAME, lambda f: False),                 # in `depth`, free by then
     Buffer("chain2", F4, PYRAMID, lambda f: f.sep),
     Buffer("prep2", F4, PYRAMID, lambda f: f.sep),
@@ -195,7 +205,7 @@ def plan_features(cfg: Config, aovs=()) -> Features:
                     bool({"optical_depth", "emission", "direct"} & set(aovs)), bool(cfg.lights),
                     uses_apsf(cfg) and r.emission_profile == "lambertian", tuple(aovs), r.method == "reference",
                     bool(cfg.lights) and r.lights.shadows == "screen" and r.lights.method == "epipolar",
-                    not uses_apsf(cfg) or bool(aovs) or cfg.medium.heterogeneous)
+                    not uses_apsf(cfg) or bool(aovs) or cfg.medium.heterogeneous, halo_depth(cfg))
 
 
 def buffer_bytes(n: int, t: int, f: Features, rows: int) -> dict:
@@ -337,6 +347,10 @@ class Plan:
         self.k_collapse_pairs = whole.collapse_pairs
         self.k_split = (whole.split_level, pyr.split_level)
         self.k_up_rows = (whole.up_rows, pyr.up_rows)
+        if self.features.recv:
+            self.k_recv_depth = (whole.receiver_depth, pyr.receiver_depth)
+            self.k_recv_top = (whole.receiver_weight_top, pyr.receiver_weight_top)
+            self.k_recv_ext = (whole.receiver_depth_ext, pyr.receiver_depth_ext)
         self.k_comp = rt.program("composite", **d).composite
         # composite_source: what it writes fixed at build time, on whole work-groups (as preprocess);
         # [True]: the separated chain's pass, which adds its light

@@ -7,7 +7,8 @@ import numpy as np
 
 from fogcli.device import ground
 from fogcli.device.noise import noise_args, noise_grid, p_samples
-from fogcli.device.plan import LIGHT_SHARE, Timings, open_border
+from fogcli.device.plan import LIGHT_SHARE, Timings, halo_depth, open_border
+from fogcli.device.pyramid import receiver_depth
 from fogcli.device.structs import camera_struct, medium_struct, primitive_launches
 from fogcli.physics.apsf import build_lut
 from fogcli.physics.limits import check_radiance
@@ -223,10 +224,12 @@ def upload_lut(plan, t: Timings, table: dict | None = None) -> np.ndarray | None
     m, r = plan.cfg.medium, plan.cfg.render
     frame = (plan.w, plan.h) if open_border(plan.cfg) else None
     focal, c = plan.cfg.camera.focal(plan.w), r.resolved()[0]
-    key = (m.absorption, m.scattering, m.asymmetry, focal, r.spread_scale, c, id(table), frame)
+    key = (m.absorption, m.scattering, m.asymmetry, focal, r.spread_scale, c, id(table), frame, plan.w, plan.h,
+           halo_depth(plan.cfg))
     if key != plan._lut_key:
         plan.lut_host = build_lut(m.absorption, m.scattering, m.asymmetry, focal, r.spread_scale,
-                                  len(plan.sizes) - 1, c, 2.0 * plan.half_step(), table, frame)
+                                  len(plan.sizes) - 1, c, 2.0 * plan.half_step(), table, frame, (plan.w, plan.h),
+                                  halo_depth(plan.cfg))
         t.add("upload", plan.rt.cl.enqueue_copy(plan.rt.queue, plan.lut, plan.lut_host))
         plan._lut_key = key
     return plan.lut_host
@@ -316,3 +319,5 @@ def preprocess(plan, t: Timings) -> None:
                            sep_prep0=plan.prep2, sep_par=plan.sep_params(), lut=plan.lut, cosines=plan.cosines,
                            ground_table=plan.ground_table[0] if plan.ground is not None else plan.lut,
                            **ground.kernel_args(plan.ground)))
+    if plan.features.recv:      # from level 0's own log P, before lights join it
+        receiver_depth(plan, t)

@@ -53,6 +53,19 @@ def reduce(plan, t: Timings, masked: bool, second: bool = False) -> None:
                             thresh=np.float32(plan.threshold(k)), eps=np.float32(eps), masked=np.int32(masked)))
 
 
+def receiver_depth(plan, t: Timings, from_rd0: bool = False) -> None:
+    """render.halo_depth: receiver: levels 1 .. K of the receivers' mean log P (rdepth), level 1
+    from the colour chain's level 0, whose .w is each pixel's log P until lights join it
+    (preprocess runs this); from_rd0: from level 0 of rdepth itself (the extension plan's,
+    border.extend)."""
+    for k in range(1, len(plan.sizes)):
+        (so, sw, sh, _), (do, dw, dh, _) = plan.lv[k - 1], plan.lv[k]
+        src, src_off, stride = (plan.chain, 3, 4) if k == 1 and not from_rd0 else (plan.rdepth, int(so), 1)
+        t.add("pyramid", plan.rt.launch2d(plan.k_recv_depth, int(dw), int(dh), src=src, src_off=np.int32(src_off),
+                                          stride=np.int32(stride), sw=np.int32(sw), sh=np.int32(sh), rd=plan.rdepth,
+                                          dst_off=np.int32(do), dw=np.int32(dw), dh=np.int32(dh)))
+
+
 def split(plan, t: Timings, k: int, chain, out) -> None:
     """Half-octave shares of level k of `chain` into `out` (level-0 sized scratch)."""
     o, w, h, _ = (int(v) for v in plan.lv[k])
@@ -70,6 +83,11 @@ def collapse(plan, t: Timings, second: bool = False, ext: bool = False) -> None:
     a = plan.half_step()
     chain, half, prep = plan.source_bufs(second)
     top = len(plan.sizes) - 1
+    if plan.features.recv and top > 0:
+        o, w, h, _ = (int(v) for v in plan.lv[top])
+        t.add("composite", plan.rt.launch2d(plan.k_recv_top, w, h, chain=chain, off=np.int32(o), w=np.int32(w),
+                                            h=np.int32(h), rd=plan.rdepth, rd_off=np.int32(o), lut=plan.lut,
+                                            level=np.int32(top)))
     if ext and plan._ext_level == top:
         inject(plan, t)
     for k in range(top - 1, 0, -1):
@@ -77,7 +95,8 @@ def collapse(plan, t: Timings, second: bool = False, ext: bool = False) -> None:
         split(plan, t, k, chain, half)
         args = dict(chain=chain, off=np.int32(o), w=np.int32(w), h=np.int32(h), half_img=half, up_off=np.int32(uo),
                     uw=np.int32(uw), uh=np.int32(uh), a=np.float32(a), prep=prep, edge=plan.edge,
-                    edge_off=np.int32(plan.edge_off[k]), cons=plan.cons, cons_up=np.int32(plan.cons_off[k + 1]))
+                    edge_off=np.int32(plan.edge_off[k]), cons=plan.cons, cons_up=np.int32(plan.cons_off[k + 1]),
+                    lut=plan.lut, rd=plan.rdepth, rd_off=np.int32(o), level=np.int32(k))
         plan.launch_pairs(t, plan._pairs[k], plan.k_collapse_pairs, plan.k_collapse, w, h, args, chain, k + 1)
         if ext and k == plan._ext_level:
             inject(plan, t)

@@ -26,6 +26,7 @@ from importlib import resources
 import numpy as np
 
 from fogcli.errors import interrupt_held
+from fogcli.physics.glow_depth import NU, receiver_table
 
 NP = 128          # samples of log P in the device lookup table
 HEADER = 4        # lp0, 1 / dlp, NP, number of levels (floats)
@@ -49,7 +50,7 @@ def read_data(name: str) -> dict:
 def load_table() -> dict:
     z = read_data("apsf")
     tab = {k: np.asarray(z[k], np.float64) for k in z if k in
-           ("g", "albedo", "tau", "sigma_u", "weights", "energy", "emit_mu", "ratio")}
+           ("g", "albedo", "tau", "sigma_u", "weights", "energy", "emit_mu", "emit_mu_edges", "emit_theta", "ratio")}
     return with_ratios(tab)
 
 
@@ -181,25 +182,65 @@ def _along_tau(tab: dict, per_tau: np.ndarray, tau: np.ndarray) -> np.ndarray:
     return (1 - t) * per_tau[i] + t * per_tau[i + 1]
 
 
-def lambert_weight(tab: dict, g: float, albedo: float, tau: np.ndarray, cos_view: np.ndarray) -> np.ndarray:
-    """Scattered energy of a Lambertian emitter over that of the isotropic source the table
-    assumes, (len(tau), len(cos_view)). Both send the camera the same radiance; they differ
-    in what they emit elsewhere. The table gives the directions, relative to the line to the
-    camera (cosine mu0), in which the light that reaches the camera scattered left the
-    source; a Lambertian surface whose normal is at theta to that line emits
-    max(0, cos(theta) mu0 + sin(theta) sqrt(1 - mu0^2) cos(phi)) / cos(theta) times the
-    isotropic source's intensity there, averaged over phi in closed form."""
-    mu_dist = _along_tau(tab, _slice_ga(tab, "emit_mu", g, albedo), tau)       # (T, M)
-    m = mu_dist.shape[-1]
-    mu = -1.0 + (np.arange(m) + 0.5) * 2.0 / m
+def lambert_gain(mu0: np.ndarray, cos_view: np.ndarray) -> np.ndarray:
+    """A Lambertian surface's intensity over an isotropic source's (both send the camera the
+    same radiance) in the directions at cosine mu0 from the line to the camera, averaged
+    over their azimuth, for a normal at cosine cos_view to that line: (len(mu0), len(cos_view)).
+    The surface emits max(0, cos_view mu0 + sin_view sqrt(1 - mu0^2) cos(phi)) / cos_view
+    times the isotropic source's intensity; the average over phi is closed form."""
+    mu = np.asarray(mu0, np.float64)[:, None]
     ct = np.asarray(cos_view, np.float64)[None, :]
     st = np.sqrt(np.maximum(1.0 - ct * ct, 0.0))
-    A = ct * mu[:, None]
-    B = st * np.sqrt(np.maximum(1.0 - mu * mu, 0.0))[:, None]
+    A = ct * mu
+    B = st * np.sqrt(np.maximum(1.0 - mu * mu, 0.0))
     with np.errstate(divide="ignore", invalid="ignore"):
         phi0 = np.arccos(np.clip(np.where(B > 0, -A / B, np.sign(-A) * 2.0), -1.0, 1.0))
-    h = (A * phi0 + B * np.sin(phi0)) / np.pi / ct                                # (M, C)
-    return mu_dist @ h
+    return (A * phi0 + B * np.sin(phi0)) / np.pi / ct
+
+
+def lambert_weight(tab: dict, g: float, albedo: float, tau: np.ndarray, cos_view: np.ndarray,
+                   seen: np.ndarray | None = None) -> np.ndarray:
+    """Scattered energy of a Lambertian emitter over that of the isotropic source the table
+    assumes, (len(tau), len(cos_view)). Both send the camera the same radiance; they differ
+    in what they emit elsewhere. The table gives, per class of the angle theta at which the
+    light reaches the camera (`emit_theta`), the directions in which it left the source
+    (cosine mu0 against the line to the camera); the weight averages lambert_gain over them.
+    seen: the share of each theta class that lands in the frame (theta_seen); the default
+    counts the whole forward hemisphere. Light arriving far from the source left it far
+    from the camera's direction, where a surface facing the camera emits little: a frame
+    that sees only the near classes sees a larger weight (at tau 2 in fog, 0.90 within 10
+    degrees against 0.80 over the hemisphere)."""
+    joint = _slice_ga(tab, "emit_mu", g, albedo)                                # (tau grid, C, M)
+    em = _along_tau(tab, joint.reshape(len(joint), -1), tau).reshape((-1,) + joint.shape[1:])
+    edges = tab["emit_mu_edges"]
+    per_class = em @ lambert_gain(0.5 * (edges[:-1] + edges[1:]), cos_view)   # (T, C, V)
+    share = em.sum(-1)                                                         # (T, C)
+    s = np.ones(share.shape[-1]) if seen is None else np.asarray(seen, np.float64)
+    return (per_class * s[None, :, None]).sum(1) / np.maximum(share @ s, 1e-300)[:, None]
+
+
+def theta_seen(theta_edges: np.ndarray, focal_px: float, width: int, height: int, n: int = 12) -> np.ndarray:
+    """Per class of theta (edges in radians), the share of the directions at those angles from
+    a source in the frame that land in the frame (by solid angle): rings of sub-angles across
+    each class, around sources on an n x n grid over the frame, through the pinhole."""
+    sub = 4
+    th = np.concatenate([np.linspace(a, b, sub + 2)[1:-1] for a, b in zip(theta_edges[:-1], theta_edges[1:])])
+    phi = np.linspace(0.0, 2.0 * math.pi, 64, endpoint=False)
+    g = (np.arange(n) + 0.5) / n
+    sx, sy = np.meshgrid((g - 0.5) * width, (g - 0.5) * height)
+    s = np.stack([sx.ravel(), sy.ravel(), np.full(n * n, focal_px)], -1)
+    s /= np.linalg.norm(s, axis=-1, keepdims=True)                             # (S, 3)
+    a = np.cross(s, [0.0, 1.0, 0.0])
+    a /= np.linalg.norm(a, axis=-1, keepdims=True)
+    b = np.cross(s, a)
+    ring = np.cos(phi)[:, None, None] * a[None] + np.sin(phi)[:, None, None] * b[None]        # (F, S, 3)
+    v = np.cos(th)[:, None, None, None] * s[None, None] + np.sin(th)[:, None, None, None] * ring[None]
+    z = v[..., 2]
+    ok = z > 1e-9
+    zs = np.where(ok, z, 1.0)
+    inside = ok & (np.abs(v[..., 0] / zs * focal_px) <= width / 2) & (np.abs(v[..., 1] / zs * focal_px) <= height / 2)
+    sw = np.sin(th).reshape(-1, sub)
+    return (inside.mean(axis=(1, 2)).reshape(-1, sub) * sw).sum(-1) / sw.sum(-1)
 
 
 def slot_widths(levels: int, c: float, half_var: float) -> np.ndarray:
@@ -272,7 +313,8 @@ def in_frame(sigma: np.ndarray, width: int, height: int) -> np.ndarray:
 
 
 def build_lut(sa, ss, g: float, focal_px: float, spread_scale: float, levels: int, c: float,
-              half_var: float, tab: dict | None = None, frame: tuple[int, int] | None = None) -> np.ndarray:
+              half_var: float, tab: dict | None = None, frame: tuple[int, int] | None = None,
+              size: tuple[int, int] | None = None, halo_depth: bool = False) -> np.ndarray:
     """The device table: header, then up/half per (level, channel), the energy ratio per
     channel, the weight of each table Gaussian per channel (reference), and the Lambertian
     weight per view cosine and channel times the energy ratio. float32.
@@ -280,7 +322,12 @@ def build_lut(sa, ss, g: float, focal_px: float, spread_scale: float, levels: in
     wide as the frame; light of the table's wider Gaussians mostly leaves an open frame,
     so of what reaches the top level only the share that such a Gaussian would leave in
     the frame (centred, against the top level's own width) stays: `up` of the top level
-    is the share lost."""
+    is the share lost.
+    size: (width, height) of the image, whose field of view the Lambertian weight counts
+    (theta_seen); None: the whole forward hemisphere.
+    halo_depth: per level (its angle) and log P, the share of the light a receiver at u
+    times the source's distance keeps (glow_depth.receiver_table, extinction averaged over
+    the channels); without, ones."""
     tab = load_table() if tab is None else tab
     lp0, lp1 = p_range(ss, tab)
     P = np.exp(np.linspace(lp0, lp1, NP))
@@ -292,6 +339,7 @@ def build_lut(sa, ss, g: float, focal_px: float, spread_scale: float, levels: in
     shape = np.zeros((J, 3, NP))
     lambert = np.ones((NC, 3, NP))
     cos_grid = np.linspace(COS_MIN, 1.0, NC)
+    seen = None if size is None or "emit_theta" not in tab else theta_seen(tab["emit_theta"], focal_px, *size)
     for ch in range(3):
         if ss[ch] <= 0:
             continue   # no scattering in this channel: nothing to spread
@@ -310,12 +358,18 @@ def build_lut(sa, ss, g: float, focal_px: float, spread_scale: float, levels: in
         ratio[ch] = r
         shape[:, ch, :] = sh.T
         if "emit_mu" in tab:
-            lambert[:, ch, :] = lambert_weight(tab, g, a, ss[ch] * P, cos_grid).T
+            lambert[:, ch, :] = lambert_weight(tab, g, a, ss[ch] * P, cos_grid, seen).T
+    recv = np.ones((levels + 1, NP, NU))
+    if halo_depth:
+        s_k = np.array([math.sqrt(max(slots[2 * k], 1e-3) * slots[min(2 * k + 1, len(slots) - 1)])
+                        for k in range(levels + 1)])
+        theta = 1.2533 * s_k / max(focal_px * spread_scale, 1e-30)     # a 2-D Gaussian's mean radius
+        recv = receiver_table(float(np.mean(np.asarray(sa) + np.asarray(ss))), g, P, theta)
     head = np.array([lp0, (NP - 1) / (lp1 - lp0), NP, levels + 1])
     # the Lambertian weight times the ratio, which the kernels interpolate as one table where
     # they need both: 4 table reads a pixel fewer than the two apart (gathers, on AVX2)
     return np.concatenate([head, updown.ravel(), ratio.ravel(), shape.ravel(),
-                           (lambert * ratio[None]).ravel()]).astype(np.float32)
+                           (lambert * ratio[None]).ravel(), recv.ravel()]).astype(np.float32)
 
 
 def edge_tables(sizes: list[tuple[int, int]], c: float, half_var: float) -> tuple[np.ndarray, list[int]]:
@@ -401,4 +455,6 @@ def lut_offsets(levels: int, J: int) -> dict:
     ratio = up + (levels + 1) * 3 * 2 * NP
     shape = ratio + 3 * NP
     lambert = shape + J * 3 * NP
-    return {"updown": up, "ratio": ratio, "shape": shape, "lambert": lambert, "end": lambert + NC * 3 * NP}
+    recv = lambert + NC * 3 * NP
+    return {"updown": up, "ratio": ratio, "shape": shape, "lambert": lambert, "recv": recv,
+            "end": recv + (levels + 1) * NP * NU}

@@ -59,6 +59,26 @@ inline void lambert_at(__global const float *lut, int nlev, int li, float lf, fl
 }
 #endif
 
+#ifdef RECEIVER_DEPTH
+/* render.halo_depth: receiver. Of the light `level` keeps for a receiver whose surface is at
+ * log P lr (the level's mean over its footprint), from sources at log P lp (the level's
+ * light-weighted one), the share that scatters nearer than that surface: the host's
+ * glow_depth.receiver_table after the Lambertian weights, per level, bilinear in (log P,
+ * u = P_r / P over [0, 1]; beyond 1 all of it) */
+inline float recv_weight(__global const float *lut, int level, float lp, float lr)
+{
+    float f;
+    int li = lut_pos(lut, lp, &f);
+    float u = clampf_(exp_poly(lr - lp), 0.0f, 1.0f) * (float)(APSF_NU - 1);
+    int ui = min((int)u, APSF_NU - 2);
+    float uf = u - (float)ui;
+    int base = lut_shape((int)lut[3], APSF_J, 0) + APSF_NC * 3 * APSF_NP + (level * APSF_NP + li) * APSF_NU + ui;
+    float a = lut[base] + (lut[base + 1] - lut[base]) * uf;
+    float b = lut[base + APSF_NU] + (lut[base + APSF_NU + 1] - lut[base + APSF_NU]) * uf;
+    return a + (b - a) * f;
+}
+#endif
+
 /* The share of the thin-medium form's scattered energy each channel keeps at the log-P
  * sample (li, lf) of lut_pos: the table's energy ratio (lower where long multiply scattered
  * paths absorb more), times the Lambertian weight at view cosine cosv with

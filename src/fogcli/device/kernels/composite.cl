@@ -163,9 +163,9 @@ __kernel void composite_source_pairs(COMP_SOURCE_ARGS, __global const float *up_
     PAIR_ROWS(half_img, j, width, height, 2 * px0)
     float he[3], ho[3];
     pair_half(r0, r1, r2, i, a, he, ho);
-    pair_keep(ch, pr, i, 0, j, width, height, r1, he, edge, edge + 2 * px0, e0, e1, e2, &s0, &s1, &s2);
+    pair_keep(ch, pr, i, 0, j, width, height, r1, he, edge, edge + 2 * px0, e0, e1, e2, 1.0f, &s0, &s1, &s2);
     comp_store(2 * i, s0, s1, s2, dr, mr, orow, level_aov + p1, srow, spread0 + p1, c, kmax);
-    pair_keep(ch, pr, i, 1, j, width, height, r1, ho, edge, edge + 2 * px0, o0, o1, o2, &s0, &s1, &s2);
+    pair_keep(ch, pr, i, 1, j, width, height, r1, ho, edge, edge + 2 * px0, o0, o1, o2, 1.0f, &s0, &s1, &s2);
     comp_store(2 * i + 1, s0, s1, s2, dr, mr, orow, level_aov + p1, srow, spread0 + p1, c, kmax);
 }
 

@@ -79,14 +79,15 @@ ALWAYS_INLINE void pair_half(__global const float *r0, __global const float *r1,
     }
 }
 
-/* keep_px + u of pixel x = 2 (px0 + i) + p of row j of a level (width w, height h), its half
+/* keep_px times wr (the receiver's weight, recv_weight) + u of pixel x = 2 (px0 + i) + p of
+ * row j of a level (width w, height h), its half
  * blur hb (pair_half). The pointers start at pixel 2 px0 of the row: ch, pr of `chain` and
  * `prep`, r1 of the half image's row j, ex of the level's edge table along x (edge + 2 px0);
  * edge itself for the row's entries -> s */
 ALWAYS_INLINE void pair_keep(__global const float *ch, __global const float *pr, int i, int p, int j,
                              int w, int h, __global const float *r1, const float *hb,
                              __global const float *edge, __global const float *ex, float u0, float u1, float u2,
-                             float *s0_, float *s1_, float *s2_)
+                             float wr, float *s0_, float *s1_, float *s2_)
 {
     const int x4 = 8 * i + 4 * p;     /* this pixel's first float in each row */
     float h0 = hb[0], h1 = hb[1], h2 = hb[2];
@@ -110,10 +111,10 @@ ALWAYS_INLINE void pair_keep(__global const float *ch, __global const float *pr,
     float s1 = AFTER(h1 + (1.0f - cw) * v1, s0);
     float s2 = AFTER(h2 + (1.0f - cw) * v2, s1);
 #endif
-    s0 += u0;
+    s0 = s0 * wr + u0;
     *s0_ = s0;
-    *s1_ = AFTER(s1 + u1, s0);
-    *s2_ = AFTER(s2 + u2, *s1_);
+    *s1_ = AFTER(s1 * wr + u1, s0);
+    *s2_ = AFTER(s2 * wr + u2, *s1_);
 }
 
 /* the half image's rows around row j of a level of width w, height h, from pixel x0 */

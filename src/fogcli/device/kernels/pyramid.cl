@@ -247,7 +247,8 @@ __kernel void split_level(__global const float4 *chain, const int off, const int
 #define COLLAPSE_ARGS                                                                            \
     __global float4 *chain, const int off, const int w, const int h, __global const float4 *half_img, \
     const int up_off, const int uw, const int uh, const float a, __global const float4 *prep,   \
-    __global const float *edge, const int edge_off, __global const float *cons, const int cons_up
+    __global const float *edge, const int edge_off, __global const float *cons, const int cons_up, \
+    __global const float *lut, __global const float *rd, const int rd_off, const int level
 __kernel void collapse_level(COLLAPSE_ARGS)
 {
     int x = get_global_id(0), y = get_global_id(1);
@@ -259,8 +260,11 @@ __kernel void collapse_level(COLLAPSE_ARGS)
 #else
     float4 up = up2_fetch4(chain + up_off, uw, uh, x, y);
 #endif
-    float3 e = keep_px(v.xyz, prep[d].xyz, half_img, w, h, x, y, a, edge, edge_off) + up.xyz;
-    chain[d] = (float4)(e, v.w);
+    float3 e = keep_px(v.xyz, prep[d].xyz, half_img, w, h, x, y, a, edge, edge_off);
+#ifdef RECEIVER_DEPTH
+    e *= recv_weight(lut, level, v.w, rd[rd_off + y * w + x]);
+#endif
+    chain[d] = (float4)(e + up.xyz, v.w);
 }
 
 /* collapse_level on two pixels per work-item, away from the level's edges: pairs px0 + i of
@@ -278,13 +282,59 @@ __kernel void collapse_pairs(COLLAPSE_ARGS, __global const float *up_planes, con
     /* each pixel reads only its own value of level k before writing it */
     float he[3], ho[3];
     pair_half(r0, r1, r2, i, a, he, ho);
-    pair_keep(ch, pr, i, 0, y, w, h, r1, he, edge_l, edge_l + 2 * px0, e0, e1, e2, &s0, &s1, &s2);
-    float vw = ch[8 * i + 3];
+    float vw = ch[8 * i + 3], vw1 = ch[8 * i + 7];
+#ifdef RECEIVER_DEPTH
+    __global const float *rdr = rd + rd_off + y * w + 2 * px0;
+    float wr0 = recv_weight(lut, level, vw, rdr[2 * i]), wr1 = recv_weight(lut, level, vw1, rdr[2 * i + 1]);
+#else
+    float wr0 = 1.0f, wr1 = 1.0f;
+#endif
+    pair_keep(ch, pr, i, 0, y, w, h, r1, he, edge_l, edge_l + 2 * px0, e0, e1, e2, wr0, &s0, &s1, &s2);
     ch[8 * i] = s0; ch[8 * i + 1] = s1; ch[8 * i + 2] = s2; ch[8 * i + 3] = vw;
-    pair_keep(ch, pr, i, 1, y, w, h, r1, ho, edge_l, edge_l + 2 * px0, o0, o1, o2, &s0, &s1, &s2);
-    vw = ch[8 * i + 7];
+    pair_keep(ch, pr, i, 1, y, w, h, r1, ho, edge_l, edge_l + 2 * px0, o0, o1, o2, wr1, &s0, &s1, &s2);
+    vw = vw1;
     ch[8 * i + 4] = s0; ch[8 * i + 5] = s1; ch[8 * i + 6] = s2; ch[8 * i + 7] = vw;
 }
+
+#ifdef RECEIVER_DEPTH
+/* render.halo_depth: receiver. Level k of the receivers' log P (the mean over 2 x 2 of level
+ * k-1, clamped at the edge) into rd at dst_off: level 1 from the colour chain's level 0
+ * (its .w: src_off 3, stride 4; each pixel's own log P), higher levels from rd itself */
+__kernel void receiver_depth(__global const float *src, const int src_off, const int stride, const int sw,
+                             const int sh, __global float *rd, const int dst_off, const int dw, const int dh)
+{
+    int x = get_global_id(0), y = get_global_id(1);
+    if (OUTSIDE(x, y, dw, dh)) return;
+    int x0 = 2 * x, y0 = 2 * y, x1 = min(x0 + 1, sw - 1), y1 = min(y0 + 1, sh - 1);
+    __global const float *s = src + src_off;
+    rd[dst_off + y * dw + x] = 0.25f * ((s[(y0 * sw + x0) * stride] + s[(y0 * sw + x1) * stride])
+                                        + (s[(y1 * sw + x0) * stride] + s[(y1 * sw + x1) * stride]));
+}
+
+/* render.border: extend. Level 0 of the extension plan's receivers (device/border.py): the
+ * main frame's at level L (main_rd at main_off, mw x mh), cells past its edge the nearest
+ * edge cell's, as the continued edge's sources are (border_sources); ox, oy in cells */
+__kernel void receiver_depth_ext(__global const float *main_rd, const int main_off, const int mw, const int mh,
+                                 __global float *rd, const int pw, const int ph, const int ox, const int oy)
+{
+    int x = get_global_id(0), y = get_global_id(1);
+    if (OUTSIDE(x, y, pw, ph)) return;
+    rd[y * pw + x] = main_rd[main_off + clampi_(y - oy, 0, mh - 1) * mw + clampi_(x - ox, 0, mw - 1)];
+}
+
+/* The top level's light times its receivers' weight, in place (collapse_level weights each
+ * level below as it keeps it; level 0, the source's own pixel and its 3 x 3, is not) */
+__kernel void receiver_weight_top(__global float4 *chain, const int off, const int w, const int h,
+                                  __global const float *rd, const int rd_off, __global const float *lut,
+                                  const int level)
+{
+    int x = get_global_id(0), y = get_global_id(1);
+    if (OUTSIDE(x, y, w, h)) return;
+    float4 v = chain[off + y * w + x];
+    float wr = recv_weight(lut, level, v.w, rd[rd_off + y * w + x]);
+    chain[off + y * w + x] = (float4)(v.xyz * wr, v.w);
+}
+#endif
 
 /* Level k+1 (uw x uh at `off` in the chain) up-sampled along y to the h rows of level k,
  * as three colour planes of h x uw, R then G then B, for the pair kernels at level k
