@@ -10,7 +10,7 @@ from fogcli.physics import apsf
 def test_lambert_weight_limits():
     """Light that left the source towards the camera (mu0 = 1) sees no difference; light
     that left in every direction alike sees the Lambertian mean, 1 / (4 cos)."""
-    tab = {k: v.copy() for k, v in apsf.load_table().items()}
+    tab = {k: np.array(v, np.float64) for k, v in apsf.load_table().items()}
     cosv = np.array([0.1, 0.5, 1.0])
     edges = tab["emit_mu_edges"]
     tab["emit_mu"][:] = 0.0

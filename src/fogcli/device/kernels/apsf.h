@@ -35,6 +35,10 @@ inline float lut_at(__global const float *lut, int base, float lp)
 inline int lut_updown(int k, int ch, int q) { return 4 + ((k * 3 + LUT_CH(ch)) * 2 + q) * APSF_NP; }
 inline int lut_ratio(int nlev, int ch) { return 4 + nlev * 6 * APSF_NP + LUT_CH(ch) * APSF_NP; }
 inline int lut_shape(int nlev, int j, int ch) { return 4 + nlev * 6 * APSF_NP + 3 * APSF_NP + (j * 3 + LUT_CH(ch)) * APSF_NP; }
+/* after the Gaussians' weights: the Lambertian weight per view cosine, then the receiver
+ * weight per level (apsf.lut_offsets "lambert", "recv") */
+inline int lut_lambert(int nlev) { return lut_shape(nlev, APSF_J, 0); }
+inline int lut_recv(int nlev) { return lut_lambert(nlev) + APSF_NC * 3 * APSF_NP; }
 
 #ifdef EMISSION_LAMBERT
 /* Lambertian over isotropic scattered energy at the view cosine cosv, times the energy
@@ -52,7 +56,7 @@ inline void lambert_at(__global const float *lut, int nlev, int li, float lf, fl
                       (float)APSF_NC - 1.001f);
     int ci = (int)u;
     float f = u - (float)ci;
-    int base = lut_shape(nlev, APSF_J, 0) + ci * 3 * APSF_NP;   /* just after the Gaussians' weights */
+    int base = lut_lambert(nlev) + ci * 3 * APSF_NP;
     *w0 = lambert_ch(lut, base, li, lf, f);
     *w1 = lambert_ch(lut, base + LUT_CH(1) * APSF_NP, li, lf, f);
     *w2 = lambert_ch(lut, base + LUT_CH(2) * APSF_NP, li, lf, f);
@@ -72,7 +76,7 @@ inline float recv_weight(__global const float *lut, int level, float lp, float l
     float u = clampf_(exp_poly(lr - lp), 0.0f, 1.0f) * (float)(APSF_NU - 1);
     int ui = min((int)u, APSF_NU - 2);
     float uf = u - (float)ui;
-    int base = lut_shape((int)lut[3], APSF_J, 0) + APSF_NC * 3 * APSF_NP + (level * APSF_NP + li) * APSF_NU + ui;
+    int base = lut_recv((int)lut[3]) + (level * APSF_NP + li) * APSF_NU + ui;
     float a = lut[base] + (lut[base + 1] - lut[base]) * uf;
     float b = lut[base + APSF_NU] + (lut[base + APSF_NU + 1] - lut[base + APSF_NU]) * uf;
     return a + (b - a) * f;
