@@ -9,7 +9,7 @@ import pytest
 import oracles
 from helpers import FOG, download, random_frame
 from helpers import plan_for
-from fogcli.physics import apsf, glow_depth
+from fogcli.physics import apsf, apsf_lut, emission, glow_depth
 from fogcli.device.plan import Timings
 from fogcli.device.run import read_chain
 from fogcli.device.runtime import LOCAL_CPU
@@ -107,7 +107,9 @@ def test_preprocess_apsf_matches_oracle(rt, rng):
     """Level 0 carries the thin-medium L_sc times the table's energy ratio, and log P."""
     w, h = 37, 23
     img, depth = random_frame(rng, w, h)
-    plan, cfg = plan_for(rt, w, h, *FOG, "render.psf=apsf", "render.emission_profile=isotropic")
+    # spread_space pixels: the ratio is the table's energy (in the plane of angles, more: theta_plane)
+    plan, cfg = plan_for(rt, w, h, *FOG, "render.psf=apsf", "render.emission_profile=isotropic",
+                         "render.spread_space=pixels")
     t = Timings()
     upload(plan, img, depth, t)
     depth = download(plan, plan.depth, 1)       # as light_share_depth left it (its own test)
@@ -117,7 +119,7 @@ def test_preprocess_apsf_matches_oracle(rt, rng):
     at, sc, _, _, P = oracles.preprocess(img, depth, cfg.medium.absorption, cfg.medium.scattering, 0.8, focal,
                                          max_depth=300, z=False)
     lut = plan.lut_host.astype(np.float64)
-    off = apsf.lut_offsets(len(plan.sizes) - 1, len(apsf.load_table()["sigma_u"]))
+    off = apsf_lut.lut_offsets(len(plan.sizes) - 1, len(apsf.load_table()["sigma_u"]))
     lp = np.log(P)
     ratio = np.stack([oracles.lut_at(lut, off["ratio"] + c * apsf.NP, lp) for c in range(3)], -1)
     np.testing.assert_allclose(chains[0][:, :, 3], lp, rtol=1e-5, atol=2e-6)
@@ -131,16 +133,21 @@ def test_preprocess_apsf_matches_oracle(rt, rng):
 
 @pytest.mark.parametrize("interp", ["linear-bilinear", "linear-bicubic"])
 @pytest.mark.parametrize("border", ["closed", "open"])
-@pytest.mark.parametrize("size", [(45, 29), (3, 2), (1, 1)])
+@pytest.mark.parametrize("size,space", [((45, 29), "angles"), ((45, 29), "pixels"), ((3, 2), "angles"),
+                                        ((1, 1), "angles")])
 @pytest.mark.parametrize("halo", ["receiver", "none"])
-def test_apsf_collapse_matches_oracle(rt, rng, interp, border, size, halo):
+def test_apsf_collapse_matches_oracle(rt, rng, interp, border, size, space, halo):
+    """The source collapse against oracles.apsf_collapse; with spread_space angles (45 x 29:
+    levels 3 and up in the plane of angles) through oracles_warp."""
     w, h = size
     img, depth = random_frame(rng, max(w, 4), max(h, 4))
     img, depth = img[:h, :w].copy(), depth[:h, :w].copy()
     depth[0, 0] = 12.0
     depth[h // 2:] *= 0.05          # a near surface below the rest: receivers that keep part of the glow
     plan, cfg = plan_for(rt, w, h, *FOG, "render.psf=apsf", f"render.interpolation={interp}",
-                         f"render.border={border}", f"render.halo_depth={halo}", aovs=("scattered",))
+                         f"render.border={border}", f"render.halo_depth={halo}", f"render.spread_space={space}",
+                         aovs=("scattered",))
+    assert (plan.warp is not None) == (space == "angles" and w > 8)
     t = Timings()
     upload(plan, img, depth, t)
     preprocess(plan, t)
@@ -155,17 +162,17 @@ def test_apsf_collapse_matches_oracle(rt, rng, interp, border, size, halo):
                                  len(plan.sizes) - 1, FILTERS[4], interp != "linear-bilinear",
                                  plan.half_step(), border == "open",
                                  apsf.slot_widths(len(plan.sizes) - 1, cfg.render.resolved()[0], 2 * plan.half_step()),
-                                 recv=(apsf.lut_offsets(len(plan.sizes) - 1, len(apsf.load_table()["sigma_u"]))["recv"],
-                                       glow_depth.NU) if halo == "receiver" else None)
+                                 recv=(apsf_lut.lut_offsets(len(plan.sizes) - 1, len(apsf.load_table()["sigma_u"]))["recv"],
+                                       glow_depth.NU) if halo == "receiver" else None, warp=plan.warp)
     np.testing.assert_allclose(got, want, rtol=2e-4, atol=2e-5 * max(1.0, float(want.max())))
     if halo == "receiver" and w > 8:      # the weights are exercised: the near half keeps less
         whole = oracles.apsf_collapse(level0[:, :, :3], level0[:, :, 3], plan.lut_host.astype(np.float64),
                                       len(plan.sizes) - 1, FILTERS[4], interp != "linear-bilinear",
                                       plan.half_step(), border == "open",
                                       apsf.slot_widths(len(plan.sizes) - 1, cfg.render.resolved()[0],
-                                                       2 * plan.half_step()))
+                                                       2 * plan.half_step()), warp=plan.warp)
         assert got[h // 2:].sum() < 0.97 * whole[h // 2:].sum()
-    if border == "closed" and w > 2 and halo == "none":
+    if border == "closed" and w > 2 and halo == "none" and plan.warp is None:
         # each level's shares partition what reaches it, and reduce and up-sampling hand
         # on each pixel's energy exactly, at the border too (a 900-radiance lamp 2 px
         # from a corner here; the plain filters gained 6 % on it)
@@ -261,14 +268,15 @@ def test_lambertian_view_cosine_on_a_tilted_plane(rt, rng):
         levels0.append(read_chain(plan)[0][0].astype(np.float64))
     cos_true = np.abs((p / np.linalg.norm(p, axis=-1, keepdims=True)) @ n)
     lut = plan_l.lut_host.astype(np.float64)
-    off = apsf.lut_offsets(len(plan_l.sizes) - 1, len(apsf.load_table()["sigma_u"]))
-    u = np.clip((cos_true - apsf.COS_MIN) / (1 - apsf.COS_MIN) * (apsf.NC - 1), 0, apsf.NC - 1.001)
+    off = apsf_lut.lut_offsets(len(plan_l.sizes) - 1, len(apsf.load_table()["sigma_u"]))
+    u = np.clip((cos_true - emission.COS_MIN) / (1 - emission.COS_MIN) * (emission.NC - 1), 0, emission.NC - 1.001)
     ci = np.floor(u).astype(int)
     fr = u - ci
     lp = levels0[1][..., 3]
     for c in range(3):
         # the table holds the weight times the energy ratio, which the isotropic level 0 carries
-        ratio = oracles.lut_at(lut, off["ratio"] + c * apsf.NP, lp)
+        # (its own plan's: in the plane of angles the ratio depends on the spread's shape)
+        ratio = oracles.lut_at(plan_i.lut_host.astype(np.float64), off["ratio"] + c * apsf.NP, lp)
         a = oracles.lut_at(lut, off["lambert"] + (ci * 3 + c) * apsf.NP, lp)
         b = oracles.lut_at(lut, off["lambert"] + ((ci + 1) * 3 + c) * apsf.NP, lp)
         want = levels0[0][..., c] / ratio * (a + (b - a) * fr)

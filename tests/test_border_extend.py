@@ -110,7 +110,8 @@ def test_pyramid_extend_follows_its_reference(medium, rng):
     missing), the image within 0.035 of the open border's distance to its reference."""
     w, h = 96, 64
     img, depth = _edge_scene(w, h, rng)
-    base = ["camera.fov=60", "camera.max_depth=1000", "render.halo_depth=none"]   # the reference has no receiver weight
+    # the reference has no receiver weight and spreads over the image's pixels
+    base = ["camera.fov=60", "camera.max_depth=1000", "render.halo_depth=none", "render.spread_space=pixels"]
     run = lambda *s: apply(img, depth, make_config(medium, sets=base + list(s)))  # noqa: E731
     pyr, ref = run("render.border=extend"), run("render.border=extend", "render.method=reference")
     pyr_o, ref_o = run("render.border=open"), run("render.border=open", "render.method=reference")
@@ -150,19 +151,23 @@ def test_default_border_is_the_measured_one():
     assert l1[r.border] <= min(l1.values()) + BORDER_TIE, l1
 
 
-def test_receivers_depth_levels_match_the_oracle(monkeypatch):
+@pytest.mark.parametrize("space", ["angles", "pixels"])
+def test_receivers_depth_levels_match_the_oracle(monkeypatch, space):
     """render.halo_depth: receiver: each level of the receivers' log P (receiver_depth) is the
-    2 x 2 mean of the one below from level 0's own log P, and the extension plan's level 0
-    (receiver_depth_ext) the main frame's at its level, continued past the edge like the
-    edge (oracles.receiver_depths, numpy)."""
+    2 x 2 mean of the one below from level 0's own log P (with spread_space angles, level 3
+    moved into the plane of angles and the ones above made there), and the extension plan's
+    level 0 (receiver_depth_ext) the main frame's at its level, continued past the edge like
+    the edge, read where the cell lies in the plane (oracles.receiver_depths, oracles_warp)."""
     import oracles
+    import oracles_warp
     from fogcli.device import plan as device_plan
 
     monkeypatch.setattr(device_plan, "_PLANS", {})
     rng = np.random.default_rng(4)
     w, h = 101, 67
     img, depth = _edge_scene(w, h, rng)
-    apply(img, depth, make_config("fog", sets=["camera.fov=60", "camera.max_depth=1000"]))
+    apply(img, depth, make_config("fog", sets=["camera.fov=60", "camera.max_depth=1000",
+                                               f"render.spread_space={space}"]))
     plan = next(iter(device_plan._PLANS.values()))
     total = int(plan.lv[-1, 0] + plan.lv[-1, 1] * plan.lv[-1, 2])
 
@@ -176,16 +181,26 @@ def test_receivers_depth_levels_match_the_oracle(monkeypatch):
     plan.rt.cl.enqueue_copy(plan.rt.queue, chain, plan.chain)
     plan.rt.queue.finish()
     lp0 = chain[:w * h, 3].reshape(h, w)            # level 0's .w: collapse keeps it, no lights here
-    got, want = levels(plan, total), oracles.receiver_depths(lp0, len(plan.sizes) - 1)
+    assert (plan.warp is not None) == (space == "angles")
+    got, want = levels(plan, total), oracles.receiver_depths(lp0, len(plan.sizes) - 1, plan.warp)
     for k in range(1, len(plan.sizes)):
         np.testing.assert_allclose(got[k], want[k], rtol=1e-6, atol=1e-5)
     ext = plan._ext
     pw, ox, oy = (int(v) for v in plan._ext_geom)
-    main_l = got[plan._ext_level]
+    L = plan._ext_level
+    main_l = got[L]
     ys = np.clip(np.arange(ext.h) - oy, 0, main_l.shape[0] - 1)
     xs = np.clip(np.arange(ext.w) - ox, 0, main_l.shape[1] - 1)
+    if plan.warp is not None and L >= plan.warp[0]:     # the main level lies in the plane of angles
+        qx, qy = oracles_warp.image_to_angles((xs[None, :] + 0.5) * 2.0 ** L, (ys[:, None] + 0.5) * 2.0 ** L,
+                                              plan.warp)
+        xs = np.clip(np.floor(qx / 2.0 ** L).astype(int), 0, main_l.shape[1] - 1)
+        ys = np.clip(np.floor(qy / 2.0 ** L).astype(int), 0, main_l.shape[0] - 1)
+        ring = main_l[ys, xs]
+    else:
+        ring = main_l[ys][:, xs]
     ext_levels = levels(ext, int(ext.lv[-1, 0] + ext.lv[-1, 1] * ext.lv[-1, 2]))
-    ext_want = oracles.receiver_depths(main_l[ys][:, xs], len(ext.sizes) - 1)
+    ext_want = oracles.receiver_depths(ring, len(ext.sizes) - 1, ext.warp)
     for k in range(len(ext.sizes)):
         np.testing.assert_allclose(ext_levels[k], ext_want[k], rtol=1e-6, atol=1e-5)
     assert np.ptp(ext_levels[0]) > 1.0              # the near facades and the far middle differ

@@ -27,11 +27,12 @@ def test_documents_and_images_referred_to_exist():
 
 def test_default_border_margin_is_the_calibrations_choice():
     """render.border_margin's default (the margin of `border: extend`) is, on the calibration
-    scenes of the table tools/border_margin.py wrote into docs/physics.md, within BORDER_TIE of
-    the lowest mean relative L1 and within it of the lowest mean distance of the energy from
-    the path tracer's, among margins above 0 (margin 0 is the open border: which policy is the
-    default, test_border_extend.test_default_border_is_the_measured_one). The renders do not
-    rank margins closer than that (0.05 to 0.25 were within 0.0008 in session 39)."""
+    scenes of the table tools/border_margin.py wrote into docs/physics.md, the smallest margin
+    within BORDER_TIE of the lowest mean relative L1 and within it of the lowest mean distance
+    of the energy from the path tracer's, among margins above 0 (margin 0 is the open border:
+    which policy is the default, test_border_extend.test_default_border_is_the_measured_one).
+    The renders do not rank margins closer than that (0.05 to 0.25 were within 0.0008 in
+    session 39); the smaller margin is the smaller extension."""
     from fogcli.config.model import Render
 
     block = (ROOT / "docs" / "physics.md").read_text().split("<!-- border-margin: begin -->")[1].split("<!-- border-margin: end -->")[0]
@@ -45,5 +46,5 @@ def test_default_border_margin_is_the_calibrations_choice():
     l1, energy = row("mean, calibration scenes"), row("mean abs(energy - 1), calibration scenes")
     assert len(l1) == len(energy) == len(margins) - 1 >= 3
     f = Render().border_margin
-    assert l1[f] <= min(l1.values()) + BORDER_TIE, (f, l1)
-    assert energy[f] <= min(energy.values()) + BORDER_TIE, (f, energy)
+    tied = [m for m in l1 if l1[m] <= min(l1.values()) + BORDER_TIE and energy[m] <= min(energy.values()) + BORDER_TIE]
+    assert f == min(tied), (f, tied, l1, energy)

@@ -75,7 +75,7 @@ import numpy as np
 # the light seen near the source (of 20 equal bins, [0.9, 1] held 78 % at tau 0.5 and was
 # scored at 0.95). theta classes: a frame sees the light arriving within its own field of
 # view, which leaves a source nearer the camera's direction than the whole hemisphere's does
-# (apsf.lambert_weight).
+# (emission.lambert_weight).
 MU_EDGES = np.concatenate([np.linspace(-1.0, 0.8, 13), [0.9, 0.95, 0.98, 0.995, 1.0]])
 N_MU = len(MU_EDGES) - 1
 EMIT_THETA = np.radians([0.0, 3.0, 7.0, 13.0, 21.0, 32.0, 48.0, 90.0])

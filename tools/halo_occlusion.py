@@ -61,14 +61,14 @@ def spread(case, ks, extend: bool, renorm: bool) -> dict:
     """{k: (relative L1, scattered energy over the path tracer's)}; k = 0: no occlusion."""
     import cv2
 
-    from fogcli.physics import apsf
+    from fogcli.physics import apsf, apsf_lut
     from metrics import rel_l1
     from oracles import lut_at
 
     l0, direct, lut, f, cfg = level0(case)
     h, w = l0.shape[:2]
     sig = apsf.load_table()["sigma_u"] * f * cfg.render.spread_scale
-    shape0 = apsf.lut_offsets(int(lut[3]) - 1, len(sig))["shape"]   # lut[3]: the levels the kernels read
+    shape0 = apsf_lut.lut_offsets(int(lut[3]) - 1, len(sig))["shape"]   # lut[3]: the levels the kernels read
     d = np.minimum(case["depth"].astype(np.float64), 1e4)
     edges = np.quantile(d, np.linspace(0, 1, BINS + 1))
     edges[-1] += 1e-6

@@ -323,7 +323,7 @@ def write_doc(ctx: dict, doc: str | None) -> None:
       "`emit_theta`, " + ", ".join(f"{math.degrees(v):g}" for v in mc.EMIT_THETA) + " degrees) and the "
       "cosine between its emission direction and the source->camera direction (bins `emit_mu_edges`: "
       "12 equal over [-1, 0.8], then 0.9, 0.95, 0.98, 0.995, 1); a frame sees only the classes "
-      "within its field of view (`apsf.lambert_weight`). The raw f(theta) per steradian is not shipped (4 MB; "
+      "within its field of view (`emission.lambert_weight`). The raw f(theta) per steradian is not shipped (4 MB; "
       "`reduce_tally` returns it as `profile`).")
     L("")
     L(f"Grid: g = {', '.join(f'{g:g}' for g in G)}; albedo = {', '.join(f'{a:g}' for a in ALBEDO)}; "

@@ -5,6 +5,7 @@ import math
 
 import numpy as np
 
+import oracles_warp
 from fogcli.physics.luminance import luminance
 
 
@@ -181,7 +182,7 @@ def reference(sc, sigma):
 # ----------------------------------------------------------------------------- apsf
 
 def lut_at(lut, base, lp):
-    """Linear lookup in the host's apsf table (fogcli.physics.apsf.build_lut) at log P."""
+    """Linear lookup in the host's apsf table (fogcli.physics.apsf_lut.build_lut) at log P."""
     n = int(lut[2])
     u = np.clip((lp - lut[0]) * lut[1], 0.0, n - 1.001)
     i = np.floor(u).astype(np.int64)
@@ -265,22 +266,26 @@ def _frame_share(n, n0, scale, sigma):
     return np.array([0.5 * (math.erf((n0 - v) * k) + math.erf(v * k)) for v in x0])
 
 
-def receiver_depths(lp0, levels):
+def receiver_depths(lp0, levels, warp=None):
     """render.halo_depth: receiver: per level the receivers' mean log P, each level the 2 x 2
-    mean of the one below (clamped at the edge); level 0 each pixel's own."""
+    mean of the one below (clamped at the edge); level 0 each pixel's own. warp: the plan's
+    plane of angles (render.spread_space: angles): its level moved there, the ones above made
+    from it."""
     out = [np.asarray(lp0, np.float64)]
-    for _ in range(levels):
+    for k in range(1, levels + 1):
         r = out[-1]
         h, w = r.shape
         y0, x0 = np.arange((h + 1) // 2) * 2, np.arange((w + 1) // 2) * 2
         y1, x1 = np.minimum(y0 + 1, h - 1), np.minimum(x0 + 1, w - 1)
         out.append(0.25 * (r[y0][:, x0] + r[y0][:, x1] + r[y1][:, x0] + r[y1][:, x1]))
+        if warp is not None and k == warp[0]:
+            out[-1] = oracles_warp.warp_receivers(out[-1], k, warp)
     return out
 
 
 def recv_weight(lut, base, level, lp, lr, nu):
     """The share a receiver at log P lr keeps of level `level`'s light from sources at log P
-    lp: the table at `base` (apsf.lut_offsets "recv"), bilinear in (log P, u = P_r / P)."""
+    lp: the table at `base` (apsf_lut.lut_offsets "recv"), bilinear in (log P, u = P_r / P)."""
     n = int(lut[2])
     t = np.clip((lp - lut[0]) * lut[1], 0.0, n - 1.001)
     i = np.floor(t).astype(np.int64)
@@ -294,12 +299,14 @@ def recv_weight(lut, base, level, lp, lr, nu):
     return a * (1 - f) + b * f
 
 
-def apsf_collapse(sc, lp0, lut, levels, taps, cubic, a, open_border=False, slots=None, recv=None):
+def apsf_collapse(sc, lp0, lut, levels, taps, cubic, a, open_border=False, slots=None, recv=None, warp=None):
     """The whole apsf source collapse from level 0 (scattered colour, log P): every level
     keeps its sharp and half-blurred shares and passes the rest up. The chain itself is
     closed; with the open border each level's kept light is scaled by the frame share of
     its slot's Gaussian (slots: the slot widths, apsf.slot_widths). recv: (table offset, NU)
-    of render.halo_depth: receiver: levels 1 .. K keep their light times recv_weight."""
+    of render.halo_depth: receiver: levels 1 .. K keep their light times recv_weight.
+    warp: the plan's plane of angles (render.spread_space: angles): its level moved there
+    once reduced (oracles_warp), and back once collapsed."""
     H0, W0 = sc.shape[:2]
     cols, lps, preps = [sc.astype(np.float64)], [lp0.astype(np.float64)], []
     for k in range(levels + 1):
@@ -307,6 +314,8 @@ def apsf_collapse(sc, lp0, lut, levels, taps, cubic, a, open_border=False, slots
         preps.append(np.concatenate([p, lps[k][..., None]], axis=-1))
         if k < levels:
             c, lp = apsf_reduce(preps[k], taps, False)
+            if warp is not None and k + 1 == warp[0]:
+                c, lp = oracles_warp.warp_level(c, lp, k + 1, warp)
             cols.append(c)
             lps.append(lp)
 
@@ -318,7 +327,7 @@ def apsf_collapse(sc, lp0, lut, levels, taps, cubic, a, open_border=False, slots
     E = cols[levels] - preps[levels][..., :3] if levels > 0 else cols[0]   # the top's `up`: lost
     if open_border and levels > 0:
         E = E * share(levels, 0)
-    rds = receiver_depths(lp0, levels) if recv else None
+    rds = receiver_depths(lp0, levels, warp) if recv else None
 
     def weight(k):
         return recv_weight(lut, recv[0], k, lps[k], rds[k], recv[1])[..., None] if recv and k > 0 else 1.0
@@ -331,6 +340,8 @@ def apsf_collapse(sc, lp0, lut, levels, taps, cubic, a, open_border=False, slots
         else:
             keep = _blur3(half, a) + cols[k] - preps[k][..., :3] - half
         E = keep * weight(k) + _up2_conserving(E, keep.shape[0], keep.shape[1], cubic, open_border)
+        if warp is not None and k == warp[0]:
+            E = oracles_warp.unwarp_level(E, k, warp)
     return E
 
 

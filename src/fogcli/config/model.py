@@ -343,7 +343,7 @@ class Render(_Model):
         "extend", description="open: light scattered across the frame edge leaves it | closed: it stays in the frame | "
                             "extend: the world goes on past the edge like the edge itself (border_margin)")
     border_margin: Annotated[Num, Field(ge=0)] = Field(
-        0.075, description="extend: how far past each side the edge continues, in frame widths (heights); the default "
+        0.1, description="extend: how far past each side the edge continues, in frame widths (heights); the default "
         "is the margin closest to path tracing on the calibration scenes (tools/border_margin.py)")
     emission_profile: Literal["lambertian", "isotropic"] = Field(
         "lambertian", description="apsf: weight each source by a matte surface's emission towards the camera (normals from depth)")
@@ -353,6 +353,9 @@ class Render(_Model):
     halo_depth: Literal["receiver", "none"] = Field(
         "receiver", description="apsf pyramid: receiver: a surface nearer than a source gets only the part of the "
         "source's glow that scatters in front of it (docs/method.md) | none: every pixel gets the whole glow")
+    spread_space: Literal["angles", "pixels"] = Field(
+        "angles", description="apsf pyramid: angles: the wide part of the glow spreads over the angles around its "
+        "source, as light does (a pinhole image stretches them away from its centre) | pixels: over the image's pixels")
     spread_model: Literal["angular", "paper"] = Field("angular", description="psf gaussian: the blur width model")
     spread_scale: Annotated[Num, Field(ge=0)] = Field(1.0, description="widens (> 1) or narrows the blur")
     kernel: Literal[2, 4, 6] = Field(4, description="pyramid filter taps")

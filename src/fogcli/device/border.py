@@ -9,6 +9,7 @@ from fogcli.device.composite import composite_source
 from fogcli.device.plan import Plan, Timings, border_margin, ext_level
 from fogcli.device.preprocess import upload_lut
 from fogcli.device.pyramid import collapse, receiver_depth, reduce
+from fogcli.device.warp import ext_receiver_args
 
 
 def extend(plan, t: Timings) -> bool:
@@ -25,8 +26,10 @@ def extend(plan, t: Timings) -> bool:
     s = 2 ** plan._ext_level
     ox, oy = -(-mx // s) * s, -(-my // s) * s
     pw, ph = -(-(plan.w + 2 * ox) // s), -(-(plan.h + 2 * oy) // s)
-    cam = plan.cfg.camera.model_copy(update=dict(focal_px=plan.cfg.camera.focal(plan.w) / s, focal_px_y=None,
-                                                 calibrated_size=None))
+    main = plan.cfg.camera
+    cx, cy = main.centre(plan.w, plan.h)
+    cam = main.model_copy(update=dict(focal_px=main.focal(plan.w) / s, focal_px_y=main.focal_y(plan.w) / s,
+                                      cx=(cx + ox) / s, cy=(cy + oy) / s, calibrated_size=None))
     render = plan.cfg.render.model_copy(update=dict(border="open", levels="auto",
                                                     separation=plan.cfg.render.separation.model_copy(
                                                         update=dict(enabled=False))))
@@ -50,7 +53,7 @@ def extend(plan, t: Timings) -> bool:
         o, mw, mh, _ = (int(v) for v in plan.lv[plan._ext_level])
         t.add("pyramid", plan.rt.launch2d(ext.k_recv_ext, pw, ph, main_rd=plan.rdepth, main_off=i32(o), mw=i32(mw),
                                           mh=i32(mh), rd=ext.rdepth, pw=i32(pw), ph=i32(ph), ox=i32(ox // s),
-                                          oy=i32(oy // s)))
+                                          oy=i32(oy // s), **ext_receiver_args(plan)))
         receiver_depth(ext, t, from_rd0=True)
     reduce(ext, t, masked=True)
     collapse(ext, t)

@@ -14,7 +14,10 @@ import numpy as np
 from fogcli.config.model import Config
 from fogcli.errors import ProcessingError
 from fogcli.physics.airlight_table import DEFINES
-from fogcli.physics.apsf import COS_MIN, NC, NP, NU, conservation_tables, edge_tables, load_table, lut_offsets
+from fogcli.physics.apsf import NP, conservation_tables, edge_tables, load_table, warp_scale
+from fogcli.physics.apsf_lut import lut_offsets
+from fogcli.physics.emission import COS_MIN, NC
+from fogcli.physics.glow_depth import NU
 from fogcli.physics.calibration import FILTERS
 from fogcli.device.runtime import Runtime
 
@@ -102,6 +105,23 @@ def ext_level(cfg: Config, width: int, height: int) -> int:
     while level > 1 and m < 2 * 2 ** level:
         level -= 1
     return level
+
+
+WARP_LEVEL = EXT_LEVEL   # render.spread_space: angles from here up; the extension joins at or below it
+
+
+def warp_geometry(cfg: Config, width: int, height: int, levels: int) -> tuple | None:
+    """render.spread_space: angles: (K, s, cx, cy, fx, fy) of the plane of angles the source
+    collapse's levels K = WARP_LEVEL and up run in (kernels/warp.cl; s: apsf.warp_scale), or
+    None: the pinhole's pixels throughout (spread_space: pixels, the Gaussian point spread,
+    the reference, or too few levels for the level above K the collapse needs)."""
+    r = cfg.render
+    if not (uses_apsf(cfg) and r.method == "pyramid" and r.spread_space == "angles" and levels >= WARP_LEVEL + 1):
+        return None
+    cam = cfg.camera
+    fx, fy = cam.focal(width), cam.focal_y(width)
+    cx, cy = cam.centre(width, height)
+    return WARP_LEVEL, warp_scale(width, height, fx, fy, cx, cy), cx, cy, fx, fy
 
 
 def halo_depth(cfg: Config) -> bool:
@@ -366,6 +386,10 @@ class Plan:
         self._pairs = [pair_region(self.sizes[k:], 2 if d["INTERP"] == 0 else 4, rt.local2d)
                        for k in range(len(self.sizes))]
         self.k_comp_sep = rt.program("composite", **d).composite_separated
+        if warp_geometry(cfg, self.w, self.h, len(self.sizes) - 1) is not None:
+            wp, wpw = rt.program("warp", **d), rt.program("warp", WHOLE_GROUPS=1, **d)
+            self.k_warp = {k: (getattr(wpw, k), getattr(wp, k))
+                           for k in ("warp_level", "warp_store", "warp_receivers", "unwarp_level")}
         self.k_border_src = pyr.border_sources if self.apsf else None
         self.k_border_inject = pyr.border_inject if self.apsf else None
         # pixels of a row per work-item (LANES, kernels/lanes.h: the light tables) and the
@@ -375,6 +399,11 @@ class Plan:
             self.k_lights = rt.program("lights", **d, **DEFINES, LANES=self.lanes)
         else:
             self.k_lights = None
+
+    @property
+    def warp(self) -> tuple | None:
+        """The plane of angles of this frame's camera (warp_geometry), or None."""
+        return warp_geometry(self.cfg, self.w, self.h, len(self.sizes) - 1)
 
     def threshold(self, k: int) -> float:
         """Masking threshold of level k (Elek eq. 7, scaled): threshold * c * 2^(k-1)."""
@@ -449,7 +478,8 @@ def get_plan(rt: Runtime, width: int, height: int, cfg: Config, aovs=()) -> Plan
     key = (id(rt), width, height, tuple(sorted(defines(cfg).items())), cfg.render.levels,
            plan_features(cfg, aovs),            # what its buffers are (BUFFERS)
            cfg.camera.depth == "distance",      # its preprocess build (CAM_Z)
-           cfg.render.border, cfg.render.border_margin)   # its edge tables and extension plan
+           cfg.render.border, cfg.render.border_margin,   # its edge tables and extension plan
+           cfg.render.spread_space)             # its warp kernels
     plan = _PLANS.get(key)
     if plan is None:
         # what a process holds stays what one frame needs: the plans of another size go (a

@@ -10,7 +10,7 @@ from fogcli.device.noise import noise_args, noise_grid, p_samples
 from fogcli.device.plan import LIGHT_SHARE, Timings, halo_depth, open_border
 from fogcli.device.pyramid import receiver_depth
 from fogcli.device.structs import camera_struct, medium_struct, primitive_launches
-from fogcli.physics.apsf import build_lut
+from fogcli.physics.apsf_lut import build_lut
 from fogcli.physics.limits import check_radiance
 
 
@@ -217,7 +217,7 @@ def coverage(plan, t: Timings, empty_depth: float) -> None:
 
 
 def upload_lut(plan, t: Timings, table: dict | None = None) -> np.ndarray | None:
-    """The apsf lookup table of this medium, focal length and pyramid (apsf.build_lut);
+    """The apsf lookup table of this medium, focal length and pyramid (apsf_lut.build_lut);
     rebuilt only when one of them changes."""
     if not plan.apsf:
         return None
@@ -225,11 +225,12 @@ def upload_lut(plan, t: Timings, table: dict | None = None) -> np.ndarray | None
     frame = (plan.w, plan.h) if open_border(plan.cfg) else None
     focal, c = plan.cfg.camera.focal(plan.w), r.resolved()[0]
     key = (m.absorption, m.scattering, m.asymmetry, focal, r.spread_scale, c, id(table), frame, plan.w, plan.h,
-           halo_depth(plan.cfg))
+           halo_depth(plan.cfg), r.emission_profile, plan.warp)
     if key != plan._lut_key:
         plan.lut_host = build_lut(m.absorption, m.scattering, m.asymmetry, focal, r.spread_scale,
                                   len(plan.sizes) - 1, c, 2.0 * plan.half_step(), table, frame, (plan.w, plan.h),
-                                  halo_depth(plan.cfg))
+                                  halo_depth(plan.cfg), r.emission_profile == "lambertian",
+                                  None if plan.warp is None else (plan.warp[1], plan.warp[0]))
         t.add("upload", plan.rt.cl.enqueue_copy(plan.rt.queue, plan.lut, plan.lut_host))
         plan._lut_key = key
     return plan.lut_host

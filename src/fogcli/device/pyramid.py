@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from fogcli.device.plan import Timings
+from fogcli.device.warp import unwarp, warp_chain, warp_receivers
 from fogcli.physics.calibration import FILTERS
 
 
@@ -26,7 +27,8 @@ def reduce_region(sw: int, sh: int, dw: int, dh: int, taps: int, margin: int, lo
 def reduce(plan, t: Timings, masked: bool, second: bool = False) -> None:
     eps = plan.cfg.render.resolved()[1]
     q = plan.rt.queue
-    chain, _, prep = plan.source_bufs(second)
+    chain, scratch, prep = plan.source_bufs(second)
+    warp_k = plan.warp[0] if plan.apsf and plan.source and plan.warp is not None else None
     if plan.source:
         taps = len(FILTERS[plan.cfg.render.kernel])
         for k in range(1, len(plan.sizes)):
@@ -43,6 +45,8 @@ def reduce(plan, t: Timings, masked: bool, second: bool = False) -> None:
                                    plan.rt.local2d) if plan.lanes == 1 else None
             plan.launch_inner(t, "pyramid", region, plan.k_reduce_inner, (plan.k_reduce_src,) * 2,
                                int(dw), int(dh), args, corner_args=True)
+            if k == warp_k:
+                warp_chain(plan, t, chain, prep, scratch)
         return
     spread = plan.spread2 if second else plan.spread
     for k in range(1, len(plan.sizes)):
@@ -64,6 +68,8 @@ def receiver_depth(plan, t: Timings, from_rd0: bool = False) -> None:
         t.add("pyramid", plan.rt.launch2d(plan.k_recv_depth, int(dw), int(dh), src=src, src_off=np.int32(src_off),
                                           stride=np.int32(stride), sw=np.int32(sw), sh=np.int32(sh), rd=plan.rdepth,
                                           dst_off=np.int32(do), dw=np.int32(dw), dh=np.int32(dh)))
+        if plan.warp is not None and k == plan.warp[0]:
+            warp_receivers(plan, t)
 
 
 def split(plan, t: Timings, k: int, chain, out) -> None:
@@ -98,6 +104,8 @@ def collapse(plan, t: Timings, second: bool = False, ext: bool = False) -> None:
                     edge_off=np.int32(plan.edge_off[k]), cons=plan.cons, cons_up=np.int32(plan.cons_off[k + 1]),
                     lut=plan.lut, rd=plan.rdepth, rd_off=np.int32(o), level=np.int32(k))
         plan.launch_pairs(t, plan._pairs[k], plan.k_collapse_pairs, plan.k_collapse, w, h, args, chain, k + 1)
+        if plan.warp is not None and k == plan.warp[0]:
+            unwarp(plan, t, chain, half)
         if ext and k == plan._ext_level:
             inject(plan, t)
 

@@ -13,7 +13,8 @@ import math
 import numpy as np
 
 from fogcli.device.plan import REFERENCE_BUFFERS, border_margin, defines, open_border
-from fogcli.physics.apsf import load_table, lut_offsets
+from fogcli.physics.apsf import load_table
+from fogcli.physics.apsf_lut import lut_offsets
 
 S0 = 0.25                 # px; sharper spreads stay (nearly) delta-like
 RATIO = 2.0 ** (1.0 / 6.0)

@@ -8,7 +8,7 @@ that energy spreads, as weights on 2-D Gaussians of widths `sigma_u` in the imag
 (u = tan of the angle from the source; a pixel r_px from the source is at u = r_px / f_px).
 
 Per image the host turns the table into a small lookup table in log P (one per RGB
-channel, since the albedo is per channel) that the kernels read:
+channel, since the albedo is per channel) that the kernels read (apsf_lut.build_lut):
   * the energy ratio against the thin-medium form exp(-sa P)(1 - exp(-ss P));
   * per pyramid level k, the fractions of the light still travelling up the pyramid that
     level k keeps sharp, keeps with its half-octave blur, and passes on (the Gaussians of
@@ -26,12 +26,9 @@ from importlib import resources
 import numpy as np
 
 from fogcli.errors import interrupt_held
-from fogcli.physics.glow_depth import NU, receiver_table
 
 NP = 128          # samples of log P in the device lookup table
 HEADER = 4        # lp0, 1 / dlp, NP, number of levels (floats)
-NC = 16           # samples of the view cosine (emission_profile: lambertian) ...
-COS_MIN = 0.05    # ... from here to 1; grazing views clamp here
 
 
 def read_data(name: str) -> dict:
@@ -185,74 +182,68 @@ def _along_tau(tab: dict, per_tau: np.ndarray, tau: np.ndarray) -> np.ndarray:
     return (1 - t) * per_tau[i] + t * per_tau[i + 1]
 
 
-def lambert_gain(mu0: np.ndarray, cos_view: np.ndarray) -> np.ndarray:
-    """A Lambertian surface's intensity over an isotropic source's (both send the camera the
-    same radiance) in the directions at cosine mu0 from the line to the camera, averaged
-    over their azimuth, for a normal at cosine cos_view to that line: (len(mu0), len(cos_view)).
-    The surface emits max(0, cos_view mu0 + sin_view sqrt(1 - mu0^2) cos(phi)) / cos_view
-    times the isotropic source's intensity; the average over phi is closed form."""
-    mu = np.asarray(mu0, np.float64)[:, None]
-    ct = np.asarray(cos_view, np.float64)[None, :]
-    st = np.sqrt(np.maximum(1.0 - ct * ct, 0.0))
-    A = ct * mu
-    B = st * np.sqrt(np.maximum(1.0 - mu * mu, 0.0))
-    with np.errstate(divide="ignore", invalid="ignore"):
-        phi0 = np.arccos(np.clip(np.where(B > 0, -A / B, np.sign(-A) * 2.0), -1.0, 1.0))
-    return (A * phi0 + B * np.sin(phi0)) / np.pi / ct
+THETA_FIT = 1.0   # radians: the angles over which theta_plane matches each Gaussian
 
 
-def lambert_weight(tab: dict, g: float, albedo: float, tau: np.ndarray, cos_view: np.ndarray,
-                   seen: np.ndarray | None = None) -> np.ndarray:
-    """Scattered energy of a Lambertian emitter over that of the isotropic source the table
-    assumes, (len(tau), len(cos_view)). Both send the camera the same radiance; they differ
-    in what they emit elsewhere. The table gives, per class of the angle theta at which the
-    light reaches the camera (`emit_theta`), the directions in which it left the source
-    (cosine mu0 against the line to the camera); the weight averages lambert_gain over them.
-    seen: the share of each theta class that lands in the frame (theta_seen); the default
-    counts the whole forward hemisphere. Light arriving far from the source left it far
-    from the camera's direction, where a surface facing the camera emits little: a frame
-    that sees only the near classes sees a larger weight (at tau 2 in fog, 0.90 within 10
-    degrees against 0.80 over the hemisphere)."""
-    joint = _slice_ga(tab, "emit_mu", g, albedo)                                # (tau grid, C, M)
-    em = _along_tau(tab, joint.reshape(len(joint), -1), tau).reshape((-1,) + joint.shape[1:])
-    edges = tab["emit_mu_edges"]
-    per_class = em @ lambert_gain(0.5 * (edges[:-1] + edges[1:]), cos_view)   # (T, C, V)
-    share = em.sum(-1)                                                         # (T, C)
-    s = np.ones(share.shape[-1]) if seen is None else np.asarray(seen, np.float64)
-    return (per_class * s[None, :, None]).sum(1) / np.maximum(share @ s, 1e-300)[:, None]
+@lru_cache(maxsize=4)
+def _theta_plane(sigma_u: tuple) -> tuple[np.ndarray, np.ndarray]:
+    out_e, out_s = [], []
+    for sg in sigma_u:
+        th = np.linspace(0.0, min(THETA_FIT, 6.0 * sg), 400)[1:]
+        y = np.exp(-0.5 * (np.tan(th) / sg) ** 2) / np.cos(th) ** 3         # over its value at theta 0
+        wgt = y * th                                                         # what a ring of pixels holds
+        x = th * th
+        ly = np.log(np.maximum(y, 1e-300))
+        xm, ym = (wgt * x).sum() / wgt.sum(), (wgt * ly).sum() / wgt.sum()
+        a = -(wgt * (x - xm) * (ly - ym)).sum() / (wgt * (x - xm) ** 2).sum()   # exp(-a theta^2)
+        if a <= 1.0 / (2.0 * sg * sg):      # no narrower than in u: flatter is the horizon's 1 / cos^3
+            out_s.append(sg)
+            out_e.append(1.0)
+            continue
+        st2 = 1.0 / (2.0 * a)
+        out_s.append(math.sqrt(st2))
+        out_e.append(math.exp(ym + a * xm) * st2 / (sg * sg))               # the line's density at theta 0
+    return np.array(out_e), np.array(out_s)
 
 
-def theta_seen(theta_edges: np.ndarray, focal_px: float, width: int, height: int, n: int = 12) -> np.ndarray:
-    """Per class of theta (edges in radians), the share of the directions at those angles from
-    a source in the frame that land in the frame (by solid angle): rings of sub-angles across
-    each class, around sources on an n x n grid over the frame, through the pinhole."""
-    sub = 4
-    th = np.concatenate([np.linspace(a, b, sub + 2)[1:-1] for a, b in zip(theta_edges[:-1], theta_edges[1:])])
-    phi = np.linspace(0.0, 2.0 * math.pi, 64, endpoint=False)
-    g = (np.arange(n) + 0.5) / n
-    sx, sy = np.meshgrid((g - 0.5) * width, (g - 0.5) * height)
-    s = np.stack([sx.ravel(), sy.ravel(), np.full(n * n, focal_px)], -1)
-    s /= np.linalg.norm(s, axis=-1, keepdims=True)                             # (S, 3)
-    a = np.cross(s, [0.0, 1.0, 0.0])
-    a /= np.linalg.norm(a, axis=-1, keepdims=True)
-    b = np.cross(s, a)
-    ring = np.cos(phi)[:, None, None] * a[None] + np.sin(phi)[:, None, None] * b[None]        # (F, S, 3)
-    v = np.cos(th)[:, None, None, None] * s[None, None] + np.sin(th)[:, None, None, None] * ring[None]
-    z = v[..., 2]
-    ok = z > 1e-9
-    zs = np.where(ok, z, 1.0)
-    inside = ok & (np.abs(v[..., 0] / zs * focal_px) <= width / 2) & (np.abs(v[..., 1] / zs * focal_px) <= height / 2)
-    sw = np.sin(th).reshape(-1, sub)
-    return (inside.mean(axis=(1, 2)).reshape(-1, sub) * sw).sum(-1) / sw.sum(-1)
+def theta_plane(sigma_u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(e, sigma_theta) per table Gaussian for a plane of angles (`render.spread_space:
+    angles`): a Gaussian of std sigma_u in the plane u = tan theta is the radiance
+    G(tan theta) / cos^3 theta per steradian; laid out over theta as distance it is replaced
+    by the Gaussian of std sigma_theta and sum e (over that plane's pixels) whose logarithm
+    is the least-squares line in theta^2 through the profile's, over the angles a frame shows
+    (THETA_FIT), each angle counted by the light a ring there holds. Narrow Gaussians stay
+    as they are (e 1). A sum of the table's Gaussians does not do much better (tried, session
+    42): near the source the profile is flatter than any Gaussian, and where sigma_u > 0.58 it
+    rises away from the source (1 / cos^3 outgrows the Gaussian), which none of them does;
+    those keep their width and their density at the source (e 1)."""
+    return _theta_plane(tuple(float(v) for v in sigma_u))
 
 
-def slot_widths(levels: int, c: float, half_var: float) -> np.ndarray:
+def warp_scale(width: int, height: int, fx: float, fy: float, cx: float, cy: float) -> float:
+    """Pixels per radian over the focal length of the plane of angles the pyramid spreads in
+    above level WARP_LEVEL (render.spread_space: angles): the largest at which every edge of
+    the frame stays inside the level's grid (a point at angle rho from the principal point
+    lies s f rho from it; the frame's edges are nearest the principal point along the axes).
+    Between 1 (a narrow lens) and 1.9 (the levels' blurs must grow with the level)."""
+    s = 1.9
+    for ext, f in ((width - cx, fx), (cx, fx), (height - cy, fy), (cy, fy)):
+        if ext > 0:
+            s = min(s, ext / (fx * math.atan(ext / f)))
+    return max(1.0, s)
+
+
+def slot_widths(levels: int, c: float, half_var: float, resampled: int | None = None) -> np.ndarray:
     """Blur (std-dev, level-0 px) of what the source collapse leaves at each slot: level k
     sharp (c 2^k; 0 at level 0, which is not filtered) and level k with its half-octave
-    3x3 blur (variance half_var in level-k pixels, added)."""
+    3x3 blur (variance half_var in level-k pixels, added); from level `resampled` on, the
+    two bilinear resamplings into the plane of angles and back (1/6 level-k pixel^2 each,
+    averaged over the sub-pixel phase) added too."""
     out = []
     for k in range(levels + 1):
         base2 = 0.0 if k == 0 else (c * 2.0 ** k) ** 2
+        if resampled is not None and k >= resampled:
+            base2 += 4.0 ** resampled / 3.0
         out += [math.sqrt(base2), math.sqrt(base2 + half_var * 4.0 ** k)]
     return np.array(out[:-1])   # the top level keeps all it gets, sharp
 
@@ -313,66 +304,6 @@ def in_frame(sigma: np.ndarray, width: int, height: int) -> np.ndarray:
     """Share of a Gaussian of `sigma` px centred in a width x height frame that lands in it."""
     return np.array([float(frame_share(width / 2, width, s) * frame_share(height / 2, height, s))
                      for s in np.atleast_1d(sigma)])
-
-
-def build_lut(sa, ss, g: float, focal_px: float, spread_scale: float, levels: int, c: float,
-              half_var: float, tab: dict | None = None, frame: tuple[int, int] | None = None,
-              size: tuple[int, int] | None = None, halo_depth: bool = False) -> np.ndarray:
-    """The device table: header, then up/half per (level, channel), the energy ratio per
-    channel, the weight of each table Gaussian per channel (reference), and the Lambertian
-    weight per view cosine and channel times the energy ratio. float32.
-    frame: (width, height) with the open border. The top level is a single blur about as
-    wide as the frame; light of the table's wider Gaussians mostly leaves an open frame,
-    so of what reaches the top level only the share that such a Gaussian would leave in
-    the frame (centred, against the top level's own width) stays: `up` of the top level
-    is the share lost.
-    size: (width, height) of the image, whose field of view the Lambertian weight counts
-    (theta_seen); None: the whole forward hemisphere.
-    halo_depth: per level (its angle) and log P, the share of the light a receiver at u
-    times the source's distance keeps (glow_depth.receiver_table, extinction averaged over
-    the channels); without, ones."""
-    tab = load_table() if tab is None else tab
-    lp0, lp1 = p_range(ss, tab)
-    P = np.exp(np.linspace(lp0, lp1, NP))
-    J = len(tab["sigma_u"])
-    sigma_px = tab["sigma_u"] * focal_px * spread_scale
-    slots = slot_widths(levels, c, half_var)
-    updown = np.zeros((levels + 1, 3, 2, NP))
-    ratio = np.zeros((3, NP))
-    shape = np.zeros((J, 3, NP))
-    lambert = np.ones((NC, 3, NP))
-    cos_grid = np.linspace(COS_MIN, 1.0, NC)
-    seen = None if size is None or "emit_theta" not in tab else theta_seen(tab["emit_theta"], focal_px, *size)
-    for ch in range(3):
-        if ss[ch] <= 0:
-            continue   # no scattering in this channel: nothing to spread
-        a = ss[ch] / (sa[ch] + ss[ch])
-        r, sh = spread(tab, g, a, ss[ch] * P)
-        v = to_slots(sh, sigma_px, slots)
-        up, half = fractions(v, levels)
-        if frame is not None:
-            wide = sigma_px > slots[-1]
-            keep = in_frame(sigma_px[wide], *frame) / in_frame(np.array([slots[-1]]), *frame)[0]
-            lost = (sh[:, wide] * (1.0 - np.minimum(keep, 1.0))).sum(-1)
-            top = np.maximum(v[:, -1], 1e-30)
-            up[:, levels] = np.clip(lost / top, 0.0, 1.0)
-        updown[:, ch, 0, :] = up.T
-        updown[:, ch, 1, :] = half.T
-        ratio[ch] = r
-        shape[:, ch, :] = sh.T
-        if "emit_mu" in tab:
-            lambert[:, ch, :] = lambert_weight(tab, g, a, ss[ch] * P, cos_grid, seen).T
-    recv = np.ones((levels + 1, NP, NU))
-    if halo_depth:
-        s_k = np.array([math.sqrt(max(slots[2 * k], 1e-3) * slots[min(2 * k + 1, len(slots) - 1)])
-                        for k in range(levels + 1)])
-        theta = 1.2533 * s_k / max(focal_px * spread_scale, 1e-30)     # a 2-D Gaussian's mean radius
-        recv = receiver_table(float(np.mean(np.asarray(sa) + np.asarray(ss))), g, P, theta)
-    head = np.array([lp0, (NP - 1) / (lp1 - lp0), NP, levels + 1])
-    # the Lambertian weight times the ratio, which the kernels interpolate as one table where
-    # they need both: 4 table reads a pixel fewer than the two apart (gathers, on AVX2)
-    return np.concatenate([head, updown.ravel(), ratio.ravel(), shape.ravel(),
-                           (lambert * ratio[None]).ravel(), recv.ravel()]).astype(np.float32)
 
 
 def edge_tables(sizes: list[tuple[int, int]], c: float, half_var: float) -> tuple[np.ndarray, list[int]]:
@@ -450,14 +381,3 @@ def conservation_tables(sizes: list[tuple[int, int]], taps, cubic: bool,
         parts += part
         o += sum(len(p) for p in part)
     return (np.concatenate(parts) if parts else np.zeros(1)).astype(np.float32), offs
-
-
-def lut_offsets(levels: int, J: int) -> dict:
-    """Float offsets of the parts of build_lut's table (the kernels compute the same)."""
-    up = HEADER
-    ratio = up + (levels + 1) * 3 * 2 * NP
-    shape = ratio + 3 * NP
-    lambert = shape + J * 3 * NP
-    recv = lambert + NC * 3 * NP
-    return {"updown": up, "ratio": ratio, "shape": shape, "lambert": lambert, "recv": recv,
-            "end": recv + (levels + 1) * NP * NU}

@@ -1,0 +1,85 @@
+/* render.spread_space: angles (device/warp.py). A pinhole image is a plane of tangents: a
+ * glow of the same angular size covers more pixels the farther it lies from the principal
+ * point (1 / cos^2 along the radius), and two pixels' distance is not their angle. From level
+ * WARP_LEVEL up, where the wide part of the glow lives, the source collapse runs on a plane
+ * of angles instead: a direction at angle rho from the optical axis lies s f rho from the
+ * principal point, along the same azimuth (azimuthal equidistant; its distances are angles
+ * to within sin(rho) / rho, 0.94 at a 60-degree lens's corners, against cos^2 rho, 0.66, of
+ * the pinhole). The level is resampled into it (bilinear) after the reduce made it, and
+ * back after the collapse made it. Coordinates are level-0 pixels; the level's pixel
+ * (x, y) has its centre at ((x + 0.5) sc, (y + 0.5) sc). Physics: physics/apsf.py
+ * (theta_plane, warp_scale); the numpy oracle: tools/oracles.py (angle_plane). */
+#include "common.h"
+#include "angles.h"
+
+/* Level `off` (w x h) of the colour chain, from the image's plane into the plane of angles,
+ * into `out` (the scratch, from 0): the light bilinear, times sin(rho) / rho (what a pixel
+ * of the plane holds of the sphere: the sources' solid angle), log P weighted by the
+ * light's luminance as the reduce weights it; nothing where no image point is (the frame's
+ * corners and edges lie inside the plane's rectangle: those pixels only receive light). */
+__kernel void warp_level(__global const float4 *chain, const int off, const int w, const int h,
+                         __global float4 *out, WARP_GEOM)
+{
+    int x = get_global_id(0), y = get_global_id(1);
+    if (OUTSIDE(x, y, w, h)) return;
+    float jac;
+    float2 p = angles_to_image((float2)((x + 0.5f) * sc, (y + 0.5f) * sc), cx, cy, fx, fy, sf, &jac);
+    float u = p.x / sc - 0.5f, v = p.y / sc - 0.5f;
+    bool inside = u >= -0.5f && v >= -0.5f && u <= (float)w - 0.5f && v <= (float)h - 0.5f;
+    u = clampf_(u, 0.0f, (float)(w - 1));
+    v = clampf_(v, 0.0f, (float)(h - 1));
+    int x0 = (int)u, y0 = (int)v;
+    int x1 = min(x0 + 1, w - 1), y1 = min(y0 + 1, h - 1);
+    float ax = u - (float)x0, ay = v - (float)y0;
+    __global const float4 *c = chain + off;
+    float4 t[4] = {c[y0 * w + x0], c[y0 * w + x1], c[y1 * w + x0], c[y1 * w + x1]};
+    float wt[4] = {(1.0f - ax) * (1.0f - ay), ax * (1.0f - ay), (1.0f - ax) * ay, ax * ay};
+    float3 col = (float3)(0.0f);
+    float yw = 0.0f, ys = 0.0f, lw = 0.0f;
+    for (int i = 0; i < 4; ++i) {
+        col += wt[i] * t[i].xyz;
+        float yl = wt[i] * light_weight(t[i].xyz);
+        yw += yl * t[i].w;
+        ys += yl;
+        lw += wt[i] * t[i].w;
+    }
+    float lp = ys > 1e-30f ? yw / ys : lw;
+    out[y * w + x] = (float4)(inside ? col * jac : (float3)(0.0f), lp);
+}
+
+/* The resampled level back into the chain, and its prep (the share each channel passes
+ * on, from the table at its log P), as the reduce would have written them. */
+__kernel void warp_store(__global float4 *chain, __global float4 *prep, const int off, const int w, const int h,
+                         __global const float4 *src, __global const float *lut, const int level)
+{
+    int x = get_global_id(0), y = get_global_id(1);
+    if (OUTSIDE(x, y, w, h)) return;
+    float4 v = src[y * w + x];
+    int d = off + y * w + x;
+    chain[d] = v;
+    store_prep_apsf(prep, d, v.x, v.y, v.z, v.w, lut, level);
+}
+
+/* render.halo_depth: receiver. Level `off` of the receivers' log P into the plane of
+ * angles (bilinear, the edge's past the frame), into `out` from 0. */
+__kernel void warp_receivers(__global const float *rd, const int off, const int w, const int h,
+                             __global float *out, WARP_GEOM)
+{
+    int x = get_global_id(0), y = get_global_id(1);
+    if (OUTSIDE(x, y, w, h)) return;
+    float jac;
+    float2 p = angles_to_image((float2)((x + 0.5f) * sc, (y + 0.5f) * sc), cx, cy, fx, fy, sf, &jac);
+    out[y * w + x] = bilinear1(rd + off, w, h, p.x / sc - 0.5f, p.y / sc - 0.5f);
+}
+
+/* Level `off` of the collapsed chain (the light each pixel of the level gets, in the plane
+ * of angles) back to the image's plane, into `out` from 0: bilinear, radiance needing no
+ * factor. */
+__kernel void unwarp_level(__global const float4 *chain, const int off, const int w, const int h,
+                           __global float4 *out, WARP_GEOM)
+{
+    int x = get_global_id(0), y = get_global_id(1);
+    if (OUTSIDE(x, y, w, h)) return;
+    float2 q = image_to_angles((float2)((x + 0.5f) * sc, (y + 0.5f) * sc), cx, cy, fx, fy, sf);
+    out[y * w + x] = bilinear4(chain + off, w, h, q.x / sc - 0.5f, q.y / sc - 0.5f);
+}
