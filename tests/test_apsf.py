@@ -133,21 +133,24 @@ def test_preprocess_apsf_matches_oracle(rt, rng):
 
 @pytest.mark.parametrize("interp", ["linear-bilinear", "linear-bicubic"])
 @pytest.mark.parametrize("border", ["closed", "open"])
-@pytest.mark.parametrize("size,space", [((45, 29), "angles"), ((45, 29), "pixels"), ((3, 2), "angles"),
-                                        ((1, 1), "angles")])
+@pytest.mark.parametrize("size,space", [((45, 29), "angles"), ((45, 29), "pixels"), ((45, 29), "angles offset"),
+                                        ((3, 2), "angles"), ((1, 1), "angles")])
 @pytest.mark.parametrize("halo", ["receiver", "none"])
 def test_apsf_collapse_matches_oracle(rt, rng, interp, border, size, space, halo):
-    """The source collapse against oracles.apsf_collapse; with spread_space angles (45 x 29:
-    levels 3 and up in the plane of angles) through oracles_warp."""
+    """The source collapse against oracles.apsf_collapse; with spread_space angles (45 x 29,
+    open border: levels 3 and up in the plane of angles) through oracles_warp, also with the
+    principal point off the centre and fy < fx ("offset")."""
     w, h = size
     img, depth = random_frame(rng, max(w, 4), max(h, 4))
     img, depth = img[:h, :w].copy(), depth[:h, :w].copy()
     depth[0, 0] = 12.0
     depth[h // 2:] *= 0.05          # a near surface below the rest: receivers that keep part of the glow
     plan, cfg = plan_for(rt, w, h, *FOG, "render.psf=apsf", f"render.interpolation={interp}",
-                         f"render.border={border}", f"render.halo_depth={halo}", f"render.spread_space={space}",
-                         aovs=("scattered",))
-    assert (plan.warp is not None) == (space == "angles" and w > 8)
+                         f"render.border={border}", f"render.halo_depth={halo}",
+                         f"render.spread_space={space.split()[0]}",
+                         *(("camera.cx=30", "camera.cy=11", "camera.focal_px=34", "camera.focal_px_y=27")
+                           if "offset" in space else ()), aovs=("scattered",))
+    assert (plan.warp is not None) == (space != "pixels" and w > 8 and border == "open")
     t = Timings()
     upload(plan, img, depth, t)
     preprocess(plan, t)

@@ -151,20 +151,21 @@ def test_default_border_is_the_measured_one():
     assert l1[r.border] <= min(l1.values()) + BORDER_TIE, l1
 
 
-@pytest.mark.parametrize("space", ["angles", "pixels"])
-def test_receivers_depth_levels_match_the_oracle(monkeypatch, space):
+@pytest.mark.parametrize("space,size", [("angles", (101, 67)), ("pixels", (101, 67)), ("angles", (240, 160))])
+def test_receivers_depth_levels_match_the_oracle(monkeypatch, space, size):
     """render.halo_depth: receiver: each level of the receivers' log P (receiver_depth) is the
     2 x 2 mean of the one below from level 0's own log P (with spread_space angles, level 3
     moved into the plane of angles and the ones above made there), and the extension plan's
     level 0 (receiver_depth_ext) the main frame's at its level, continued past the edge like
-    the edge, read where the cell lies in the plane (oracles.receiver_depths, oracles_warp)."""
+    the edge, read where the cell lies in the plane (oracles.receiver_depths, oracles_warp;
+    240 x 160: the extension joins at level 3, in the plane)."""
     import oracles
     import oracles_warp
     from fogcli.device import plan as device_plan
 
     monkeypatch.setattr(device_plan, "_PLANS", {})
     rng = np.random.default_rng(4)
-    w, h = 101, 67
+    w, h = size
     img, depth = _edge_scene(w, h, rng)
     apply(img, depth, make_config("fog", sets=["camera.fov=60", "camera.max_depth=1000",
                                                f"render.spread_space={space}"]))
@@ -191,6 +192,7 @@ def test_receivers_depth_levels_match_the_oracle(monkeypatch, space):
     main_l = got[L]
     ys = np.clip(np.arange(ext.h) - oy, 0, main_l.shape[0] - 1)
     xs = np.clip(np.arange(ext.w) - ox, 0, main_l.shape[1] - 1)
+    assert (plan.warp is not None and L >= plan.warp[0]) == (w == 240)
     if plan.warp is not None and L >= plan.warp[0]:     # the main level lies in the plane of angles
         qx, qy = oracles_warp.image_to_angles((xs[None, :] + 0.5) * 2.0 ** L, (ys[:, None] + 0.5) * 2.0 ** L,
                                               plan.warp)

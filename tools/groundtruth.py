@@ -48,6 +48,8 @@ VARIANTS = {
                                     "render.ground=none"],
     "apsf extend lamb, halo none": ["render.psf=apsf", "render.border=extend", "render.emission_profile=lambertian",
                                     "render.halo_depth=none"],
+    "apsf extend lamb, pixels": ["render.psf=apsf", "render.border=extend", "render.emission_profile=lambertian",
+                                 "render.spread_space=pixels"],
 }
 BORDERS = ("open", "closed", "extend")
 
@@ -98,11 +100,12 @@ def run_case(case, variants=VARIANTS, reference=True, profile="lambertian") -> d
     for border in BORDERS:
         if f"reference {border}" in out:
             ref = out[f"reference {border}"]
-            # the reference spreads every pixel alike whatever the receiver's depth: the pyramid
-            # against it without its receiver weight (render.halo_depth)
+            # the reference spreads every pixel alike whatever the receiver's depth, over the
+            # image's pixels: the pyramid against it without its receiver weight
+            # (render.halo_depth) and in its space (render.spread_space)
             pyr = apply(L, depth, make_config(None, sets=sets + [
                 "render.psf=apsf", f"render.border={border}", f"render.emission_profile={profile}",
-                "render.halo_depth=none"]))
+                "render.halo_depth=none", "render.spread_space=pixels"]))
             res[f"reference {border}"]["vs_ref"] = (rel_l1(pyr, ref), ssim(pyr, ref))
     return res, out
 
@@ -245,7 +248,8 @@ def main():
             lines.append(f"| {gname} | {len(sel)} | " + " | ".join(cells) + " |")
         lines.append("")
     lines.append(f"### Pyramid against its own reference (`psf: apsf`, emission profile {r.emission_profile}, "
-                 "same border, `halo_depth: none`: the reference has no receiver weight), relative L1 / SSIM\n")
+                 "same border, `halo_depth: none` and `spread_space: pixels`: the reference has no receiver "
+                 "weight and spreads over the image's pixels), relative L1 / SSIM\n")
     lines.append("| group | " + " | ".join(BORDERS) + " |\n|---|" + "---|" * len(BORDERS))
     for gname, pred in groups.items():
         sel = [res for case, res in rows if pred(case)]

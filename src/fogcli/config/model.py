@@ -354,8 +354,9 @@ class Render(_Model):
         "receiver", description="apsf pyramid: receiver: a surface nearer than a source gets only the part of the "
         "source's glow that scatters in front of it (docs/method.md) | none: every pixel gets the whole glow")
     spread_space: Literal["angles", "pixels"] = Field(
-        "angles", description="apsf pyramid: angles: the wide part of the glow spreads over the angles around its "
-        "source, as light does (a pinhole image stretches them away from its centre) | pixels: over the image's pixels")
+        "angles", description="apsf pyramid, open or extend border: angles: the wide part of the glow spreads over "
+        "the angles around its source, as light does (a pinhole image stretches them away from its centre) | pixels: "
+        "over the image's pixels")
     spread_model: Literal["angular", "paper"] = Field("angular", description="psf gaussian: the blur width model")
     spread_scale: Annotated[Num, Field(ge=0)] = Field(1.0, description="widens (> 1) or narrows the blur")
     kernel: Literal[2, 4, 6] = Field(4, description="pyramid filter taps")

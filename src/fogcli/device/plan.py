@@ -14,7 +14,7 @@ import numpy as np
 from fogcli.config.model import Config
 from fogcli.errors import ProcessingError
 from fogcli.physics.airlight_table import DEFINES
-from fogcli.physics.apsf import NP, conservation_tables, edge_tables, load_table, warp_scale
+from fogcli.physics.apsf import NP, conservation_tables, edge_tables, load_table, warp_cap, warp_scale
 from fogcli.physics.apsf_lut import lut_offsets
 from fogcli.physics.emission import COS_MIN, NC
 from fogcli.physics.glow_depth import NU
@@ -107,6 +107,12 @@ def ext_level(cfg: Config, width: int, height: int) -> int:
     return level
 
 
+def half_step(c: float) -> float:
+    """a of the (a, 1 - 2a, a) half-octave blur of level spacing c: variance 2a = c^2 level-k
+    pixels (at most 2/3: beyond, the middle weight would vanish)."""
+    return min(c * c / 2.0, 1.0 / 3.0)
+
+
 WARP_LEVEL = EXT_LEVEL   # render.spread_space: angles from here up; the extension joins at or below it
 
 
@@ -114,14 +120,17 @@ def warp_geometry(cfg: Config, width: int, height: int, levels: int) -> tuple | 
     """render.spread_space: angles: (K, s, cx, cy, fx, fy) of the plane of angles the source
     collapse's levels K = WARP_LEVEL and up run in (kernels/warp.cl; s: apsf.warp_scale), or
     None: the pinhole's pixels throughout (spread_space: pixels, the Gaussian point spread,
-    the reference, or too few levels for the level above K the collapse needs)."""
+    the reference, the closed border, which keeps in the frame what the plane of angles
+    would move past it, or too few levels for the level above K the collapse needs)."""
     r = cfg.render
-    if not (uses_apsf(cfg) and r.method == "pyramid" and r.spread_space == "angles" and levels >= WARP_LEVEL + 1):
+    if not (uses_apsf(cfg) and r.method == "pyramid" and r.spread_space == "angles" and open_border(cfg)
+            and levels >= WARP_LEVEL + 1):
         return None
     cam = cfg.camera
     fx, fy = cam.focal(width), cam.focal_y(width)
     cx, cy = cam.centre(width, height)
-    return WARP_LEVEL, warp_scale(width, height, fx, fy, cx, cy), cx, cy, fx, fy
+    cap = warp_cap(r.resolved()[0], 2.0 * half_step(r.resolved()[0]), WARP_LEVEL)
+    return WARP_LEVEL, warp_scale(width, height, fx, fy, cx, cy, cap), cx, cy, fx, fy
 
 
 def halo_depth(cfg: Config) -> bool:
@@ -418,10 +427,7 @@ class Plan:
         return np.array([s.luminance, s.luminance_width, s.depth, s.depth_width], np.float32)
 
     def half_step(self) -> float:
-        """a of the (a, 1 - 2a, a) half-octave blur: variance 2a = c^2 level-k pixels
-        (at most 2/3: beyond, the middle weight would vanish)."""
-        c = self.cfg.render.resolved()[0]
-        return min(c * c / 2.0, 1.0 / 3.0)
+        return half_step(self.cfg.render.resolved()[0])
 
     def source_bufs(self, second: bool) -> tuple:
         """(colour chain, half-octave scratch, prep chain) of the main or the separated

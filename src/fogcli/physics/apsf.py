@@ -220,30 +220,40 @@ def theta_plane(sigma_u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return _theta_plane(tuple(float(v) for v in sigma_u))
 
 
-def warp_scale(width: int, height: int, fx: float, fy: float, cx: float, cy: float) -> float:
-    """Pixels per radian over the focal length of the plane of angles the pyramid spreads in
-    above level WARP_LEVEL (render.spread_space: angles): the largest at which every edge of
-    the frame stays inside the level's grid (a point at angle rho from the principal point
-    lies s f rho from it; the frame's edges are nearest the principal point along the axes).
-    Between 1 (a narrow lens) and 1.9 (the levels' blurs must grow with the level)."""
-    s = 1.9
+def warp_scale(width: int, height: int, fx: float, fy: float, cx: float, cy: float, s_max: float) -> float:
+    """Pixels per radian over fx of the plane of angles the pyramid spreads in from level
+    WARP_LEVEL up (render.spread_space: angles): the largest at which every edge of the frame
+    stays inside the level's grid (a point at angle rho from the principal point lies s fx rho
+    from it; the frame's edges are nearest the principal point along the axes), below 1 where
+    fy < fx, and at most s_max (warp_cap: the slots' blurs must grow with the level)."""
+    s = s_max
     for ext, f in ((width - cx, fx), (cx, fx), (height - cy, fy), (cy, fy)):
         if ext > 0:
             s = min(s, ext / (fx * math.atan(ext / f)))
-    return max(1.0, s)
+    return s
 
 
-def slot_widths(levels: int, c: float, half_var: float, resampled: int | None = None) -> np.ndarray:
+def warp_cap(c: float, half_var: float, k: int) -> float:
+    """The largest scale of the plane of angles at which level k's sharp slot, s times fewer
+    of its pixels a radian, stays wider than level k-1's half-blurred one (slot_widths):
+    to_slots needs the slots in order. About 1.7 at the default c; a
+    lens wider than ~125 degrees on a near-square frame reaches it, and its frame then
+    fills less of the grid."""
+    w = slot_widths(k, c, half_var)
+    return 0.98 * float(w[2 * k] / w[2 * k - 1])
+
+
+def slot_widths(levels: int, c: float, half_var: float) -> np.ndarray:
     """Blur (std-dev, level-0 px) of what the source collapse leaves at each slot: level k
     sharp (c 2^k; 0 at level 0, which is not filtered) and level k with its half-octave
-    3x3 blur (variance half_var in level-k pixels, added); from level `resampled` on, the
-    two bilinear resamplings into the plane of angles and back (1/6 level-k pixel^2 each,
-    averaged over the sub-pixel phase) added too."""
+    3x3 blur (variance half_var in level-k pixels, added). The two bilinear resamplings of
+    render.spread_space: angles are left out: near the principal point they hardly blur
+    (there the plane of angles is the image's, to a few percent), and counted as the
+    average over the sub-pixel phase (1/6 level-3 pixel^2 each) they put more light near the
+    sources than the exact angular sum does (tests/test_spread_space.py)."""
     out = []
     for k in range(levels + 1):
         base2 = 0.0 if k == 0 else (c * 2.0 ** k) ** 2
-        if resampled is not None and k >= resampled:
-            base2 += 4.0 ** resampled / 3.0
         out += [math.sqrt(base2), math.sqrt(base2 + half_var * 4.0 ** k)]
     return np.array(out[:-1])   # the top level keeps all it gets, sharp
 

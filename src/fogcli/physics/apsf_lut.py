@@ -32,22 +32,22 @@ def build_lut(sa, ss, g: float, focal_px: float, spread_scale: float, levels: in
     times the source's distance keeps (glow_depth.receiver_table, extinction averaged over
     the channels); without, ones.
     warp: (s, K) with render.spread_space: angles: levels K and above spread over a plane of
-    angles at s focal_px pixels a radian (theta_plane: the Gaussians laid out there), each of
-    their slots wider by the two bilinear resamplings between the planes (1/3 level-K pixel^2);
-    None: every level in the image's pixels, focal_px a radian (the pinhole's scale at the
+    angles at s focal_px pixels a radian (theta_plane: the Gaussians laid out there); None:
+    every level in the image's pixels, focal_px a radian (the pinhole's scale at the
     principal point)."""
     tab = load_table() if tab is None else tab
     lp0, lp1 = p_range(ss, tab)
     P = np.exp(np.linspace(lp0, lp1, NP))
     J = len(tab["sigma_u"])
     # widths in radians: the Gaussians', and the slots' through each level's pixels a radian
-    slots = slot_widths(levels, c, half_var, None if warp is None else warp[1])
+    slots = slot_widths(levels, c, half_var)
     per_rad = np.full(len(slots), float(focal_px))
     e, sigma = np.ones(J), tab["sigma_u"]
     if warp is not None:
         per_rad[2 * warp[1]:] *= warp[0]
-        e, sigma = theta_plane(tab["sigma_u"])
-    sigma = sigma * spread_scale
+        e, sigma = theta_plane(tab["sigma_u"] * spread_scale)   # the widths the light spreads with
+    else:
+        sigma = sigma * spread_scale
     slots = slots / per_rad
     updown = np.zeros((levels + 1, 3, 2, NP))
     ratio = np.zeros((3, NP))

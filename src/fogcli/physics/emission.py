@@ -85,7 +85,7 @@ def lambert_shape(tab: dict, g: float, albedo: float, tau: np.ndarray, shape: np
     that every class of theta receives the weight the Monte Carlo gives it: a Gaussian
     reaches into its neighbours' classes, and each class's weight taken as it is would
     leave the narrow classes too little and the wide ones too much."""
-    w, energy = lambert_classes(tab, g, albedo, tau, np.array([1.0]))
+    w, _ = lambert_classes(tab, g, albedo, tau, np.array([1.0]))
     w = w[..., 0]                                                              # (T, C)
     q = class_shares(tab["sigma_u"], tab["emit_theta"])                        # (J, C)
     th = tab["emit_theta"]

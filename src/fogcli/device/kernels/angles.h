@@ -1,5 +1,7 @@
 /* render.spread_space: angles: the map between the image's plane and the plane of angles
  * (kernels/warp.cl says why), for warp.cl and the extension's receivers (pyramid.cl). */
+#ifndef FOGCLI_ANGLES_H
+#define FOGCLI_ANGLES_H
 #define WARP_GEOM const float cx, const float cy, const float fx, const float fy, const float sf, const float sc
 
 /* The image point of the plane of angles' point q, and sin(rho) / rho there (its solid
@@ -27,3 +29,4 @@ inline float2 image_to_angles(float2 p, float cx, float cy, float fx, float fy, 
     float t = r > 1e-4f ? atan(r) / r : 1.0f;
     return (float2)(cx + sf * X * t, cy + sf * Y * t);
 }
+#endif

@@ -8,7 +8,7 @@
  * the pinhole). The level is resampled into it (bilinear) after the reduce made it, and
  * back after the collapse made it. Coordinates are level-0 pixels; the level's pixel
  * (x, y) has its centre at ((x + 0.5) sc, (y + 0.5) sc). Physics: physics/apsf.py
- * (theta_plane, warp_scale); the numpy oracle: tools/oracles.py (angle_plane). */
+ * (theta_plane, warp_scale); the numpy oracle: tools/oracles_warp.py. */
 #include "common.h"
 #include "angles.h"
 
