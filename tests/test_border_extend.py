@@ -160,7 +160,7 @@ def test_receivers_depth_levels_match_the_oracle(monkeypatch, space, size):
     the edge, read where the cell lies in the plane (oracles.receiver_depths, oracles_warp;
     240 x 160: the extension joins at level 3, in the plane)."""
     import oracles
-    import oracles_warp
+    from fogcli.physics import apsf
     from fogcli.device import plan as device_plan
 
     monkeypatch.setattr(device_plan, "_PLANS", {})
@@ -194,7 +194,7 @@ def test_receivers_depth_levels_match_the_oracle(monkeypatch, space, size):
     xs = np.clip(np.arange(ext.w) - ox, 0, main_l.shape[1] - 1)
     assert (plan.warp is not None and L >= plan.warp[0]) == (w == 240)
     if plan.warp is not None and L >= plan.warp[0]:     # the main level lies in the plane of angles
-        qx, qy = oracles_warp.image_to_angles((xs[None, :] + 0.5) * 2.0 ** L, (ys[:, None] + 0.5) * 2.0 ** L,
+        qx, qy = apsf.image_to_plane((xs[None, :] + 0.5) * 2.0 ** L, (ys[:, None] + 0.5) * 2.0 ** L,
                                               plan.warp)
         xs = np.clip(np.floor(qx / 2.0 ** L).astype(int), 0, main_l.shape[1] - 1)
         ys = np.clip(np.floor(qy / 2.0 ** L).astype(int), 0, main_l.shape[0] - 1)

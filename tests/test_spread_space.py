@@ -6,7 +6,6 @@ import math
 import numpy as np
 import pytest
 
-import oracles_warp
 from fogcli import apply
 from fogcli.api import make_config
 from fogcli.physics import apsf
@@ -62,18 +61,19 @@ def test_warp_scale_keeps_the_frame_inside_and_touches_an_edge(w, h, fx, fy, cx,
     t = np.linspace(0, 1, 401)
     xs = np.concatenate([t * w, np.full_like(t, w), t * w, np.zeros_like(t)])
     ys = np.concatenate([np.zeros_like(t), t * h, np.full_like(t, h), t * h])
-    qx, qy = oracles_warp.image_to_angles(xs, ys, (3, s, cx, cy, fx, fy))
+    qx, qy = apsf.image_to_plane(xs, ys, (3, s, cx, cy, fx, fy))
     assert qx.min() >= -1e-6 and qy.min() >= -1e-6 and qx.max() <= w + 1e-6 and qy.max() <= h + 1e-6
     gap = min(qx.min(), qy.min(), w - qx.max(), h - qy.max())
     assert gap < 1.0 or s == cap, (gap, s, cap)
 
 
 def test_the_map_round_trips():
-    """angles_to_image undoes image_to_angles (the oracle's pair; the kernels' share its form)."""
+    """plane_to_image undoes image_to_plane (the one definition of the plane, whose tables the
+    kernels read: device/warp.map_arrays), and sin(rho) / rho stays at most 1."""
     geom = (3, 1.2, 300.0, 200.0, 280.0, 300.0)
     x, y = np.meshgrid(np.linspace(-50, 650, 29), np.linspace(-30, 430, 23))
-    qx, qy = oracles_warp.image_to_angles(x, y, geom)
-    px, py, jac, ok = oracles_warp.angles_to_image(qx, qy, geom)
+    qx, qy = apsf.image_to_plane(x, y, geom)
+    px, py, jac, ok = apsf.plane_to_image(qx, qy, geom)
     assert ok.all() and (jac <= 1).all()
     np.testing.assert_allclose(px, x, atol=1e-6)
     np.testing.assert_allclose(py, y, atol=1e-6)

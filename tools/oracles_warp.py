@@ -1,34 +1,17 @@
-"""Numpy oracles of kernels/warp.cl (render.spread_space: angles): the map between the image's
-plane and the plane of angles, and the three resamplings, in float64. `geom` is the plan's
-warp (K, s, cx, cy, fx, fy: device/plan.warp_geometry)."""
+"""Numpy oracles of kernels/warp.cl (render.spread_space: angles): the three resamplings
+between the image's plane and the plane of angles, in float64. `geom` is the plan's warp
+(K, s, cx, cy, fx, fy: device/plan.warp_geometry)."""
 from __future__ import annotations
 
 import numpy as np
 
+from fogcli.physics.apsf import image_to_plane, plane_to_image
 from fogcli.physics.luminance import LUMA
 
 
-def angles_to_image(qx, qy, geom):
-    """Image points (px, py) of the plane's points, sin(rho) / rho there, and where an image
-    point exists (rho <= 1.55)."""
-    _, s, cx, cy, fx, fy = geom
-    dx, dy = (np.asarray(qx, np.float64) - cx) / (s * fx), (np.asarray(qy, np.float64) - cy) / (s * fx)
-    rho = np.hypot(dx, dy)
-    ok = rho <= 1.55
-    r = np.where(ok, rho, 1.0)
-    t = np.where(r > 1e-4, np.tan(r) / np.maximum(r, 1e-300), 1.0)
-    jac = np.where(r > 1e-4, np.sin(r) / np.maximum(r, 1e-300), 1.0)
-    return cx + fx * dx * t, cy + fy * dy * t, np.where(ok, jac, 1.0), ok
-
-
-def image_to_angles(px, py, geom):
-    """The plane's points of image points: a direction at angle rho from the axis lies
-    s fx rho from the principal point."""
-    _, s, cx, cy, fx, fy = geom
-    X, Y = (np.asarray(px, np.float64) - cx) / fx, (np.asarray(py, np.float64) - cy) / fy
-    r = np.hypot(X, Y)
-    t = np.where(r > 1e-4, np.arctan(r) / np.maximum(r, 1e-300), 1.0)
-    return cx + s * fx * X * t, cy + s * fx * Y * t
+# The map itself is physics/apsf.py's (plane_to_image, image_to_plane): one definition, which
+# the kernels read as tables (device/warp.map_arrays); tests/test_spread_space.py holds it to
+# its properties (round trip, the frame inside the grid, a glow against the exact angular sum).
 
 
 def _taps(img, u, v):
@@ -55,8 +38,8 @@ def warp_level(col, lp, k, geom):
     log P weighted by the taps' luminance (their plain mean where none has light)."""
     h, w = lp.shape
     sc = 2.0 ** k
-    px, py, jac, ok = angles_to_image(*_level_points(h, w, k), geom)
-    u, v = px / sc - 0.5, py / sc - 0.5
+    px, py, jac, ok = plane_to_image(*_level_points(h, w, k), geom)
+    u, v = np.where(ok, px / sc - 0.5, -1.0), np.where(ok, py / sc - 0.5, -1.0)
     inside = ok & (u >= -0.5) & (v >= -0.5) & (u <= w - 0.5) & (v <= h - 0.5)
     cv, wt = _taps(col, u, v)
     lv, _ = _taps(lp, u, v)
@@ -71,7 +54,7 @@ def warp_receivers(rd, k, geom):
     """warp_receivers: level k of the receivers' log P into the plane, bilinear, clamped."""
     h, w = rd.shape
     sc = 2.0 ** k
-    px, py, _, _ = angles_to_image(*_level_points(h, w, k), geom)
+    px, py, _, _ = plane_to_image(*_level_points(h, w, k), geom)
     vals, wt = _taps(rd, px / sc - 0.5, py / sc - 0.5)
     return (vals * wt).sum(0)
 
@@ -81,6 +64,6 @@ def unwarp_level(E, k, geom):
     bilinear, clamped."""
     h, w = E.shape[:2]
     sc = 2.0 ** k
-    qx, qy = image_to_angles(*_level_points(h, w, k), geom)
+    qx, qy = image_to_plane(*_level_points(h, w, k), geom)
     vals, wt = _taps(E, qx / sc - 0.5, qy / sc - 0.5)
     return (vals * wt[..., None]).sum(0)

@@ -119,16 +119,13 @@ WARP_LEVEL = EXT_LEVEL   # render.spread_space: angles from here up; the extensi
 def warp_geometry(cfg: Config, width: int, height: int, levels: int) -> tuple | None:
     """render.spread_space: angles: (K, s, cx, cy, fx, fy) of the plane of angles the source
     collapse's levels K = WARP_LEVEL and up run in (kernels/warp.cl; s: apsf.warp_scale), or
-    None: the pinhole's pixels throughout (spread_space: pixels, the Gaussian point spread,
-    the reference, the closed border, which keeps in the frame what the plane of angles
-    would move past it, or too few levels for the level above K the collapse needs)."""
+    None: pixels throughout (spread_space: pixels, psf: gaussian, the reference, the closed
+    border, which would keep what the plane moves past the frame, or too few levels)."""
     r = cfg.render
     if not (uses_apsf(cfg) and r.method == "pyramid" and r.spread_space == "angles" and open_border(cfg)
             and levels >= WARP_LEVEL + 1):
         return None
-    cam = cfg.camera
-    fx, fy = cam.focal(width), cam.focal_y(width)
-    cx, cy = cam.centre(width, height)
+    (cx, cy), fx, fy = cfg.camera.centre(width, height), cfg.camera.focal(width), cfg.camera.focal_y(width)
     cap = warp_cap(r.resolved()[0], 2.0 * half_step(r.resolved()[0]), WARP_LEVEL)
     return WARP_LEVEL, warp_scale(width, height, fx, fy, cx, cy, cap), cx, cy, fx, fy
 
@@ -411,8 +408,10 @@ class Plan:
 
     @property
     def warp(self) -> tuple | None:
-        """The plane of angles of this frame's camera (warp_geometry), or None."""
-        return warp_geometry(self.cfg, self.w, self.h, len(self.sizes) - 1)
+        """warp_geometry of this frame's config, worked out once per config."""
+        if getattr(self, "_warp_for", (None,))[0] is not self.cfg:
+            self._warp_for = (self.cfg, warp_geometry(self.cfg, self.w, self.h, len(self.sizes) - 1))
+        return self._warp_for[1]
 
     def threshold(self, k: int) -> float:
         """Masking threshold of level k (Elek eq. 7, scaled): threshold * c * 2^(k-1)."""

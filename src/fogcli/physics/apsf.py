@@ -233,6 +233,32 @@ def warp_scale(width: int, height: int, fx: float, fy: float, cx: float, cy: flo
     return s
 
 
+def plane_to_image(qx, qy, geom) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """render.spread_space: angles. The image points (px, py, level-0 pixels) of points of the
+    plane of angles, sin(rho) / rho there (a plane pixel's solid angle over its area at the
+    axis) and where an image point exists (rho <= 1.55: in front of the camera, off the
+    horizon). The plane: a direction at angle rho from the optical axis lies s fx rho from
+    the principal point, along its own azimuth (azimuthal equidistant); geom is (K, s, cx, cy,
+    fx, fy) (device/plan.warp_geometry)."""
+    _, s, cx, cy, fx, fy = geom
+    dx, dy = (np.asarray(qx, np.float64) - cx) / (s * fx), (np.asarray(qy, np.float64) - cy) / (s * fx)
+    rho = np.hypot(dx, dy)
+    ok = rho <= 1.55
+    r = np.where(ok, rho, 1.0)
+    t = np.where(r > 1e-6, np.tan(r) / np.maximum(r, 1e-300), 1.0)
+    jac = np.where(ok & (r > 1e-6), np.sin(r) / np.maximum(r, 1e-300), 1.0)
+    return cx + fx * dx * t, cy + fy * dy * t, jac, ok
+
+
+def image_to_plane(px, py, geom) -> tuple[np.ndarray, np.ndarray]:
+    """The plane of angles' points (plane_to_image) of image points."""
+    _, s, cx, cy, fx, fy = geom
+    X, Y = (np.asarray(px, np.float64) - cx) / fx, (np.asarray(py, np.float64) - cy) / fy
+    r = np.hypot(X, Y)
+    t = np.where(r > 1e-6, np.arctan(r) / np.maximum(r, 1e-300), 1.0)
+    return cx + s * fx * X * t, cy + s * fx * Y * t
+
+
 def warp_cap(c: float, half_var: float, k: int) -> float:
     """The largest scale of the plane of angles at which level k's sharp slot, s times fewer
     of its pixels a radian, stays wider than level k-1's half-blurred one (slot_widths):

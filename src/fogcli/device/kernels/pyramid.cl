@@ -4,7 +4,6 @@
  * .w of the colour chain carries the luminance-weighted spread W^[k] (Elek sec. 3.5). */
 #include "common.h"
 #include "pairs.h"
-#include "angles.h"
 
 __kernel void reduce_level(__global float4 *chain, __global float *spread_chain,
                            const int src_off, const int sw, const int sh,
@@ -315,19 +314,19 @@ __kernel void receiver_depth(__global const float *src, const int src_off, const
 /* render.border: extend. Level 0 of the extension plan's receivers (device/border.py): the
  * main frame's at level L (main_rd at main_off, mw x mh), cells past its edge the nearest
  * edge cell's, as the continued edge's sources are (border_sources); ox, oy in cells. With
- * `warped` the main level lies in the plane of angles (WARP_GEOM: kernels/warp.cl): read
- * where the cell's image point lies there. */
+ * `warped` the main level lies in the plane of angles: read where the cell lies there
+ * (to_plane: device/warp.py, index space of the plane's level). */
 __kernel void receiver_depth_ext(__global const float *main_rd, const int main_off, const int mw, const int mh,
                                  __global float *rd, const int pw, const int ph, const int ox, const int oy,
-                                 const int warped, WARP_GEOM)
+                                 const int warped, __global const float2 *to_plane)
 {
     int x = get_global_id(0), y = get_global_id(1);
     if (OUTSIDE(x, y, pw, ph)) return;
     int mx = clampi_(x - ox, 0, mw - 1), my = clampi_(y - oy, 0, mh - 1);
     if (warped) {
-        float2 q = image_to_angles((float2)((mx + 0.5f) * sc, (my + 0.5f) * sc), cx, cy, fx, fy, sf);
-        mx = clampi_((int)floor(q.x / sc), 0, mw - 1);
-        my = clampi_((int)floor(q.y / sc), 0, mh - 1);
+        float2 q = to_plane[my * mw + mx];
+        mx = clampi_((int)floor(q.x + 0.5f), 0, mw - 1);
+        my = clampi_((int)floor(q.y + 0.5f), 0, mh - 1);
     }
     rd[y * pw + x] = main_rd[main_off + my * mw + mx];
 }

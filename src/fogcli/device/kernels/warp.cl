@@ -2,32 +2,27 @@
  * glow of the same angular size covers more pixels the farther it lies from the principal
  * point (1 / cos^2 along the radius), and two pixels' distance is not their angle. From level
  * WARP_LEVEL up, where the wide part of the glow lives, the source collapse runs on a plane
- * of angles instead: a direction at angle rho from the optical axis lies s f rho from the
- * principal point, along the same azimuth (azimuthal equidistant; its distances are angles
- * to within sin(rho) / rho, 0.94 at a 60-degree lens's corners, against cos^2 rho, 0.66, of
- * the pinhole). The level is resampled into it (bilinear) after the reduce made it, and
- * back after the collapse made it. Coordinates are level-0 pixels; the level's pixel
- * (x, y) has its centre at ((x + 0.5) sc, (y + 0.5) sc). Physics: physics/apsf.py
- * (theta_plane, warp_scale); the numpy oracle: tools/oracles_warp.py. */
+ * of angles instead (azimuthal equidistant; physics/apsf.py: plane_to_image). The level is
+ * resampled into it (bilinear) after the reduce made it, and back after the collapse made
+ * it. Where each pixel samples comes from the host (device/warp.py: maps, per camera and
+ * size), index-space coordinates in the other plane's level: the kernels call no tan, sin
+ * or atan (PoCL's are library calls, ~3 ms a frame at 2 MPx). The numpy oracle:
+ * tools/oracles_warp.py. */
 #include "common.h"
-#include "angles.h"
 
-/* Level `off` (w x h) of the colour chain, from the image's plane into the plane of angles,
- * into `out` (the scratch, from 0): the light bilinear, times sin(rho) / rho (what a pixel
- * of the plane holds of the sphere: the sources' solid angle), log P weighted by the
- * light's luminance as the reduce weights it; nothing where no image point is (the frame's
- * corners and edges lie inside the plane's rectangle: those pixels only receive light). */
+/* Level `off` (w x h) of the colour chain into the plane of angles, into `out` (the
+ * scratch, from 0). to_image[i]: where plane pixel i lies on the image's level (x, y index
+ * space), sin(rho) / rho there (what a plane pixel holds of the sphere: the sources' solid
+ * angle), and 1 where it lies on the frame, 0 where not (the frame's corners and edges lie
+ * inside the plane's rectangle: those pixels only receive light). The light bilinear, log P
+ * weighted by the light's luminance as the reduce weights it. */
 __kernel void warp_level(__global const float4 *chain, const int off, const int w, const int h,
-                         __global float4 *out, WARP_GEOM)
+                         __global float4 *out, __global const float4 *to_image)
 {
     int x = get_global_id(0), y = get_global_id(1);
     if (OUTSIDE(x, y, w, h)) return;
-    float jac;
-    float2 p = angles_to_image((float2)((x + 0.5f) * sc, (y + 0.5f) * sc), cx, cy, fx, fy, sf, &jac);
-    float u = p.x / sc - 0.5f, v = p.y / sc - 0.5f;
-    bool inside = u >= -0.5f && v >= -0.5f && u <= (float)w - 0.5f && v <= (float)h - 0.5f;
-    u = clampf_(u, 0.0f, (float)(w - 1));
-    v = clampf_(v, 0.0f, (float)(h - 1));
+    float4 m = to_image[y * w + x];
+    float u = clampf_(m.x, 0.0f, (float)(w - 1)), v = clampf_(m.y, 0.0f, (float)(h - 1));
     int x0 = (int)u, y0 = (int)v;
     int x1 = min(x0 + 1, w - 1), y1 = min(y0 + 1, h - 1);
     float ax = u - (float)x0, ay = v - (float)y0;
@@ -44,7 +39,7 @@ __kernel void warp_level(__global const float4 *chain, const int off, const int 
         lw += wt[i] * t[i].w;
     }
     float lp = ys > 1e-30f ? yw / ys : lw;
-    out[y * w + x] = (float4)(inside ? col * jac : (float3)(0.0f), lp);
+    out[y * w + x] = (float4)(col * (m.z * m.w), lp);
 }
 
 /* The resampled level back into the chain, and its prep (the share each channel passes
@@ -63,23 +58,22 @@ __kernel void warp_store(__global float4 *chain, __global float4 *prep, const in
 /* render.halo_depth: receiver. Level `off` of the receivers' log P into the plane of
  * angles (bilinear, the edge's past the frame), into `out` from 0. */
 __kernel void warp_receivers(__global const float *rd, const int off, const int w, const int h,
-                             __global float *out, WARP_GEOM)
+                             __global float *out, __global const float4 *to_image)
 {
     int x = get_global_id(0), y = get_global_id(1);
     if (OUTSIDE(x, y, w, h)) return;
-    float jac;
-    float2 p = angles_to_image((float2)((x + 0.5f) * sc, (y + 0.5f) * sc), cx, cy, fx, fy, sf, &jac);
-    out[y * w + x] = bilinear1(rd + off, w, h, p.x / sc - 0.5f, p.y / sc - 0.5f);
+    float4 m = to_image[y * w + x];
+    out[y * w + x] = bilinear1(rd + off, w, h, m.x, m.y);
 }
 
 /* Level `off` of the collapsed chain (the light each pixel of the level gets, in the plane
- * of angles) back to the image's plane, into `out` from 0: bilinear, radiance needing no
- * factor. */
+ * of angles) back to the image's plane, into `out` from 0: bilinear at to_plane[i] (where
+ * image pixel i lies on the plane's level, index space), radiance needing no factor. */
 __kernel void unwarp_level(__global const float4 *chain, const int off, const int w, const int h,
-                           __global float4 *out, WARP_GEOM)
+                           __global float4 *out, __global const float2 *to_plane)
 {
     int x = get_global_id(0), y = get_global_id(1);
     if (OUTSIDE(x, y, w, h)) return;
-    float2 q = image_to_angles((float2)((x + 0.5f) * sc, (y + 0.5f) * sc), cx, cy, fx, fy, sf);
-    out[y * w + x] = bilinear4(chain + off, w, h, q.x / sc - 0.5f, q.y / sc - 0.5f);
+    float2 q = to_plane[y * w + x];
+    out[y * w + x] = bilinear4(chain + off, w, h, q.x, q.y);
 }
