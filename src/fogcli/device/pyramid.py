@@ -28,7 +28,7 @@ def reduce(plan, t: Timings, masked: bool, second: bool = False) -> None:
     eps = plan.cfg.render.resolved()[1]
     q = plan.rt.queue
     chain, scratch, prep = plan.source_bufs(second)
-    warp_k = plan.warp[0] if plan.apsf and plan.source and plan.warp is not None else None
+    warp_k = None if plan.warp is None else plan.warp[0]      # the plane of angles: apsf source collapse only
     if plan.source:
         taps = len(FILTERS[plan.cfg.render.kernel])
         for k in range(1, len(plan.sizes)):

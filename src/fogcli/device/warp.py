@@ -32,13 +32,12 @@ def map_arrays(geom, w: int, h: int) -> tuple[np.ndarray, np.ndarray]:
 def maps(plan):
     """The device copies of map_arrays for this frame's camera: (to_image, to_plane) buffers,
     made again only when the plane changes."""
-    k, o, w, h = _level(plan)
-    key = (plan.warp, w, h)
-    if getattr(plan, "_warp_maps", None) is None or plan._warp_maps[0] != key:
+    _, _, w, h = _level(plan)
+    if getattr(plan, "_warp_maps", None) is None or plan._warp_maps[0] != plan.warp:   # a plan keeps its size
         cl = plan.rt.cl
         mf = cl.mem_flags
         a, b = map_arrays(plan.warp, w, h)
-        plan._warp_maps = (key, cl.Buffer(plan.rt.ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=a),
+        plan._warp_maps = (plan.warp, cl.Buffer(plan.rt.ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=a),
                            cl.Buffer(plan.rt.ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=b))
     return plan._warp_maps[1], plan._warp_maps[2]
 

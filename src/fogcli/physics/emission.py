@@ -60,7 +60,12 @@ def lambert_weight(tab: dict, g: float, albedo: float, tau: np.ndarray, cos_view
     """lambert_classes' weight over the classes, (len(tau), len(cos_view)), each class
     counted by its energy times `seen`: the share of the class that lands in the frame
     (theta_seen); the default counts the whole forward hemisphere."""
-    w, share = lambert_classes(tab, g, albedo, tau, cos_view)
+    return _over_classes(*lambert_classes(tab, g, albedo, tau, cos_view), seen)
+
+
+def _over_classes(w: np.ndarray, share: np.ndarray, seen: np.ndarray | None) -> np.ndarray:
+    """lambert_classes' (weight, energy) averaged over the classes, each counted by its
+    energy times `seen` (None: 1)."""
     s = np.ones(share.shape[-1]) if seen is None else np.asarray(seen, np.float64)
     return (w * (share * s)[..., None]).sum(1) / np.maximum(share @ s, 1e-300)[:, None]
 
@@ -77,7 +82,8 @@ def class_shares(sigma_u: np.ndarray, theta_edges: np.ndarray) -> np.ndarray:
 def lambert_shape(tab: dict, g: float, albedo: float, tau: np.ndarray, shape: np.ndarray, cos_grid: np.ndarray,
                   seen: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
     """(shape, weight): the spread of a Lambertian emitter facing the camera and its
-    scattered energy over the isotropic source's per view cosine (len(tau), len(cos_grid)):
+    scattered energy over the isotropic source's per view cosine (len(tau), len(cos_grid);
+    cos_grid ends at 1, the facing one):
     the facing emitter's whole weight, times how a tilted one differs from it over the
     angles the frame shows (lambert_weight with `seen`). Each table Gaussian is weighted by
     the emitter's weight at its own angle (narrow ones keep more than wide ones), that
@@ -85,8 +91,8 @@ def lambert_shape(tab: dict, g: float, albedo: float, tau: np.ndarray, shape: np
     that every class of theta receives the weight the Monte Carlo gives it: a Gaussian
     reaches into its neighbours' classes, and each class's weight taken as it is would
     leave the narrow classes too little and the wide ones too much."""
-    w, _ = lambert_classes(tab, g, albedo, tau, np.array([1.0]))
-    w = w[..., 0]                                                              # (T, C)
+    per_cos, energy = lambert_classes(tab, g, albedo, tau, cos_grid)          # one interpolation of the table
+    w = per_cos[..., -1]                                                       # (T, C): facing
     q = class_shares(tab["sigma_u"], tab["emit_theta"])                        # (J, C)
     th = tab["emit_theta"]
     node = np.log(np.tan(np.minimum(0.5 * (th[:-1] + th[1:]), 1.4)))
@@ -102,7 +108,7 @@ def lambert_shape(tab: dict, g: float, albedo: float, tau: np.ndarray, shape: np
         x = np.clip(x * np.where(got > 1e-12, target / np.maximum(got, 1e-300), 1.0), 0.0, 2.0)
     per_j = shape * (x @ basis.T)
     face = per_j.sum(-1)
-    frame = lambert_weight(tab, g, albedo, tau, cos_grid, seen)
+    frame = _over_classes(per_cos, energy, seen)
     tilt = frame / np.maximum(frame[:, -1:], 1e-300)
     # where the table holds no spread (thick, absorbing: the weights' sum ~0, or below it)
     # the shape stays and the weight is the frame's
