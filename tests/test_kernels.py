@@ -139,16 +139,19 @@ def test_reduce_level_matches_oracle(rt, rng, taps, masked, fetch, size, monkeyp
             np.testing.assert_allclose(spreads[k], slvl, rtol=1e-4, atol=1e-6)
 
 
+@pytest.mark.parametrize("lanes", [1, 8])
 @pytest.mark.parametrize("sets", [[], ["render.border=closed"], ["render.kernel=6"], ["render.kernel=2"],
                                   ["render.psf=gaussian", "render.border=closed"]])
-def test_reduce_inner_matches_the_checked_one(rt, rng, sets, monkeypatch):
-    """reduce_source_inner (interior of each level, whole work-groups, vectorised) against
-    reduce_level_source on every pixel: the same sums in the same order, so the colour and
-    prep chains agree to float32 rounding (1e-6 of each level's peak; measured 0), apsf with
-    its conservation margin and the top level's kept share, and the Gaussian chain."""
+def test_reduce_inner_matches_the_checked_one(rt, rng, sets, lanes, monkeypatch):
+    """The interior kernels against reduce_level_source on every pixel: reduce_source_inner
+    (lanes 1: whole work-groups, vectorised by PoCL on AVX-512) and, for apsf,
+    reduce_source_lanes (lanes 8: eight pixels a work-item on float8, kernels/reduce_lanes.cl).
+    The same sums in the same order, so the colour and prep chains agree to float32 rounding
+    (1e-6 of each level's peak; measured 0), apsf with its conservation margin and the top
+    level's kept share, and the Gaussian chain."""
     from fogcli.device.plan import get_plan
 
-    monkeypatch.setattr(rt, "lanes", 1)      # the interior kernel on every CPU (see pyramid.reduce)
+    monkeypatch.setattr(rt, "lanes", lanes)     # either interior kernel on every CPU (see pyramid.reduce)
     h, w = 97, 331
     img = (rng.uniform(0, 2, (h, w, 4)) ** 3).astype(np.float32)
     z = rng.uniform(2, 60, (h, w)).astype(np.float32)
@@ -167,7 +170,9 @@ def test_reduce_inner_matches_the_checked_one(rt, rng, sets, monkeypatch):
         if inner:
             (_, sw, sh, _), (_, dw, dh, _) = plan.lv[0], plan.lv[1]
             taps = len(FILTERS[cfg.render.kernel])
-            region = pyramid.reduce_region(sw, sh, dw, dh, taps, taps // 2 if plan.apsf else 0, rt.local2d)
+            assert (plan.k_reduce_lanes is not None) == (lanes == 8 and plan.apsf)
+            region = pyramid.reduce_region(sw, sh, dw, dh, taps, taps // 2 if plan.apsf else 0,
+                                           (8, 1) if plan.k_reduce_lanes is not None else rt.local2d)
             assert region is not None and (region[1] - region[0]) * (region[3] - region[2]) >= 0.5 * dw * dh
     for k in range(1, len(plan.sizes)):
         o, lw, lh, _ = (int(v) for v in plan.lv[k])

@@ -398,13 +398,12 @@ class Plan:
                            for k in ("warp_level", "warp_store", "warp_receivers", "unwarp_level")}
         self.k_border_src = pyr.border_sources if self.apsf else None
         self.k_border_inject = pyr.border_inject if self.apsf else None
-        # pixels of a row per work-item (LANES, kernels/lanes.h: the light tables) and the
-        # pyramid's choice of interior kernel follow it: read once, here
+        # pixels of a row per work-item (LANES, kernels/lanes.h: the light tables, the apsf
+        # reduce's interior) and the pyramid's choice of interior kernel follow it: read once, here
         self.lanes = rt.lanes
-        if cfg.lights:
-            self.k_lights = rt.program("lights", **d, **DEFINES, LANES=self.lanes)
-        else:
-            self.k_lights = None
+        self.k_reduce_lanes = rt.program("reduce_lanes", **d, LANES=8).reduce_source_lanes \
+            if self.lanes == 8 and self.apsf and self.source else None
+        self.k_lights = rt.program("lights", **d, **DEFINES, LANES=self.lanes) if cfg.lights else None
 
     @property
     def warp(self) -> tuple | None:

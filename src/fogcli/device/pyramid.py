@@ -39,12 +39,18 @@ def reduce(plan, t: Timings, masked: bool, second: bool = False) -> None:
                         level=np.int32(k), edge=plan.edge, edge_off=np.int32(plan.edge_off[k]), cons=plan.cons,
                         cons_off=np.int32(plan.cons_off[k]))
             # on an 8-wide CPU without AVX-512 LLVM leaves the interior kernel scalar (its
-            # table reads would be gathers, which it does not emit there), and the
-            # per-pixel kernel is the faster scalar code (tools/avx2/run.sh)
-            region = reduce_region(int(sw), int(sh), int(dw), int(dh), taps, taps // 2 if plan.apsf else 0,
-                                   plan.rt.local2d) if plan.lanes == 1 else None
-            plan.launch_inner(t, "pyramid", region, plan.k_reduce_inner, (plan.k_reduce_src,) * 2,
-                               int(dw), int(dh), args, corner_args=True)
+            # strided and table reads), and the per-pixel kernel is the faster scalar code
+            # (tools/avx2/run.sh); for apsf the interior is written on float8 there
+            # (reduce_lanes: level 1 of 2 MPx ~10 -> ~4 ms on an AMD EPYC), below the top level,
+            # whose kept share reads the border's
+            margin = taps // 2 if plan.apsf else 0
+            if plan.k_reduce_lanes is not None and k < len(plan.sizes) - 1:
+                reduce_lanes(plan, t, args, reduce_region(int(sw), int(sh), int(dw), int(dh), taps, margin, (8, 1)))
+            else:
+                region = reduce_region(int(sw), int(sh), int(dw), int(dh), taps, margin,
+                                       plan.rt.local2d) if plan.lanes == 1 else None
+                plan.launch_inner(t, "pyramid", region, plan.k_reduce_inner, (plan.k_reduce_src,) * 2,
+                                  int(dw), int(dh), args, corner_args=True)
             if k == warp_k:
                 warp_chain(plan, t, chain, prep, scratch)
         return
@@ -55,6 +61,25 @@ def reduce(plan, t: Timings, masked: bool, second: bool = False) -> None:
               plan.k_reduce(q, *plan.rt.nd(dw, dh), chain=chain, spread_chain=spread, src_off=np.int32(so),
                             sw=np.int32(sw), sh=np.int32(sh), dst_off=np.int32(do), dw=np.int32(dw), dh=np.int32(dh),
                             thresh=np.float32(plan.threshold(k)), eps=np.float32(eps), masked=np.int32(masked)))
+
+
+def reduce_lanes(plan, t: Timings, args: dict, region: tuple | None) -> None:
+    """A level of the apsf source reduce through reduce_source_lanes (kernels/reduce_lanes.cl:
+    eight pixels a work-item, for CPUs with 8-wide SIMD) on `region`, whose width is a
+    multiple of 8, and reduce_level_source on the strips around it."""
+    dw, dh = int(args["dw"]), int(args["dh"])
+    if region is None:
+        t.add("pyramid", plan.rt.launch2d((plan.k_reduce_src,) * 2, dw, dh, **args))
+        return
+    x0, x1, y0, y1 = region
+    n8, ny = (x1 - x0) // 8, y1 - y0
+    t.add("pyramid", plan.k_reduce_lanes(
+        plan.rt.queue, *plan.rt.nd(n8, ny), chain=args["chain"], prep=args["prep"], src_off=args["src_off"],
+        sw=args["sw"], dst_off=args["dst_off"], dw=args["dw"], lut=args["lut"], level=args["level"],
+        px0=np.int32(x0), py0=np.int32(y0), n8=np.int32(n8), ny=np.int32(ny)))
+    for gx, gy, ox, oy in ((dw, y0, 0, 0), (dw, dh - y1, 0, y1), (x0, y1 - y0, 0, y0), (dw - x1, y1 - y0, x1, y0)):
+        if gx > 0 and gy > 0:
+            t.add("pyramid", plan.k_reduce_src(plan.rt.queue, (gx, gy), None, **args, global_offset=(ox, oy)))
 
 
 def receiver_depth(plan, t: Timings, from_rd0: bool = False) -> None:

@@ -69,12 +69,12 @@ inline void lambert_at(__global const float *lut, int nlev, int li, float lf, fl
  * light-weighted one), the share that scatters nearer than that surface: the host's
  * glow_depth.receiver_table after the Lambertian weights, per level, bilinear in (log P,
  * u = P_r / P over [0, 1]; beyond 1 all of it) */
-inline float recv_weight(__global const float *lut, int level, float lp, float lr)
+ALWAYS_INLINE float recv_weight(__global const float *lut, int level, float lp, float lr)
 {
     float f;
     int li = lut_pos(lut, lp, &f);
     float u = clampf_(exp_poly(lr - lp), 0.0f, 1.0f) * (float)(APSF_NU - 1);
-    int ui = min((int)u, APSF_NU - 2);
+    int ui = mini_((int)u, APSF_NU - 2);
     float uf = u - (float)ui;
     int base = lut_recv((int)lut[3]) + (level * APSF_NP + li) * APSF_NU + ui;
     float a = lut[base] + (lut[base + 1] - lut[base]) * uf;

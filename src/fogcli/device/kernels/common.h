@@ -44,6 +44,8 @@
 /* clamp by ternaries: the clamp / min / max builtins are out-of-line calls in PoCL */
 inline float clampf_(float v, float lo, float hi) { return v < lo ? lo : (v > hi ? hi : v); }
 inline int clampi_(int v, int lo, int hi) { return v < lo ? lo : (v > hi ? hi : v); }
+inline int mini_(int a, int b) { return a < b ? a : b; }
+inline int maxi_(int a, int b) { return a > b ? a : b; }
 inline float absf_(float v) { return v < 0.0f ? -v : v; }
 
 /* e^y to ~2e-7 relative: 2^n from the exponent bits, 2^f (|f| <= 1/2) by its Taylor series
@@ -317,7 +319,7 @@ inline float4 up2_fetch4(__global const float4 *img, int w, int h, int x, int y)
 /* up2_fetch4 for the apsf chain: the same fixed-phase taps, clamp-to-edge (closed) or zero
  * outside (open), and each input pixel's weights scaled by ux[j] uy[i] so that it hands
  * the level below exactly its energy (apsf.conservation_tables) */
-inline float4 up2_cons(__global const float4 *img, int w, int h, int x, int y,
+ALWAYS_INLINE float4 up2_cons(__global const float4 *img, int w, int h, int x, int y,
                        __global const float *ux, __global const float *uy)
 {
 #if INTERP == 0

@@ -331,14 +331,14 @@ typedef struct {
 } grid4_t;
 
 /* the pixel column (or row) of sample c of the grid */
-inline int grid_at(int c, int stride, int n) { return min(c * stride, n - 1); }
+inline int grid_at(int c, int stride, int n) { return mini_(c * stride, n - 1); }
 
 inline grid4_t grid_neighbours(__global const float *depth, int width, int height, float max_depth, int i, int j,
                                int stride, int cw, int ch)
 {
     grid4_t g;
-    int ci = min(i / stride, cw - 1), cj = min(j / stride, ch - 1);
-    int ci1 = min(ci + 1, cw - 1), cj1 = min(cj + 1, ch - 1);
+    int ci = mini_(i / stride, cw - 1), cj = mini_(j / stride, ch - 1);
+    int ci1 = mini_(ci + 1, cw - 1), cj1 = mini_(cj + 1, ch - 1);
     int si0 = grid_at(ci, stride, width), si1 = grid_at(ci1, stride, width);
     int sj0 = grid_at(cj, stride, height), sj1 = grid_at(cj1, stride, height);
     float fx = si1 > si0 ? (float)(i - si0) / (si1 - si0) : 0.0f;

@@ -305,7 +305,7 @@ __kernel void receiver_depth(__global const float *src, const int src_off, const
 {
     int x = get_global_id(0), y = get_global_id(1);
     if (OUTSIDE(x, y, dw, dh)) return;
-    int x0 = 2 * x, y0 = 2 * y, x1 = min(x0 + 1, sw - 1), y1 = min(y0 + 1, sh - 1);
+    int x0 = 2 * x, y0 = 2 * y, x1 = mini_(x0 + 1, sw - 1), y1 = mini_(y0 + 1, sh - 1);
     __global const float *s = src + src_off;
     rd[dst_off + y * dw + x] = 0.25f * ((s[(y0 * sw + x0) * stride] + s[(y0 * sw + x1) * stride])
                                         + (s[(y1 * sw + x0) * stride] + s[(y1 * sw + x1) * stride]));
@@ -325,8 +325,8 @@ __kernel void receiver_depth_ext(__global const float *main_rd, const int main_o
     int mx = clampi_(x - ox, 0, mw - 1), my = clampi_(y - oy, 0, mh - 1);
     if (warped) {
         float2 q = to_plane[my * mw + mx];
-        mx = clampi_((int)floor(q.x + 0.5f), 0, mw - 1);
-        my = clampi_((int)floor(q.y + 0.5f), 0, mh - 1);
+        mx = clampi_((int)(q.x + 0.5f), 0, mw - 1);    /* truncation is floor's where it is not clamped to 0 */
+        my = clampi_((int)(q.y + 0.5f), 0, mh - 1);
     }
     rd[y * pw + x] = main_rd[main_off + my * mw + mx];
 }
@@ -395,11 +395,11 @@ __kernel void prep_level0(__global const float4 *chain, __global float4 *prep, c
  * pixels inside, and a run after it (copies of n - 1): one read per run, not per pixel. */
 inline void cell_runs(int a0, int s, int n, int m, int *before, int *lo, int *hi, int *after)
 {
-    int b0 = max(a0, -m), b1 = min(a0 + s, n + m);     /* the part within the margin */
-    *before = max(0, min(b1, 0) - b0);
-    *after = max(0, b1 - max(b0, n));
-    *lo = max(b0, 0);
-    *hi = max(*lo, min(b1, n));
+    int b0 = maxi_(a0, -m), b1 = mini_(a0 + s, n + m);     /* the part within the margin */
+    *before = maxi_(0, mini_(b1, 0) - b0);
+    *after = maxi_(0, b1 - maxi_(b0, n));
+    *lo = maxi_(b0, 0);
+    *hi = maxi_(*lo, mini_(b1, n));
 }
 
 __kernel void border_sources(__global const float4 *chain0, const int w, const int h,

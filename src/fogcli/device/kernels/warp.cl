@@ -24,7 +24,7 @@ __kernel void warp_level(__global const float4 *chain, const int off, const int 
     float4 m = to_image[y * w + x];
     float u = clampf_(m.x, 0.0f, (float)(w - 1)), v = clampf_(m.y, 0.0f, (float)(h - 1));
     int x0 = (int)u, y0 = (int)v;
-    int x1 = min(x0 + 1, w - 1), y1 = min(y0 + 1, h - 1);
+    int x1 = mini_(x0 + 1, w - 1), y1 = mini_(y0 + 1, h - 1);
     float ax = u - (float)x0, ay = v - (float)y0;
     __global const float4 *c = chain + off;
     float4 t[4] = {c[y0 * w + x0], c[y0 * w + x1], c[y1 * w + x0], c[y1 * w + x1]};
