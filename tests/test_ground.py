@@ -140,6 +140,29 @@ def test_the_domes_plane_lets_the_domes_unscattered_light_through(tau_R):
     assert 0.95 * (tau_R - np.log((tau_R + 2) / 2)) < h < tau_R
 
 
+@pytest.mark.parametrize("tau_R,albedo,g", [(18.0, 0.999999, 0.85), (4.0, 0.9, 0.7), (60.0, 0.375, 0.92),
+                                             (25.0, 0.72, 0.92)])
+def test_the_domes_diffuse_light_comes_through_a_plane_a_third_nearer(tau_R, albedo, g):
+    """slab.diffusion_height against the diffusion solutions written out here: kappa z /
+    sinh(kappa h) under a plane at h, kappa z / (2 i_1(kappa tau_R)) at the centre of a dark-
+    floored hemisphere (i_1 by a midpoint sum of its integral, 1/2 int t e^(x t) dt over [-1, 1]);
+    2/3 of the dome's radius without absorption, tau_R - ln(kappa tau_R / 2) / kappa where
+    kappa tau_R is large; and the slab's sky stands at the nearer of it and dome_height."""
+    h = slab.diffusion_height(tau_R, albedo, g)
+    k = np.sqrt(3 * (1 - albedo) * (1 - g * albedo))
+    t = (np.arange(400000) + 0.5) / 400000 * 2 - 1
+    i1 = float(np.mean(t * np.exp(k * tau_R * t)))      # half the integral over [-1, 1]
+    assert abs(np.sinh(k * h) / (2 * i1) - 1) < 1e-4, (h, i1)
+    if k * tau_R < 0.01:
+        assert abs(h / tau_R - 2 / 3) < 1e-4
+    if k * tau_R > 20:
+        assert abs(h - (tau_R - np.log(k * tau_R / 2) / k)) < 0.1 / k
+    st = 0.1
+    both = slab.sky_height(st, 1.6, tau_R / st, True, albedo, g) - st * 1.6
+    assert abs(both - min(h, slab.dome_height(tau_R))) < 1e-9
+    assert abs(slab.sky_height(st, 1.6, tau_R / st, False, albedo, g) - st * 1.6 - tau_R) < 1e-9
+
+
 def test_the_ground_colour_is_that_of_its_area_in_reach_not_of_its_pixels():
     """Bright markings on the first 10 m of a dark ground fill the bottom of the frame (the
     pixels' mean is over 0.5) but little of the ground haze reaches (~100 m): the ground's

@@ -648,7 +648,8 @@ def slab_table(ground, sa, ss, g, nmu: int, nu: int) -> np.ndarray:
     for c in range(3):
         st = sa[c] + ss[c]
         a, b = slab.inscatter(ss[c] / st, g, st * ground.height,
-                              slab.sky_height(st, ground.height, ground.sky_distance, ground.dome), mu, t * 1.0)
+                              slab.sky_height(st, ground.height, ground.sky_distance, ground.dome, ss[c] / st, g),
+                              mu, t * 1.0)
         out[..., c] = ground.colour[c] * a + ground.sky_colour[c] * b
     return out
 

@@ -66,8 +66,9 @@ def table(plan, g: gmod.Ground, t: Timings) -> None:
     st = sa + ss
     d = defines(cfg)
     grey = "MEDIUM_GREY" in d          # the preprocess build's own test: one u for R, G, B
-    # the slab's optical thickness per channel, once: a dome's is a bisection (slab.dome_height)
-    thick = [slab.sky_height(x, g.height, g.sky_distance, g.dome) for x in st]
+    # the slab's optical thickness per channel, once: a dome's is a bisection (slab.sky_height)
+    thick = [slab.sky_height(x, g.height, g.sky_distance, g.dome, ss[c] / x if x > 0 else 0.0, m.asymmetry)
+             for c, x in enumerate(st)]
     psi, lam, ref = [], [], []
     for c in range(1 if grey else 3):
         om = ss[c] / st[c] if st[c] > 0 else 0.0

@@ -199,8 +199,33 @@ def dome_height(tau_R: float) -> float:
     return 0.5 * (lo + hi)
 
 
-def sky_height(st: float, height: float, sky_distance: float, dome: bool) -> float:
+def diffusion_height(tau_R: float, albedo: float, g: float) -> float:
+    """The optical height above the camera of the plane sky whose diffuse light reaches a
+    camera on a dark ground as that of a sky dome of optical radius tau_R does. In the
+    diffusion approximation the light decays by kappa = sqrt(3 (1 - albedo)(1 - g albedo))
+    per optical unit; near the ground, under a plane at h it grows as kappa z / sinh(kappa h),
+    and at the centre of a hemisphere over the ground (its lowest odd mode: the ground dark,
+    the dome bright) as kappa z / (2 i_1(kappa tau_R)), i_1 the modified spherical Bessel
+    function. So sinh(kappa h) = 2 i_1(kappa tau_R): 2 tau_R / 3 in a conservative medium,
+    tau_R - ln(kappa tau_R / 2) / kappa where it absorbs strongly. A dome sends its light
+    from every side, a plane from above only, so a thick medium under a dome is as lit as
+    under a plane a third nearer (`skyline`, `ground`: docs/physics.md)."""
+    k = math.sqrt(3.0 * max(1.0 - albedo, 0.0) * max(1.0 - g * albedo, 0.0))
+    x = k * tau_R
+    if x < 1e-4:
+        return 2.0 * tau_R / 3.0
+    if x < 30.0:
+        return math.asinh(2.0 * (x * math.cosh(x) - math.sinh(x)) / (x * x)) / k
+    return (x + math.log(2.0 * (x - 1.0) / (x * x))) / k      # asinh(y) = ln 2y, 2 i_1 = e^x (x - 1) / x^2
+
+
+def sky_height(st: float, height: float, sky_distance: float, dome: bool, albedo: float, g: float) -> float:
     """The slab's optical thickness for a medium of extinction st: the camera's height above
-    the ground plus the sky's above the camera, a dome's (physics/ground.Ground.dome) as
-    dome_height gives it."""
-    return st * height + (dome_height(st * sky_distance) if dome else st * sky_distance)
+    the ground plus the sky's above the camera. A dome's (physics/ground.Ground.dome) stands
+    at the nearer of dome_height (the dome's unscattered light, which a thin medium sees)
+    and diffusion_height (its diffuse light, which a thick one sees): one plane cannot give
+    both, and each is the lower bound of what the camera gets of its part."""
+    if not dome:
+        return st * (height + sky_distance)
+    tau_R = st * sky_distance
+    return st * height + min(dome_height(tau_R), diffusion_height(tau_R, albedo, g))
