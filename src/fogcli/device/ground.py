@@ -66,13 +66,12 @@ def table(plan, g: gmod.Ground, t: Timings) -> None:
     st = sa + ss
     d = defines(cfg)
     grey = "MEDIUM_GREY" in d          # the preprocess build's own test: one u for R, G, B
+    albedo = [ss[c] / x if x > 0 else 0.0 for c, x in enumerate(st)]
     # the slab's optical thickness per channel, once: a dome's is a bisection (slab.sky_height)
-    thick = [slab.sky_height(x, g.height, g.sky_distance, g.dome, ss[c] / x if x > 0 else 0.0, m.asymmetry)
-             for c, x in enumerate(st)]
+    thick = [slab.sky_height(x, g.height, g.sky_distance, g.dome, albedo[c], m.asymmetry) for c, x in enumerate(st)]
     psi, lam, ref = [], [], []
     for c in range(1 if grey else 3):
-        om = ss[c] / st[c] if st[c] > 0 else 0.0
-        l_, r_, pg, ps = slab.modes(om, m.asymmetry, thick[c])
+        l_, r_, pg, ps = slab.modes(albedo[c], m.asymmetry, thick[c])
         # grey: the ground's and the sky's unit rows, mixed by the kernel; else mixed here
         psi += [pg, ps] if grey else [g.colour[c] * pg + g.sky_colour[c] * ps]
         lam.append(l_)

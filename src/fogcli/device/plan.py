@@ -464,9 +464,7 @@ class Plan:
                                py0=np.int32(y0)))
         else:
             t.add(stage, inner(q, size, self.rt.local2d, **args, global_offset=(x0 // per, y0)))
-        for gx, gy, ox, oy in ((w, y0, 0, 0), (w, h - y1, 0, y1), (x0, y1 - y0, 0, y0), (w - x1, y1 - y0, x1, y0)):
-            if gx > 0 and gy > 0:     # exact sizes: no pixel twice (the separated chain's pass adds)
-                t.add(stage, kernels[1](q, (gx, gy), None, **args, global_offset=(ox, oy)))
+        t.add(stage, self.rt.launch_strips(kernels[1], w, h, region, **args))
 
     def download(self, buf, channels: int, t: Timings) -> np.ndarray:
         arr = np.empty((self.h, self.w, channels) if channels > 1 else (self.h, self.w), np.float32)

@@ -77,9 +77,7 @@ def reduce_lanes(plan, t: Timings, args: dict, region: tuple | None) -> None:
         plan.rt.queue, *plan.rt.nd(n8, ny), chain=args["chain"], prep=args["prep"], src_off=args["src_off"],
         sw=args["sw"], dst_off=args["dst_off"], dw=args["dw"], lut=args["lut"], level=args["level"],
         px0=np.int32(x0), py0=np.int32(y0), n8=np.int32(n8), ny=np.int32(ny)))
-    for gx, gy, ox, oy in ((dw, y0, 0, 0), (dw, dh - y1, 0, y1), (x0, y1 - y0, 0, y0), (dw - x1, y1 - y0, x1, y0)):
-        if gx > 0 and gy > 0:
-            t.add("pyramid", plan.k_reduce_src(plan.rt.queue, (gx, gy), None, **args, global_offset=(ox, oy)))
+    t.add("pyramid", plan.rt.launch_strips(plan.k_reduce_src, dw, dh, region, **args))
 
 
 def receiver_depth(plan, t: Timings, from_rd0: bool = False) -> None:

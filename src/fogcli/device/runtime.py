@@ -328,6 +328,15 @@ class Runtime:
             evs.append(kernels[1](q, (w0, ly), (lx, ly), global_offset=(0, h0), **args))
         return evs
 
+    def launch_strips(self, kernel, w: int, h: int, region: tuple, /, **args) -> list:
+        """A per-pixel (checked) kernel on the four strips of a w x h level around `region`
+        (x0, x1, y0, y1), at their exact sizes: no pixel twice (the separated chain's pass
+        adds). Returns the events."""
+        x0, x1, y0, y1 = region
+        strips = ((w, y0, 0, 0), (w, h - y1, 0, y1), (x0, y1 - y0, 0, y0), (w - x1, y1 - y0, x1, y0))
+        return [kernel(self.queue, (gx, gy), None, **args, global_offset=(ox, oy))
+                for gx, gy, ox, oy in strips if gx > 0 and gy > 0]
+
     def launch1d(self, kernels, n: int, /, **args) -> list:
         """launch2d for a kernel over n items: whole work-groups, then the rest checked."""
         lx = self.local1d

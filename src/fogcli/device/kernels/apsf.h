@@ -5,10 +5,14 @@
  * channel the shares passed up and kept half-blurred, the energy ratio per channel, and
  * the weight of each tabulated Gaussian per channel (reference). */
 #ifdef PSF_APSF
+/* log P's position in the table's samples, before clamping to [0, LUT_U_MAX] (float or
+ * float8: reduce_lanes.cl reads it lane by lane) */
+#define LUT_U(lut, lp) (((lp) - (lut)[0]) * (lut)[1])
+#define LUT_U_MAX ((float)APSF_NP - 1.001f)
 /* sample index and fraction of log P in the table: once per pixel, shared by every read */
 inline int lut_pos(__global const float *lut, float lp, float *f)
 {
-    float u = clampf_((lp - lut[0]) * lut[1], 0.0f, (float)APSF_NP - 1.001f);
+    float u = clampf_(LUT_U(lut, lp), 0.0f, LUT_U_MAX);
     int i = (int)u;
     *f = u - (float)i;
     return i;

@@ -89,9 +89,9 @@ __kernel void reduce_source_lanes(__global float4 *chain, __global float4 *prep,
     }
     float8 lw = ay > 1e-30f ? ayw / ay : alw * (1.0f / (float)(FILTER_TAPS * FILTER_TAPS));
     /* lut_pos and lut_get lane by lane */
-    float8 u = (lw - lut[0]) * lut[1];
+    float8 u = LUT_U(lut, lw);
     u = u < 0.0f ? (float8)(0.0f) : u;
-    u = u > (float)APSF_NP - 1.001f ? (float8)((float)APSF_NP - 1.001f) : u;
+    u = u > LUT_U_MAX ? (float8)(LUT_U_MAX) : u;
     int8 li = LANE_INT(u);
     float8 f = u - LANE_FLOAT(li);
     __global const float *t0 = lut + lut_updown(level, 0, 0), *t1 = lut + lut_updown(level, 1, 0),
