@@ -158,7 +158,7 @@ def test_receivers_depth_levels_match_the_oracle(monkeypatch, space, size):
     moved into the plane of angles and the ones above made there), and the extension plan's
     level 0 (receiver_depth_ext) the main frame's at its level, continued past the edge like
     the edge, read where the cell lies in the plane (oracles.receiver_depths, oracles_warp;
-    240 x 160: the extension joins at level 3, in the plane)."""
+    240 x 160 at margin 0.1: the extension joins at level 3, in the plane)."""
     import oracles
     from fogcli.physics import apsf
     from fogcli.device import plan as device_plan
@@ -167,7 +167,7 @@ def test_receivers_depth_levels_match_the_oracle(monkeypatch, space, size):
     rng = np.random.default_rng(4)
     w, h = size
     img, depth = _edge_scene(w, h, rng)
-    apply(img, depth, make_config("fog", sets=["camera.fov=60", "camera.max_depth=1000",
+    apply(img, depth, make_config("fog", sets=["camera.fov=60", "camera.max_depth=1000", "render.border_margin=0.1",
                                                f"render.spread_space={space}"]))
     plan = next(iter(device_plan._PLANS.values()))
     total = int(plan.lv[-1, 0] + plan.lv[-1, 1] * plan.lv[-1, 2])

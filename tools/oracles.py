@@ -637,8 +637,9 @@ def _pick_by_colour(img, p, d, bi, bj, kx, ky, px, py):
 def slab_table(ground, sa, ss, g, nmu: int, nu: int) -> np.ndarray:
     """device/ground.table's (nu, nmu, 3): the slab's light (physics/slab.inscatter, float64)
     at mu_v = linspace(-1, 1, nmu) and optical length -ln(1 - u), u = linspace(0, 1, nu),
-    weighted by the ground's and the sky's colours."""
-    from fogcli.physics import slab
+    weighted by the ground's and the sky's colours; a dome's first-order light in place of
+    the plane's (physics/dome.table) where it counts."""
+    from fogcli.physics import dome, slab
 
     mu = np.linspace(-1.0, 1.0, nmu)[None, :] * np.ones((nu, 1))
     u = np.linspace(0.0, 1.0, nu)
@@ -651,6 +652,11 @@ def slab_table(ground, sa, ss, g, nmu: int, nu: int) -> np.ndarray:
                               slab.sky_height(st, ground.height, ground.sky_distance, ground.dome, ss[c] / st, g),
                               mu, t * 1.0)
         out[..., c] = ground.colour[c] * a + ground.sky_colour[c] * b
+        if ground.dome and dome.matters(st * ground.sky_distance):      # as device/ground.table
+            th = st * ground.height
+            tH = slab.sky_height(st, ground.height, ground.sky_distance, True, ss[c] / st, g)
+            out[..., c] += ground.sky_colour[c] * dome.table(ss[c] / st, g, th, st * ground.sky_distance,
+                                                             tH - th, mu[0], t[:, 0])
     return out
 
 

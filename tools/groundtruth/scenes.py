@@ -280,6 +280,22 @@ def scene_panel():          # held out, continues past the frame: lit panels cut
     return S
 
 
+def scene_edges():          # calibration, continues past the frame: what border_margin is chosen on
+    # lit surfaces cut by the frame's edges, each at another depth and another share of it
+    # outside (0.3, 0.6, 0.5: an edge cuts a surface at no particular place), black beyond
+    # them; unlike the held-out `panel` (session 43 chose the margin with it in view)
+    top, left = 5.0 * TAN_Y, -12.0 * TAN_X
+    right, bottom = 20.0 * TAN_X, -20.0 * TAN_Y
+    S = [frustum_rect(45.0, None),
+         dict(kind="rectangle", pos=[0.6, top - 0.6 + 2 * 0.6 * 0.3, -5.0], scale=[1.5, 0.6, 1],
+              radiance=("bitmap", tex_text(51, [0.9, 1.1, 1.4], [4.0, 4.5, 5.5]), [1, 1])),
+         dict(kind="rectangle", pos=[left + 2.5 - 2 * 2.5 * 0.6, 1.0, -12.0], scale=[2.5, 3.0, 1],
+              radiance=("bitmap", tex_windows(52, [0.3, 0.25, 0.2], [2.5, 1.9, 1.1], n_x=5, n_y=6), [1, 1])),
+         dict(kind="rectangle", pos=[right, bottom, -20.0], scale=[2.0, 1.2, 1],
+              radiance=("bitmap", tex_text(53, [1.2, 0.5, 0.4], [5.0, 2.5, 1.5]), [1, 1]))]
+    return S
+
+
 LIGHTS = {
     "quay": [((-3.0, 2.5, -12.0), _c(WARM, 20.0)), ((5.0, 3.5, -28.0), _c(COLD, 50.0)),
              ((-16.0, 3.0, -9.0), _c(WARM, 40.0)), ((2.0, 3.0, 4.0), [20.0, 20.0, 20.0])],
@@ -298,6 +314,7 @@ SCENES = {
     "quay":    dict(build=scene_quay,    outside=True,  heldout=False, lights=True),
     "yard":    dict(build=scene_yard,    outside=False, heldout=True,  lights=True),
     "panel":   dict(build=scene_panel,   outside=True,  heldout=True),
+    "edges":   dict(build=scene_edges,   outside=True,  heldout=False),
 }
 
 

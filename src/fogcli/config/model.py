@@ -343,7 +343,7 @@ class Render(_Model):
         "extend", description="open: light scattered across the frame edge leaves it | closed: it stays in the frame | "
                             "extend: the world goes on past the edge like the edge itself (border_margin)")
     border_margin: Annotated[Num, Field(ge=0)] = Field(
-        0.1, description="extend: how far past each side the edge continues, in frame widths (heights); the default "
+        0.05, description="extend: how far past each side the edge continues, in frame widths (heights); the default "
         "is the margin closest to path tracing on the calibration scenes (tools/border_margin.py)")
     emission_profile: Literal["lambertian", "isotropic"] = Field(
         "lambertian", description="apsf: weight each source by a matte surface's emission towards the camera (normals from depth)")

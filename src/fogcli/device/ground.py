@@ -10,6 +10,7 @@ import numpy as np
 
 from fogcli.device.plan import Timings, defines
 from fogcli.device.geometry import rotation
+from fogcli.physics import dome
 from fogcli.physics import ground as gmod
 from fogcli.physics import pixel_rays
 from fogcli.physics import slab
@@ -95,6 +96,37 @@ def table(plan, g: gmod.Ground, t: Timings) -> None:
                           tau_h4=tau_h, tau_H4=tau_H, t_nodes=plan.ground_table[1], nmu=np.int32(slab.MU_GRID), nu=np.int32(NU),
                           nm=np.int32(nm), grey=np.int32(grey), gcol=np.array([*g.colour, 0.0], np.float32),
                           scol=np.array([*g.sky_colour, 0.0], np.float32), out=plan.ground_table[0]))
+    if g.dome and dome.matters(st * g.sky_distance):
+        dome_light(plan, g, st[:1] if grey else st, albedo[:1] if grey else albedo, thick, t)
+
+
+def _float4(v) -> np.ndarray:
+    """1 to 4 channel values as a kernel's float4 (zeros after them)."""
+    return np.array([*v, *[0.0] * (4 - len(v))], np.float32)
+
+
+def dome_light(plan, g: gmod.Ground, st: np.ndarray, albedo: list, thick: list, t: Timings) -> None:
+    """Adds a dome's first-order light in place of the slab's plane's (physics/dome.py) to
+    plan.ground_table[0]: per channel of st (one in a grey medium) its extinction, albedo and
+    slab thickness."""
+    rt, cl = plan.rt, plan.rt.cl
+    mf = cl.mem_flags
+    nch = len(st)
+    tau_h = _float4(st * g.height)
+    tau_R = _float4(st * g.sky_distance)
+    tau_P = _float4([thick[c] - st[c] * g.height for c in range(nch)])
+    cos = np.ascontiguousarray(dome.hg_cosines(plan.cfg.medium.asymmetry), np.float32)
+    sin = np.ascontiguousarray(dome.azimuth_sines(), np.float32)
+    bufs = [cl.Buffer(rt.ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=a) for a in (cos, sin)]
+    cells = cl.Buffer(rt.ctx, mf.READ_WRITE, 16 * slab.MU_GRID * dome.NS)
+    prog = rt.program("dome", **defines(plan.cfg))
+    t.add("preprocess", prog.dome_cells(rt.queue, (slab.MU_GRID, dome.NS), None, cosines=bufs[0], nth=np.int32(cos.size),
+                                        sines=bufs[1], nph=np.int32(sin.size), tau_h4=tau_h, tau_R4=tau_R, tau_P4=tau_P,
+                                        nmu=np.int32(slab.MU_GRID), ns=np.int32(dome.NS), nch=np.int32(nch), out=cells))
+    t.add("preprocess", prog.dome_add(rt.queue, (slab.MU_GRID, NU), None, cells=cells, t_nodes=plan.ground_table[1],
+                                      tau_h4=tau_h, tau_R4=tau_R, tau_P4=tau_P, alb4=_float4(albedo), scol=_float4(g.sky_colour),
+                                      nmu=np.int32(slab.MU_GRID), nu=np.int32(NU), ns=np.int32(dome.NS), nch=np.int32(nch),
+                                      table=plan.ground_table[0]))
 
 
 def programs(plan):

@@ -8,6 +8,8 @@ from fogcli.device.plan import Timings
 from fogcli.device.warp import unwarp, warp_chain, warp_receivers
 from fogcli.physics.calibration import FILTERS
 
+LANES_MIN_WIDTH = 64    # reduce_source_lanes on levels at least this wide (pyramid.reduce)
+
 
 def reduce_region(sw: int, sh: int, dw: int, dh: int, taps: int, margin: int, local: tuple) -> tuple | None:
     """The destination pixels (x0, x1, y0, y1) of a reduce from a sw x sh level to dw x dh that
@@ -42,9 +44,10 @@ def reduce(plan, t: Timings, masked: bool, second: bool = False) -> None:
             # strided and table reads), and the per-pixel kernel is the faster scalar code
             # (tools/avx2/run.sh); for apsf the interior is written on float8 there
             # (reduce_lanes: level 1 of 2 MPx ~10 -> ~4 ms on an AMD EPYC), below the top level,
-            # whose kept share reads the border's
+            # whose kept share reads the border's; and on levels at least LANES_MIN_WIDTH wide:
+            # on a narrower one its five launches cost the host more than they save the device
             margin = taps // 2 if plan.apsf else 0
-            if plan.k_reduce_lanes is not None and k < len(plan.sizes) - 1:
+            if plan.k_reduce_lanes is not None and k < len(plan.sizes) - 1 and dw >= LANES_MIN_WIDTH:
                 reduce_lanes(plan, t, args, reduce_region(int(sw), int(sh), int(dw), int(dh), taps, margin, (8, 1)))
             else:
                 region = reduce_region(int(sw), int(sh), int(dw), int(dh), taps, margin,
