@@ -33,7 +33,7 @@ def test_default_border_margin_is_the_calibrations_choice():
     default, test_border_extend.test_default_border_is_the_measured_one). The renders do not
     rank margins closer than that (0.05 to 0.25 were within 0.0008 in session 39), so the
     default moves only when they rank another margin above it: the plane of angles moved it
-    from 0.075 to 0.1 (session 42); the calibration scene `edges` (lit surfaces cut by the
+    from 0.075 to 0.1 (session 42); the calibration scenes `edges`, `cuts1`, `cuts2` (lit surfaces cut by the
     edges, session 44) moved it to 0.05."""
     from fogcli.config.model import Render
 

@@ -1,7 +1,7 @@
 """How far `render.border: extend` continues the frame's edge (issue 8): the default
 pyramid with border_margin 0 (the open border) to 3 frames on every path-traced scene that
 continues past the frame; relative L1 to the path tracer and scattered energy over its.
-The margin is chosen on the calibration scenes (ground, street, skyline, edges): one whose mean
+The margin is chosen on the calibration scenes (ground, street, skyline, edges, cuts1, cuts2): one whose mean
 relative L1 and mean distance of the energy from the path tracer's are both within BORDER_TIE
 of the lowest (tests/test_docs.py), the default moving only when they rank another above it;
 plaza and panel are held out.

@@ -296,6 +296,31 @@ def scene_edges():          # calibration, continues past the frame: what border
     return S
 
 
+def scene_cuts(seed):
+    """Calibration, continues past the frame: three lit rectangles facing the camera, each
+    cut by an edge or a corner drawn at random (seeded), at a random depth (4-25 m), size and
+    share outside (0.2-0.8 of its width or height past the edge); black beyond them. More of
+    what `edges` is, drawn rather than placed, so that the border is chosen on cuts at no
+    particular place."""
+    rng = _rng(seed)
+    S = [frustum_rect(50.0, None)]
+    for i, side in enumerate(rng.choice(["top", "bottom", "left", "right", "corner"], 3, replace=False)):
+        z = float(rng.uniform(4.0, 25.0))
+        hw, hh = float(rng.uniform(0.06, 0.2)) * z, float(rng.uniform(0.04, 0.12)) * z
+        out = float(rng.uniform(0.2, 0.8))
+        ex, ey = z * TAN_X, z * TAN_Y
+        x, y = float(rng.uniform(-0.5, 0.5)) * ex, float(rng.uniform(-0.5, 0.5)) * ey
+        if side in ("left", "right", "corner"):
+            x = (1 if side != "left" else -1) * (ex - hw + 2 * hw * out)
+        if side in ("top", "bottom", "corner"):
+            y = (1 if side == "top" else -1) * (ey - hh + 2 * hh * out)
+        fg = (rng.uniform(0.3, 1.0, 3) * rng.uniform(2.0, 5.0)).tolist()
+        bg = (np.asarray(fg) * rng.uniform(0.1, 0.4)).tolist()
+        tex = tex_text(seed * 10 + i, bg, fg) if i % 2 == 0 else tex_windows(seed * 10 + i, bg, fg, n_x=5, n_y=4)
+        S.append(dict(kind="rectangle", pos=[x, y, -z], scale=[hw, hh, 1], radiance=("bitmap", tex, [1, 1])))
+    return S
+
+
 LIGHTS = {
     "quay": [((-3.0, 2.5, -12.0), _c(WARM, 20.0)), ((5.0, 3.5, -28.0), _c(COLD, 50.0)),
              ((-16.0, 3.0, -9.0), _c(WARM, 40.0)), ((2.0, 3.0, 4.0), [20.0, 20.0, 20.0])],
@@ -315,6 +340,8 @@ SCENES = {
     "yard":    dict(build=scene_yard,    outside=False, heldout=True,  lights=True),
     "panel":   dict(build=scene_panel,   outside=True,  heldout=True),
     "edges":   dict(build=scene_edges,   outside=True,  heldout=False),
+    "cuts1":   dict(build=lambda: scene_cuts(61), outside=True, heldout=False),
+    "cuts2":   dict(build=lambda: scene_cuts(62), outside=True, heldout=False),
 }
 
 
