@@ -41,17 +41,7 @@ def wide_frame(name: str, k: int) -> tuple[np.ndarray, np.ndarray, float]:
     mi, _ = R._setup("scalar_rgb")
     w, h = S.WIDTH * k, S.HEIGHT * k
     fov = 2 * math.degrees(math.atan(S.TAN_X * k))
-    sc = mi.load_dict(S.mitsuba_scene(name, None, integrator={"type": "path", "max_depth": 1}, spp=R.L_SPP,
-                                      fov=fov, width=w, height=h))
-    L = np.array(mi.render(sc, spp=R.L_SPP, seed=0), np.float32)
-    d = S.mitsuba_scene(name, None, integrator={"type": "aov", "aovs": "dd.y:depth"},
-                        sampler={"type": "stratified", "sample_count": 1, "jitter": False}, fov=fov, width=w, height=h)
-    d["sensor"]["near_clip"] = R.NEAR_CLIP
-    a = np.array(mi.render(mi.load_dict(d), spp=1, seed=0), np.float64)[..., 0]
-    miss = a <= 0
-    a = a + R.NEAR_CLIP * np.linalg.norm(S.camera_directions(w, h, fov), axis=-1)     # as render_depth
-    a[miss] = np.inf
-    return L, a.astype(np.float32), fov
+    return R.render_L(mi, name, width=w, height=h, fov=fov), R.render_depth(mi, name, width=w, height=h, fov=fov), fov
 
 
 def main() -> int:

@@ -648,13 +648,11 @@ def slab_table(ground, sa, ss, g, nmu: int, nu: int) -> np.ndarray:
     out = np.empty((nu, nmu, 3))
     for c in range(3):
         st = sa[c] + ss[c]
-        a, b = slab.inscatter(ss[c] / st, g, st * ground.height,
-                              slab.sky_height(st, ground.height, ground.sky_distance, ground.dome, ss[c] / st, g),
-                              mu, t * 1.0)
+        tH = slab.sky_height(st, ground.height, ground.sky_distance, ground.dome, ss[c] / st, g)
+        a, b = slab.inscatter(ss[c] / st, g, st * ground.height, tH, mu, t * 1.0)
         out[..., c] = ground.colour[c] * a + ground.sky_colour[c] * b
         if ground.dome and dome.matters(st * ground.sky_distance):      # as device/ground.table
             th = st * ground.height
-            tH = slab.sky_height(st, ground.height, ground.sky_distance, True, ss[c] / st, g)
             out[..., c] += ground.sky_colour[c] * dome.table(ss[c] / st, g, th, st * ground.sky_distance,
                                                              tH - th, mu[0], t[:, 0])
     return out

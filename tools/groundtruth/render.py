@@ -72,14 +72,14 @@ def _scene(mi, name, medium=None, **kw):
     return mi.load_dict(d)
 
 
-def render_L(mi, name, spp=L_SPP, seed=0, width=S.WIDTH, height=S.HEIGHT):
+def render_L(mi, name, spp=L_SPP, seed=0, width=S.WIDTH, height=S.HEIGHT, fov=S.FOV):
     """Emitted radiance in vacuum, pixel-averaged (box filter). Surfaces are black: 1 bounce."""
     sc = _scene(mi, name, None, integrator={"type": "path", "max_depth": 1}, spp=spp,
-                width=width, height=height)
+                width=width, height=height, fov=fov)
     return np.array(mi.render(sc, spp=spp, seed=seed), np.float32)
 
 
-def render_depth(mi, name, centre=True, spp=DEPTH_MEAN_SPP, width=S.WIDTH, height=S.HEIGHT):
+def render_depth(mi, name, centre=True, spp=DEPTH_MEAN_SPP, width=S.WIDTH, height=S.HEIGHT, fov=S.FOV):
     """Ray length per pixel: at the pixel centre (stratified, 1 spp, no jitter) or pixel-averaged.
     Mitsuba's `depth` AOV is the distance from the near plane; add it back (NEAR_CLIP * |d|)."""
     if centre:
@@ -88,10 +88,10 @@ def render_depth(mi, name, centre=True, spp=DEPTH_MEAN_SPP, width=S.WIDTH, heigh
     else:
         smp = {"type": "independent", "sample_count": spp}
     sc = _scene(mi, name, None, integrator={"type": "aov", "aovs": "dd.y:depth"}, sampler=smp,
-                width=width, height=height)
+                width=width, height=height, fov=fov)
     a = np.array(mi.render(sc, spp=spp, seed=0), np.float64)[..., 0]
     miss = a <= 0
-    a = a + NEAR_CLIP * np.linalg.norm(S.camera_directions(width, height), axis=-1)
+    a = a + NEAR_CLIP * np.linalg.norm(S.camera_directions(width, height, fov), axis=-1)
     a[miss] = np.inf
     return a.astype(np.float32)
 

@@ -97,7 +97,7 @@ def table(plan, g: gmod.Ground, t: Timings) -> None:
                           nm=np.int32(nm), grey=np.int32(grey), gcol=np.array([*g.colour, 0.0], np.float32),
                           scol=np.array([*g.sky_colour, 0.0], np.float32), out=plan.ground_table[0]))
     if g.dome and dome.matters(st * g.sky_distance):
-        dome_light(plan, g, st[:1] if grey else st, albedo[:1] if grey else albedo, thick, t)
+        dome_light(plan, g, st[:1] if grey else st, albedo[:1] if grey else albedo, thick, d, t)
 
 
 def _float4(v) -> np.ndarray:
@@ -105,10 +105,10 @@ def _float4(v) -> np.ndarray:
     return np.array([*v, *[0.0] * (4 - len(v))], np.float32)
 
 
-def dome_light(plan, g: gmod.Ground, st: np.ndarray, albedo: list, thick: list, t: Timings) -> None:
+def dome_light(plan, g: gmod.Ground, st: np.ndarray, albedo: list, thick: list, d: dict, t: Timings) -> None:
     """Adds a dome's first-order light in place of the slab's plane's (physics/dome.py) to
     plan.ground_table[0]: per channel of st (one in a grey medium) its extinction, albedo and
-    slab thickness."""
+    slab thickness; d the plan's defines (table has them)."""
     rt, cl = plan.rt, plan.rt.cl
     mf = cl.mem_flags
     nch = len(st)
@@ -119,7 +119,7 @@ def dome_light(plan, g: gmod.Ground, st: np.ndarray, albedo: list, thick: list, 
     sin = np.ascontiguousarray(dome.azimuth_sines(), np.float32)
     bufs = [cl.Buffer(rt.ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=a) for a in (cos, sin)]
     cells = cl.Buffer(rt.ctx, mf.READ_WRITE, 16 * slab.MU_GRID * dome.NS)
-    prog = rt.program("dome", **defines(plan.cfg))
+    prog = rt.program("dome", **d)
     t.add("preprocess", prog.dome_cells(rt.queue, (slab.MU_GRID, dome.NS), None, cosines=bufs[0], nth=np.int32(cos.size),
                                         sines=bufs[1], nph=np.int32(sin.size), tau_h4=tau_h, tau_R4=tau_R, tau_P4=tau_P,
                                         nmu=np.int32(slab.MU_GRID), ns=np.int32(dome.NS), nch=np.int32(nch), out=cells))

@@ -76,11 +76,13 @@ __kernel void dome_add(__global const float4 *cells, __global const float *t_nod
     float S[3] = {0.0f, 0.0f, 0.0f};
     for (int c = 0; c < nch; ++c) {
         float T = t_nodes[j], acc = 0.0f;
+        /* each edge once: a cell's far edge is the next one's near edge */
+        float e_lo = exp_poly(-(0.0f < T ? 0.0f : T));
         for (int k = 0; k < ns; ++k) {
-            float lo = dome_edge(mu, th[c], tR[c], tP[c], k, ns), hi = dome_edge(mu, th[c], tR[c], tP[c], k + 1, ns);
-            lo = lo < T ? lo : T;
-            hi = hi < T ? hi : T;
-            acc += cf[4 * (k * nmu + i) + c] * (exp_poly(-lo) - exp_poly(-hi));
+            float hi = dome_edge(mu, th[c], tR[c], tP[c], k + 1, ns);
+            float e_hi = exp_poly(-(hi < T ? hi : T));
+            acc += cf[4 * (k * nmu + i) + c] * (e_lo - e_hi);
+            e_lo = e_hi;
         }
         S[c] = alb[c] * acc;
     }
