@@ -182,16 +182,20 @@ def test_apsf_collapse_matches_oracle(rt, rng, interp, border, size, space, halo
         assert abs(got.sum() / level0[:, :, :3].sum() - 1) < 1e-4
 
 
-def _apsf_reference(sc, lp, lut, sigmas, open_border):
-    """Brute force: every pixel spreads each table Gaussian with its own weight."""
-    h, w = lp.shape
+def _apsf_reference(sc, lp, lut, sigmas, open_border, extend=None):
+    """Brute force: every pixel spreads each table Gaussian with its own weight. extend: (mx,
+    my, kx, ky) of render.border: extend: each Gaussian's sources continued past the edge
+    (oracles.continue_edges), the result on the padded frame."""
     n = int(lut[2])
     nlev = int(lut[3])
     base = 4 + nlev * 6 * n + 3 * n
+    h, w = (lp.shape[0] + 2 * extend[1], lp.shape[1] + 2 * extend[0]) if extend else lp.shape
     out = np.zeros((h, w, 3))
     yy, xx = np.mgrid[0:h, 0:w]
     for j, s in enumerate(sigmas):
         wt = np.stack([oracles.lut_at(lut, base + (j * 3 + c) * n, lp) for c in range(3)], -1) * sc
+        if extend:
+            wt = oracles.continue_edges(wt, *extend)
         if not wt.any():
             continue
         if s < 0.25:
@@ -214,17 +218,19 @@ def _apsf_reference(sc, lp, lut, sigmas, open_border):
 
 @pytest.mark.parametrize("border", ["closed", "open", "extend"])
 def test_apsf_reference_matches_brute_force(rt, rng, border):
-    """extend: the open brute force of the frame padded with copies of its edge pixels
-    (border_margin of the frame on each side), cropped."""
+    """extend: the open brute force with each source continued past the edge
+    (border_margin of the frame on each side) as the mean of the band next to it
+    (border_band), cropped."""
     w, h = 19, 13
     img, depth = random_frame(rng, w, h)
     plan, cfg = plan_for(rt, w, h, *FOG, "render.psf=apsf", "render.method=reference",
-                         f"render.border={border}", "camera.fov=20", aovs=("scattered",))
+                         f"render.border={border}", "camera.fov=20", "render.border_band=0.2",
+                         aovs=("scattered",))
     t = Timings()
     upload(plan, img, depth, t)
     preprocess(plan, t)
     level0 = read_chain(plan)[0][0].astype(np.float64)
-    from fogcli.device.plan import border_margin
+    from fogcli.device.plan import border_band, border_margin
     from fogcli.device.reference import reference_into
 
     reference_into(plan, t)
@@ -234,8 +240,10 @@ def test_apsf_reference_matches_brute_force(rt, rng, border):
     mx, my = border_margin(cfg, w, h)
     f = cfg.render.border_margin
     assert f > 0 and (mx, my) == ((round(f * w), round(f * h)) if border == "extend" else (0, 0))
-    pad = np.pad(level0, ((my, my), (mx, mx), (0, 0)), mode="edge")
-    want = _apsf_reference(pad[:, :, :3], pad[:, :, 3], lut, sigmas, border != "closed")[my:my + h, mx:mx + w]
+    kx, ky = border_band(cfg, w, h)
+    assert (kx, ky) == (4, 3)
+    want = _apsf_reference(level0[:, :, :3], level0[:, :, 3], lut, sigmas, border != "closed",
+                           (mx, my, kx, ky))[my:my + h, mx:mx + w]
     np.testing.assert_allclose(got, want, rtol=1e-3, atol=1e-5 * float(want.max()))
     if border == "closed":
         assert abs(got.sum() / level0[:, :, :3].sum() - 1) < 1e-4

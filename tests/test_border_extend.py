@@ -11,7 +11,7 @@ from fogcli import apply
 from fogcli.api import make_config
 from fogcli.physics.luminance import luminance
 from metrics import rel_l1
-from fogcli.device.plan import Timings, border_margin, ext_level
+from fogcli.device.plan import Timings, border_band, border_margin, ext_level
 from fogcli.device.run import read_chain
 from fogcli.device.border import extend
 from fogcli.device.composite import composite_source
@@ -20,11 +20,12 @@ from fogcli.device.pyramid import collapse, reduce
 from helpers import FOG, download as _download, random_frame as _frame
 
 
-@pytest.mark.parametrize("margin,level", [(0.6, 3), (0.075, 1)])
-def test_border_kernels_match_oracle(rt, rng, margin, level):
-    """border_sources: each cell of the padded low-resolution frame is the mean of its
-    scale x scale pixels past the edge (copies of the nearest edge pixel, none inside the
-    frame or past the margin), log P weighted by luminance; border_inject: the extension's
+@pytest.mark.parametrize("margin,level,band", [(0.6, 3, 0.1), (0.075, 1, 0.15)])
+def test_border_kernels_match_oracle(rt, rng, margin, level, band):
+    """edge_bands and border_sources: each cell of the padded low-resolution frame is the
+    mean of its scale x scale pixels past the edge (each the mean of the band next to the
+    nearest edge pixel, none inside the frame or past the margin), log P weighted by
+    luminance; border_inject: the extension's
     result joins level EXT_LEVEL of the collapse, so the image gains it up-sampled by the
     chain's energy-conserving filters (oracles._up2_conserving). float32 vs float64: 1e-5
     relative (1e-4 through the up-sampling). At the default margin, 3 px and 2 px here, the
@@ -32,7 +33,7 @@ def test_border_kernels_match_oracle(rt, rng, margin, level):
     w, h = 45, 29
     img, depth = _frame(rng, w, h)
     plan, cfg = plan_for(rt, w, h, *FOG, "render.psf=apsf", "render.border=extend",
-                         f"render.border_margin={margin}", aovs=("scattered",))
+                         f"render.border_margin={margin}", f"render.border_band={band}", aovs=("scattered",))
     t = Timings()
     upload(plan, img, depth, t)
     preprocess(plan, t)
@@ -59,16 +60,21 @@ def test_border_kernels_match_oracle(rt, rng, margin, level):
     ox, oy = -(-mx // s) * s, -(-my // s) * s
     pw, ph = ext.w, ext.h
     assert (pw, ph) == (-(-(w + 2 * ox) // s), -(-(h + 2 * oy) // s))
-    # oracle of border_sources
+    # oracle of edge_bands and border_sources: each pixel past the edge is the mean of the
+    # band next to it (kx columns, ky rows) of colour, luminance x log P and luminance
+    kx, ky = border_band(cfg, w, h)
+    assert (kx, ky) == (round(band * w), round(band * h)) and min(kx, ky) > 1
+    lum0 = luminance(np.abs(level0[..., :3]))[..., None]   # light_weight
+    terms = oracles.continue_edges(np.concatenate([level0[..., :3], lum0 * level0[..., 3:], lum0], -1),
+                                   ox, oy, kx, ky)
+    P = np.pad(terms, ((0, ph * s - terms.shape[0]), (0, pw * s - terms.shape[1]), (0, 0)))
     ys, xs = np.arange(ph * s) - oy, np.arange(pw * s) - ox
-    src = level0[np.clip(ys, 0, h - 1)][:, np.clip(xs, 0, w - 1)]
     inside = ((ys >= 0) & (ys < h))[:, None] & ((xs >= 0) & (xs < w))[None, :]
     past = ((ys < -my) | (ys >= h + my))[:, None] | ((xs < -mx) | (xs >= w + mx))[None, :]
-    keep = (~inside & ~past)[..., None]
-    col = (src[..., :3] * keep).reshape(ph, s, pw, s, 3).sum(axis=(1, 3)) / s ** 2
-    lum = luminance(np.abs(src))[..., None] * keep   # light_weight
-    lp = ((lum * src[..., 3:]).reshape(ph, s, pw, s).sum(axis=(1, 3))
-          / np.maximum(lum.reshape(ph, s, pw, s).sum(axis=(1, 3)), 1e-30))
+    P = P * (~inside & ~past)[..., None]
+    col = P[..., :3].reshape(ph, s, pw, s, 3).sum(axis=(1, 3)) / s ** 2
+    lum = P[..., 4]
+    lp = P[..., 3].reshape(ph, s, pw, s).sum(axis=(1, 3)) / np.maximum(lum.reshape(ph, s, pw, s).sum(axis=(1, 3)), 1e-30)
     got = np.empty((ph, pw, 4), np.float32)
     rt.cl.enqueue_copy(rt.queue, got, ext.chain)   # level 0 is the first pw x ph pixels
     rt.queue.finish()

@@ -54,9 +54,10 @@ def test_planned_bytes_counts_what_a_frame_may_add():
     assert planned_bytes(n, t, plan_features(ref), ref, 25) == sum(buffer_bytes(n, t, plan_features(ref), 25).values()) + 48 * n
     f = ext.render.border_margin
     # the extension's plan: the padded frame at its level's resolution (plan.ext_level: 1/2 for
-    # a 40 x 25 frame's 3 px margin, 1/8 at 2 MPx)
+    # a 40 x 25 frame's 3 px margin, 1/8 at 2 MPx), and the edge's bands: two float4 for
+    # each row's two ends, each column's two ends and each corner
     for (w, h), level in (((40, 25), 1), ((1920, 1080), 3)):
         d_ext = sum(buffer_bytes(w * h, t, plan_features(ext), h).values())
         assert ext_level(ext, w, h) == level
         assert f > 0 and planned_bytes(w * h, t, plan_features(ext), ext, h) == \
-            d_ext + int(d_ext * (1 + 2 * f) ** 2 / 4 ** level)
+            d_ext + int(d_ext * (1 + 2 * f) ** 2 / 4 ** level) + 32 * (2 * (w + h) + 4)

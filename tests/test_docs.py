@@ -50,3 +50,25 @@ def test_default_border_margin_is_the_calibrations_choice():
     f = Render().border_margin
     tied = [m for m in l1 if l1[m] <= min(l1.values()) + BORDER_TIE and energy[m] <= min(energy.values()) + BORDER_TIE]
     assert f in tied, (f, tied, l1, energy)
+
+
+def test_default_border_band_is_the_calibrations_choice():
+    """render.border_band with render.border_margin (what the continued edge is, and how far
+    it goes): the default pair is, in the grid tools/border_margin.py wrote into
+    docs/physics.md over the calibration scenes, within BORDER_TIE of the lowest mean relative
+    L1 and of the lowest mean abs(energy - 1), as the margin alone is above."""
+    from fogcli.config.model import Render
+
+    block = (ROOT / "docs" / "physics.md").read_text().split("<!-- border-margin: begin -->")[1].split("<!-- border-margin: end -->")[0]
+    grid = block.split("border_band by border_margin, calibration scenes")[1].split("border_band by border_margin")[0]
+    lines = [ln for ln in grid.splitlines() if ln.startswith("| ")]
+    margins = [float(c.split()[-1]) for c in lines[0].strip("|").split("|")[1:]]
+    l1, energy = {}, {}
+    for ln in lines[1:]:
+        cells = [c.strip() for c in ln.strip("|").split("|")]
+        for f, c in zip(margins, cells[1:]):
+            l1[float(cells[0]), f], energy[float(cells[0]), f] = (float(v) for v in c.split(" / ")[:2])
+    assert len(l1) >= 12
+    r = Render()
+    tied = [k for k in l1 if l1[k] <= min(l1.values()) + BORDER_TIE and energy[k] <= min(energy.values()) + BORDER_TIE]
+    assert (r.border_band, r.border_margin) in tied, ((r.border_band, r.border_margin), tied)

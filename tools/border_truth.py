@@ -4,7 +4,7 @@ lengths rendered again by Mitsuba at the same focal length, so fogcli sees the w
 edge), cropped back; each against the path tracer (relative L1 / scattered energy). Where
 the wide frame matches the path tracer, what is left on the frame is the border's guess.
 
-    python tools/border_truth.py [--scenes edges,cuts1,cuts2,panel] [--k 2] [--doc docs/physics.md]   # needs mitsuba; ~20 s
+    python tools/border_truth.py [--scenes edges,cuts1,cuts2,cuts3,cuts4,panel] [--k 2] [--doc docs/physics.md]   # needs mitsuba; ~20 s
 
 Only for scenes whose world ends within the wider frustum (edges, panel: black beyond their
 surfaces): past the wide frame fogcli's border is open.
@@ -46,7 +46,7 @@ def wide_frame(name: str, k: int) -> tuple[np.ndarray, np.ndarray, float]:
 
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--scenes", default="edges,cuts1,cuts2,panel")
+    ap.add_argument("--scenes", default="edges,cuts1,cuts2,cuts3,cuts4,panel")
     ap.add_argument("--k", type=int, default=2)
     ap.add_argument("--doc", help="write the block into this markdown file (docs/physics.md)")
     args = ap.parse_args()

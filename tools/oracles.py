@@ -707,3 +707,14 @@ def light_share_depth(depth, rgb, radius: int, nearer: float, same: float, far_r
         part_b = np.where((span_b > 0) & (lum <= back_y) & (b >= far_cover), b * back_y, 0.0)
         pick = np.where(part >= part_b, near_z, back_z)
         return np.where(np.maximum(part, part_b) > 0.5 * lum, pick, z)
+
+
+def continue_edges(a, mx: int, my: int, kx: int, ky: int):
+    """render.border: extend as padding (kernels/pyramid.cl edge_bands, reference.cl ref_rows):
+    `a` (h, w, ...) continued mx columns and my rows past each side, each as the mean of the kx
+    columns (ky rows) next to the edge; corners the kx x ky block's mean."""
+    a = np.asarray(a, np.float64)
+    left, right = a[:, :kx].mean(1, keepdims=True), a[:, -kx:].mean(1, keepdims=True)
+    a = np.concatenate([np.repeat(left, mx, 1), a, np.repeat(right, mx, 1)], 1)
+    top, bottom = a[:ky].mean(0, keepdims=True), a[-ky:].mean(0, keepdims=True)
+    return np.concatenate([np.repeat(top, my, 0), a, np.repeat(bottom, my, 0)], 0)

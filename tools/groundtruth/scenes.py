@@ -342,6 +342,8 @@ SCENES = {
     "edges":   dict(build=scene_edges,   outside=True,  heldout=False),
     "cuts1":   dict(build=lambda: scene_cuts(61), outside=True, heldout=False),
     "cuts2":   dict(build=lambda: scene_cuts(62), outside=True, heldout=False),
+    "cuts3":   dict(build=lambda: scene_cuts(63), outside=True, heldout=False),
+    "cuts4":   dict(build=lambda: scene_cuts(64), outside=True, heldout=False),
 }
 
 

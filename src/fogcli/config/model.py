@@ -345,6 +345,10 @@ class Render(_Model):
     border_margin: Annotated[Num, Field(ge=0)] = Field(
         0.05, description="extend: how far past each side the edge continues, in frame widths (heights); the default "
         "is the margin closest to path tracing on the calibration scenes (tools/border_margin.py)")
+    border_band: Annotated[Num, Field(ge=0)] = Field(
+        0.03, description="extend: what the edge continues as: the mean of the band this wide next to it, in frame "
+        "widths (heights), at least one pixel (0: the edge pixel itself); one row's texture is not the surface's. The "
+        "default is chosen with border_margin (tools/border_margin.py)")
     emission_profile: Literal["lambertian", "isotropic"] = Field(
         "lambertian", description="apsf: weight each source by a matte surface's emission towards the camera (normals from depth)")
     ground: Literal["auto", "none"] = Field(

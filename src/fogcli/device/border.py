@@ -6,14 +6,15 @@ from __future__ import annotations
 import numpy as np
 
 from fogcli.device.composite import composite_source
-from fogcli.device.plan import Plan, Timings, border_margin, ext_level
+from fogcli.device.plan import Plan, Timings, border_band, border_margin, edge_band_bytes, ext_level
 from fogcli.device.preprocess import upload_lut
 from fogcli.device.pyramid import collapse, receiver_depth, reduce
 from fogcli.device.warp import ext_receiver_args
 
 
 def extend(plan, t: Timings) -> bool:
-    """render.border: extend. The frame's edge continued `border_margin` past each side:
+    """render.border: extend. The frame's edge continued `border_margin` past each side, as
+    the mean of the `border_band` next to it:
     those sources' light is spread by a second apsf chain on the padded frame at the
     resolution of level ext_level (3, finer for a narrow margin; their light reaches the
     frame only through blurs of several pixels and more; the open main chain has the
@@ -43,8 +44,15 @@ def extend(plan, t: Timings) -> bool:
     ext.cfg = cfg
     upload_lut(ext, t)
     q, i32 = plan.rt.queue, np.int32
+    if plan._edge_bands is None:
+        plan._edge_bands = plan.rt.cl.Buffer(plan.rt.ctx, plan.rt.cl.mem_flags.READ_WRITE,
+                                             edge_band_bytes(plan.w, plan.h))
+    kx, ky = border_band(plan.cfg, plan.w, plan.h)
     t.add("pyramid",
-          ext.k_border_src(q, *plan.rt.nd(pw, ph), chain0=plan.chain, w=i32(plan.w), h=i32(plan.h), chain=ext.chain,
+          plan.k_edge_bands(q, *plan.rt.nd(2 * (plan.w + plan.h) + 4), chain0=plan.chain, w=i32(plan.w),
+                            h=i32(plan.h), kx=i32(kx), ky=i32(ky), bands=plan._edge_bands))
+    t.add("pyramid",
+          ext.k_border_src(q, *plan.rt.nd(pw, ph), bands=plan._edge_bands, w=i32(plan.w), h=i32(plan.h), chain=ext.chain,
                            prep=ext.prep, pw=i32(pw), ph=i32(ph), ox=i32(ox), oy=i32(oy), mx=i32(mx), my=i32(my),
                            scale=i32(s), lut=ext.lut))
     if ext.features.recv:

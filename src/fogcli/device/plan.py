@@ -94,6 +94,19 @@ def border_margin(cfg: Config, width: int, height: int) -> tuple[int, int]:
     return int(round(f * width)), int(round(f * height))
 
 
+def border_band(cfg: Config, width: int, height: int) -> tuple[int, int]:
+    """`render.border: extend`: the columns (x) and rows (y) next to each edge whose mean the
+    continued edge is (at least the edge pixel, at most the frame)."""
+    f = cfg.render.border_band
+    return (min(width, max(1, int(round(f * width)))), min(height, max(1, int(round(f * height)))))
+
+
+def edge_band_bytes(width: int, height: int) -> int:
+    """The continued edge's sources (kernels/pyramid.cl edge_bands): two float4 for each row's
+    left and right end, each column's top and bottom and the four corners."""
+    return 32 * (2 * (width + height) + 4)
+
+
 def ext_level(cfg: Config, width: int, height: int) -> int:
     """The level at whose resolution `border: extend` spreads the continued edge: EXT_LEVEL,
     or finer where the margin is narrow, so that it is at least two of the level's pixels
@@ -241,7 +254,8 @@ def buffer_bytes(n: int, t: int, f: Features, rows: int) -> dict:
 def planned_bytes(n: int, t: int, f: Features, cfg: Config, rows: int) -> int:
     """Everything one frame may allocate: the declared buffers, the reference's planes, the
     airlight of a second light (two planes), and the extension plan of `border: extend`
-    (the padded frame at 1/2^ext_level: about (1 + 2 margin)^2 / 64 of a plan at level 3)."""
+    (the padded frame at 1/2^ext_level: about (1 + 2 margin)^2 / 64 of a plan at level 3, and
+    the edge's bands)."""
     total = sum(buffer_bytes(n, t, f, rows).values())
     if f.reference:
         total += sum(b.bytes(n, t, f, rows) for b in REFERENCE_BUFFERS)
@@ -249,6 +263,7 @@ def planned_bytes(n: int, t: int, f: Features, cfg: Config, rows: int) -> int:
         total += 32 * n
     if cfg.render.border == "extend" and f.source and uses_apsf(cfg):
         total += int(total * (1 + 2 * cfg.render.border_margin) ** 2 / 4 ** ext_level(cfg, n // rows, rows))
+        total += edge_band_bytes(n // rows, rows)
     return total
 
 
@@ -309,6 +324,7 @@ class Plan:
         self._p_samples = None     # (count, buffer): the noise's optical depth at the same samples
         self._epi = None           # (samples, slices, buffers ...) of render.lights.method: epipolar
         self._ext = None           # the extension plan of render.border: extend (extend)
+        self._edge_bands = None    # what the edge continues as, for the extension (border.extend)
 
     def _allocate(self, total: int) -> None:
         """The declared buffers (BUFFERS; `total` pixels in all levels), after the device's
@@ -397,6 +413,7 @@ class Plan:
             self.k_warp = {k: (getattr(wpw, k), getattr(wp, k))
                            for k in ("warp_level", "warp_store", "warp_receivers", "unwarp_level")}
         self.k_border_src = pyr.border_sources if self.apsf else None
+        self.k_edge_bands = pyr.edge_bands if self.apsf else None
         self.k_border_inject = pyr.border_inject if self.apsf else None
         # pixels of a row per work-item (LANES, kernels/lanes.h: the light tables, the apsf
         # reduce's interior) and the pyramid's choice of interior kernel follow it: read once, here

@@ -12,7 +12,7 @@ import math
 
 import numpy as np
 
-from fogcli.device.plan import REFERENCE_BUFFERS, border_margin, defines, open_border
+from fogcli.device.plan import REFERENCE_BUFFERS, border_band, border_margin, defines, open_border
 from fogcli.physics.apsf import load_table
 from fogcli.physics.apsf_lut import lut_offsets
 
@@ -44,6 +44,7 @@ class _Blur:
         self.ny = cl.Buffer(rt.ctx, mf.READ_WRITE, 4 * h)
         self.open = np.int32(open_border(plan.cfg))
         self.margin = border_margin(plan.cfg, w, h)
+        self.band = border_band(plan.cfg, w, h)
 
     def norms(self, sigma: float) -> int:
         """Taps and the 1-D normalisations of a Gaussian of `sigma`; returns its reach."""
@@ -66,10 +67,10 @@ class _Blur:
         w, h = np.int32(p.w), np.int32(p.h)
         t.add("reference",
               self.prog.ref_rows(self.q, *rt.nd(p.w, p.h), src=self.src, width=w, height=h, taps=self.taps, R=R,
-                                 margin=np.int32(mx), dst=self.tmp))
+                                 margin=np.int32(mx), band=np.int32(self.band[0]), dst=self.tmp))
         t.add("reference",
               self.prog.ref_cols_acc(self.q, *rt.nd(p.w, p.h), src=self.tmp, width=w, height=h, taps=self.taps, R=R,
-                                     margin=np.int32(my), acc_img=self.acc))
+                                     margin=np.int32(my), band=np.int32(self.band[1]), acc_img=self.acc))
 
 
 def reference_into(plan, t) -> None:

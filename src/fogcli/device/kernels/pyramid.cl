@@ -313,7 +313,7 @@ __kernel void receiver_depth(__global const float *src, const int src_off, const
 
 /* render.border: extend. Level 0 of the extension plan's receivers (device/border.py): the
  * main frame's at level L (main_rd at main_off, mw x mh), cells past its edge the nearest
- * edge cell's, as the continued edge's sources are (border_sources); ox, oy in cells. With
+ * edge cell's (the continued edge stands there: border_sources); ox, oy in cells. With
  * `warped` the main level lies in the plane of angles: read where the cell lies there
  * (to_plane: device/warp.py, index space of the plane's level). */
 __kernel void receiver_depth_ext(__global const float *main_rd, const int main_off, const int mw, const int mh,
@@ -386,13 +386,63 @@ __kernel void prep_level0(__global const float4 *chain, __global float4 *prep, c
 }
 
 #ifdef PSF_APSF
+/* render.border: extend. What the frame's edge continues as (device/plan.py edge_band_bytes):
+ * for each row's left and right end, each column's top and bottom end and each corner, the
+ * mean over the band of kx columns (ky rows; kx x ky at a corner) next to it of a source's
+ * terms as a reduce sums them: colour and luminance x log P, then luminance and log P.
+ * Entry i takes bands[2 i] and bands[2 i + 1]: left rows 0..h-1, right rows h..2h-1, top
+ * columns 2h.., bottom columns 2h+w.., corners 2h+2w.. (top-left, top-right, bottom-left,
+ * bottom-right). One pixel's texture, a glyph's stroke or a window's frame cut at the edge,
+ * is not the surface's; the band's mean is a better guess of what lies past it. */
+__kernel void edge_bands(__global const float4 *chain0, const int w, const int h, const int kx, const int ky,
+                         __global float4 *bands)
+{
+    int i = get_global_id(0);
+    if (i >= 2 * (w + h) + 4) return;
+    int xa, xb, ya, yb;
+    if (i < 2 * h) {
+        int right = i >= h;
+        ya = i - (right ? h : 0);
+        yb = ya + 1;
+        xa = right ? w - kx : 0;
+        xb = right ? w : kx;
+    } else if (i < 2 * h + 2 * w) {
+        int bottom = i >= 2 * h + w;
+        xa = i - 2 * h - (bottom ? w : 0);
+        xb = xa + 1;
+        ya = bottom ? h - ky : 0;
+        yb = bottom ? h : ky;
+    } else {
+        int c = i - 2 * h - 2 * w, right = c & 1, bottom = c >> 1;
+        xa = right ? w - kx : 0;
+        xb = right ? w : kx;
+        ya = bottom ? h - ky : 0;
+        yb = bottom ? h : ky;
+    }
+    float3 c = (float3)(0.0f);
+    float yw = 0.0f, ys = 0.0f, lw = 0.0f;
+    for (int y = ya; y < yb; ++y)
+        for (int x = xa; x < xb; ++x) {
+            float4 v = chain0[y * w + x];
+            float yl = light_weight(v.xyz);
+            c += v.xyz;
+            yw += yl * v.w;
+            ys += yl;
+            lw += v.w;
+        }
+    float inv = 1.0f / (float)((xb - xa) * (yb - ya));
+    bands[2 * i] = (float4)(c * inv, yw * inv);
+    bands[2 * i + 1] = (float4)(ys * inv, lw * inv, 0.0f, 0.0f);
+}
+
 /* render.border: extend. Level 0 of the padded frame's chain at 1/scale resolution (the
- * extension plan, device/border.py: extend; scale = 2^L, its pixels those of level L here): the sources past the frame's edge, each pixel past
- * it a copy of the nearest edge pixel of the full-resolution level 0, out to `margin`
- * pixels; inside the frame nothing (the main chain has it). A cell's colour is the mean
- * over its scale x scale pixels, its log P weighted by their luminance, like a reduce.
- * Along an axis a cell's pixels are a run before the frame (all copies of pixel 0), the
- * pixels inside, and a run after it (copies of n - 1): one read per run, not per pixel. */
+ * extension plan, device/border.py: extend; scale = 2^L, its pixels those of level L here):
+ * the sources past the frame's edge, each pixel past it the band next to the nearest edge
+ * pixel (edge_bands), out to `margin` pixels; inside the frame nothing (the main chain has
+ * it). A cell's colour is the mean over its scale x scale pixels, its log P weighted by their
+ * luminance, like a reduce. Along an axis a cell's pixels are a run before the frame (all
+ * continuing pixel 0), the pixels inside, and a run after it (continuing n - 1): one read per
+ * run, not per pixel. */
 inline void cell_runs(int a0, int s, int n, int m, int *before, int *lo, int *hi, int *after)
 {
     int b0 = maxi_(a0, -m), b1 = mini_(a0 + s, n + m);     /* the part within the margin */
@@ -402,7 +452,7 @@ inline void cell_runs(int a0, int s, int n, int m, int *before, int *lo, int *hi
     *hi = maxi_(*lo, mini_(b1, n));
 }
 
-__kernel void border_sources(__global const float4 *chain0, const int w, const int h,
+__kernel void border_sources(__global const float4 *bands, const int w, const int h,
                              __global float4 *chain, __global float4 *prep, const int pw, const int ph,
                              const int ox, const int oy, const int mx, const int my, const int scale,
                              __global const float *lut)
@@ -423,19 +473,20 @@ __kernel void border_sources(__global const float4 *chain0, const int w, const i
     int nyi = y1 - y0, nxi = x1 - x0;
     for (int ey = -1; ey <= nyi; ++ey) {
         int cy = ey < 0 ? by : (ey == nyi ? ay : 1);
-        int yc = ey < 0 ? 0 : (ey == nyi ? h - 1 : y0 + ey);
         if (cy == 0) continue;
         for (int ex = -1; ex <= nxi; ++ex) {
             int cx = ex < 0 ? bx : (ex == nxi ? ax : 1);
-            if (cx == 0 || (ey >= 0 && ey < nyi && ex >= 0 && ex < nxi)) continue;   /* inside */
-            int xc = ex < 0 ? 0 : (ex == nxi ? w - 1 : x0 + ex);
+            int in_y = ey >= 0 && ey < nyi, in_x = ex >= 0 && ex < nxi;
+            if (cx == 0 || (in_y && in_x)) continue;   /* inside */
+            int e = in_y ? (ex < 0 ? 0 : h) + y0 + ey                      /* a row's left or right end */
+                  : in_x ? 2 * h + (ey < 0 ? 0 : w) + x0 + ex              /* a column's top or bottom end */
+                         : 2 * (h + w) + (ex < 0 ? 0 : 1) + (ey < 0 ? 0 : 2);   /* a corner */
             float k = (float)(cy * cx);
-            float4 v = chain0[yc * w + xc];
-            float yl = k * light_weight(v.xyz);
-            c += k * v.xyz;
-            yw += yl * v.w;
-            ys += yl;
-            lw += k * v.w;
+            float4 b0 = bands[2 * e], b1 = bands[2 * e + 1];
+            c += k * b0.xyz;
+            yw += k * b0.w;
+            ys += k * b1.x;
+            lw += k * b1.y;
             n += k;
         }
     }

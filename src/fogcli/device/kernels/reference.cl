@@ -2,8 +2,9 @@
  * point-spread kernel, truncated at R = ceil(4 sigma). Closed border: each kernel is
  * normalised over the in-image pixels it reaches, so no scattered energy leaves the frame;
  * open: normalised over the whole plane, so what falls outside is lost. extend: open, with
- * the frame's edge pixels continued `margin` pixels past each side as sources (the blur
- * passes read a clamped index there), the world a photograph goes on showing.
+ * the frame's edge continued `margin` pixels past each side as sources (the blur passes
+ * read the mean of the `band` pixels next to the edge there), the world a photograph goes on
+ * showing.
  *
  * psf gaussian, binned form: sigma is split between two neighbouring bins of a geometric
  * ladder (linear weights in log sigma); each bin is a separable Gaussian whose per-pixel
@@ -72,35 +73,54 @@ __kernel void ref_bin_source(__global const float4 *scat0, __global const float 
     src[idx] = (float4)(w * v.xyz / (norm_x[i] * norm_y[j]), 0.0f);
 }
 
-/* margin: sources continue this far past each end as copies of the end pixel (extend);
- * the column pass reads the row pass's result the same way, so corners are copies of the
- * corner pixel, as if the image had been padded with its edges */
+/* margin: sources continue this far past each end (extend) as the mean of the `band` pixels
+ * next to it (kernels/pyramid.cl edge_bands); the column pass reads the row pass's result the
+ * same way, so a corner continues as the band x band block's mean, as if the image had been
+ * padded so */
+inline float4 band_mean(__global const float4 *p, const int stride, const int a, const int band)
+{
+    float4 s = (float4)(0.0f);
+    for (int k = 0; k < band; ++k) s += p[(a + k) * stride];
+    return s / (float)band;
+}
+
 __kernel void ref_rows(__global const float4 *src, const int width, const int height,
-                       __global const float *taps, const int R, const int margin, __global float4 *dst)
+                       __global const float *taps, const int R, const int margin, const int band,
+                       __global float4 *dst)
 {
     int i = get_global_id(0), j = get_global_id(1);
     if (i >= width || j >= height) return;
     __global const float4 *row = src + j * width;
+    float4 lo = (float4)(0.0f), hi = (float4)(0.0f);
+    if (margin > 0) {
+        lo = band_mean(row, 1, 0, band);
+        hi = band_mean(row, 1, width - band, band);
+    }
     float4 acc = taps[0] * row[i];
     for (int d = 1; d <= R; ++d) {
         float t = taps[d];
-        if (i - d >= -margin) acc += t * row[max(i - d, 0)];
-        if (i + d < width + margin) acc += t * row[min(i + d, width - 1)];
+        if (i - d >= -margin) acc += t * (i - d >= 0 ? row[i - d] : lo);
+        if (i + d < width + margin) acc += t * (i + d < width ? row[i + d] : hi);
     }
     dst[j * width + i] = acc;
 }
 
 __kernel void ref_cols_acc(__global const float4 *src, const int width, const int height,
-                           __global const float *taps, const int R, const int margin,
+                           __global const float *taps, const int R, const int margin, const int band,
                            __global float4 *acc_img)
 {
     int i = get_global_id(0), j = get_global_id(1);
     if (i >= width || j >= height) return;
+    float4 lo = (float4)(0.0f), hi = (float4)(0.0f);
+    if (margin > 0) {
+        lo = band_mean(src + i, width, 0, band);
+        hi = band_mean(src + i, width, height - band, band);
+    }
     float4 acc = taps[0] * src[j * width + i];
     for (int d = 1; d <= R; ++d) {
         float t = taps[d];
-        if (j - d >= -margin) acc += t * src[max(j - d, 0) * width + i];
-        if (j + d < height + margin) acc += t * src[min(j + d, height - 1) * width + i];
+        if (j - d >= -margin) acc += t * (j - d >= 0 ? src[(j - d) * width + i] : lo);
+        if (j + d < height + margin) acc += t * (j + d < height ? src[(j + d) * width + i] : hi);
     }
     acc_img[j * width + i] += acc;
 }
