@@ -230,7 +230,7 @@ def test_apsf_reference_matches_brute_force(rt, rng, border):
     upload(plan, img, depth, t)
     preprocess(plan, t)
     level0 = read_chain(plan)[0][0].astype(np.float64)
-    from fogcli.device.plan import border_band, border_margin
+    from fogcli.device.border_size import border_band, border_margin
     from fogcli.device.reference import reference_into
 
     reference_into(plan, t)

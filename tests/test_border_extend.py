@@ -11,7 +11,8 @@ from fogcli import apply
 from fogcli.api import make_config
 from fogcli.physics.luminance import luminance
 from metrics import rel_l1
-from fogcli.device.plan import Timings, border_band, border_margin, ext_level
+from fogcli.device.border_size import border_band, border_margin, ext_level
+from fogcli.device.plan import Timings
 from fogcli.device.run import read_chain
 from fogcli.device.border import extend
 from fogcli.device.composite import composite_source

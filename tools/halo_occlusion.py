@@ -63,7 +63,7 @@ def spread(case, ks, extend: bool, renorm: bool) -> dict:
 
     from fogcli.physics import apsf, apsf_lut
     from metrics import rel_l1
-    from fogcli.device.plan import border_band
+    from fogcli.device.border_size import border_band
     from oracles import continue_edges, lut_at
 
     l0, direct, lut, f, cfg = level0(case)

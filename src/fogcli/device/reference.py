@@ -12,7 +12,8 @@ import math
 
 import numpy as np
 
-from fogcli.device.plan import REFERENCE_BUFFERS, border_band, border_margin, defines, open_border
+from fogcli.device.border_size import border_band, border_margin, open_border
+from fogcli.device.plan import REFERENCE_BUFFERS, defines
 from fogcli.physics.apsf import load_table
 from fogcli.physics.apsf_lut import lut_offsets
 
