@@ -25,7 +25,8 @@ from helpers import FOG, download as _download, random_frame as _frame
 def test_border_kernels_match_oracle(rt, rng, margin, level, band):
     """edge_bands and border_sources: each cell of the padded low-resolution frame is the
     mean of its scale x scale pixels past the edge (each the mean of the band next to the
-    nearest edge pixel, none inside the frame or past the margin), log P weighted by
+    nearest edge pixel over the pixels on its surface: not the lamp 2 px in front of the
+    left edge's surface; none inside the frame or past the margin), log P weighted by
     luminance; border_inject: the extension's
     result joins level EXT_LEVEL of the collapse, so the image gains it up-sampled by the
     chain's energy-conserving filters (oracles._up2_conserving). float32 vs float64: 1e-5
@@ -33,6 +34,9 @@ def test_border_kernels_match_oracle(rt, rng, margin, level, band):
     extension runs at level 1 (plan.ext_level: two level pixels across the margin)."""
     w, h = 45, 29
     img, depth = _frame(rng, w, h)
+    depth[:, :8] = 10.0                       # a surface along the left edge, and a lamp nearer in front of it
+    img[h // 3, 2, :3] = 400.0
+    depth[h // 3, 2] = 3.0
     plan, cfg = plan_for(rt, w, h, *FOG, "render.psf=apsf", "render.border=extend",
                          f"render.border_margin={margin}", f"render.border_band={band}", aovs=("scattered",))
     t = Timings()
@@ -67,7 +71,7 @@ def test_border_kernels_match_oracle(rt, rng, margin, level, band):
     assert (kx, ky) == (round(band * w), round(band * h)) and min(kx, ky) > 1
     lum0 = luminance(np.abs(level0[..., :3]))[..., None]   # light_weight
     terms = oracles.continue_edges(np.concatenate([level0[..., :3], lum0 * level0[..., 3:], lum0], -1),
-                                   ox, oy, kx, ky)
+                                   ox, oy, kx, ky, level0[..., 3])
     P = np.pad(terms, ((0, ph * s - terms.shape[0]), (0, pw * s - terms.shape[1]), (0, 0)))
     ys, xs = np.arange(ph * s) - oy, np.arange(pw * s) - ox
     inside = ((ys >= 0) & (ys < h))[:, None] & ((xs >= 0) & (xs < w))[None, :]

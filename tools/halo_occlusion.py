@@ -89,7 +89,7 @@ def spread(case, ks, extend: bool, renorm: bool) -> dict:
         src = np.stack([lut_at(lut, shape0 + (j * 3 + c) * apsf.NP, l0[..., 3]) * l0[..., c] for c in range(3)], -1)
         if src.max() <= 0:
             continue
-        srcp, a = continue_edges(src, mx, my, *border_band(cfg, w, h)).astype(np.float32), sj / f
+        srcp, a = continue_edges(src, mx, my, *border_band(cfg, w, h), l0[..., 3]).astype(np.float32), sj / f
         for b in range(BINS):
             m = binp == b
             if not m.any():

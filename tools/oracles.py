@@ -709,12 +709,32 @@ def light_share_depth(depth, rgb, radius: int, nearer: float, same: float, far_r
         return np.where(np.maximum(part, part_b) > 0.5 * lum, pick, z)
 
 
-def continue_edges(a, mx: int, my: int, kx: int, ky: int):
-    """render.border: extend as padding (kernels/pyramid.cl edge_bands, reference.cl ref_rows):
-    `a` (h, w, ...) continued mx columns and my rows past each side, each as the mean of the kx
-    columns (ky rows) next to the edge; corners the kx x ky block's mean."""
+def continue_edges(a, mx: int, my: int, kx: int, ky: int, lp=None, gate: float | None = None):
+    """render.border: extend as padding (kernels/edge_bands.h: edge_bands, ref_edge_profiles):
+    `a` (h, w, ...) continued mx columns and my rows past each side. A row's left part is the
+    mean of its kx pixels next to the edge, a column's top part the mean of its ky, a corner
+    the kx x ky block's; with `lp` (h, w: log P) only the pixels whose log P is within `gate`
+    (border_size.EDGE_BAND_LOGP) of the end pixel's count."""
+    from fogcli.device.border_size import EDGE_BAND_LOGP
+
     a = np.asarray(a, np.float64)
-    left, right = a[:, :kx].mean(1, keepdims=True), a[:, -kx:].mean(1, keepdims=True)
-    a = np.concatenate([np.repeat(left, mx, 1), a, np.repeat(right, mx, 1)], 1)
-    top, bottom = a[:ky].mean(0, keepdims=True), a[-ky:].mean(0, keepdims=True)
-    return np.concatenate([np.repeat(top, my, 0), a, np.repeat(bottom, my, 0)], 0)
+    h, w = a.shape[:2]
+    lp = np.zeros((h, w)) if lp is None else np.asarray(lp, np.float64)
+    gate = EDGE_BAND_LOGP if gate is None else gate
+
+    def mean(ys, xs, ye, xe):
+        block, keep = a[ys, xs], np.abs(lp[ys, xs] - lp[ye, xe]) <= gate
+        return block[keep].mean(0)
+
+    out = np.zeros((h + 2 * my, w + 2 * mx) + a.shape[2:])
+    out[my:my + h, mx:mx + w] = a
+    for j in range(h):
+        out[my + j, :mx] = mean(j, np.s_[:kx], j, 0)
+        out[my + j, mx + w:] = mean(j, np.s_[w - kx:], j, w - 1)
+    for i in range(w):
+        out[:my, mx + i] = mean(np.s_[:ky], i, 0, i)
+        out[my + h:, mx + i] = mean(np.s_[h - ky:], i, h - 1, i)
+    for ys, ye, ro in ((np.s_[:ky], 0, np.s_[:my]), (np.s_[h - ky:], h - 1, np.s_[my + h:])):
+        for xs, xe, co in ((np.s_[:kx], 0, np.s_[:mx]), (np.s_[w - kx:], w - 1, np.s_[mx + w:])):
+            out[ro, co] = mean(ys, xs, ye, xe)
+    return out

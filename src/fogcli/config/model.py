@@ -347,8 +347,9 @@ class Render(_Model):
         "is the margin closest to path tracing on the calibration scenes (tools/border_margin.py)")
     border_band: Annotated[Num, Field(ge=0)] = Field(
         0.03, description="extend: what the edge continues as: the mean of the band this wide next to it, in frame "
-        "widths (heights), at least one pixel (0: the edge pixel itself); one row's texture is not the surface's. The "
-        "default is chosen with border_margin (tools/border_margin.py)")
+        "widths (heights), at least one pixel (0: the edge pixel itself), over the edge pixel's surface (its log P near "
+        "the edge pixel's); one row's texture is not the surface's, a lamp a few pixels in is not continued. The default is "
+        "chosen with border_margin (tools/border_margin.py)")
     emission_profile: Literal["lambertian", "isotropic"] = Field(
         "lambertian", description="apsf: weight each source by a matte surface's emission towards the camera (normals from depth)")
     ground: Literal["auto", "none"] = Field(

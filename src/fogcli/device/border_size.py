@@ -4,6 +4,11 @@ from __future__ import annotations
 
 from fogcli.config.model import Config
 
+# render.border: extend: a band pixel stands for the surface past the edge only if its log P is
+# within this of the end pixel's (about 10 % in depth in a homogeneous medium): a lamp or a
+# pole a few pixels in is not continued (kernels/edge_bands.h; plaza-fog's lamp 5 px from the
+# edge went on past it as a bright strip without it)
+EDGE_BAND_LOGP = 0.1
 EXT_LEVEL = 3   # render.border: extend spreads the continued edge at level 3's resolution (1/8)
 
 

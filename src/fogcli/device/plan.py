@@ -210,6 +210,8 @@ def planned_bytes(n: int, t: int, f: Features, cfg: Config, rows: int) -> int:
     total = sum(buffer_bytes(n, t, f, rows).values())
     if f.reference:
         total += sum(b.bytes(n, t, f, rows) for b in REFERENCE_BUFFERS)
+        if cfg.render.border == "extend" and uses_apsf(cfg):
+            total += edge_band_bytes(n // rows, rows)     # its continued edge (reference._Blur.prof)
     if f.lights and len(cfg.lights) > 1:
         total += 32 * n
     if cfg.render.border == "extend" and f.source and uses_apsf(cfg):

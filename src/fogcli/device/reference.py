@@ -12,7 +12,7 @@ import math
 
 import numpy as np
 
-from fogcli.device.border_size import border_band, border_margin, open_border
+from fogcli.device.border_size import EDGE_BAND_LOGP, border_band, border_margin, edge_band_bytes, open_border
 from fogcli.device.plan import REFERENCE_BUFFERS, defines
 from fogcli.physics.apsf import load_table
 from fogcli.physics.apsf_lut import lut_offsets
@@ -46,6 +46,8 @@ class _Blur:
         self.open = np.int32(open_border(plan.cfg))
         self.margin = border_margin(plan.cfg, w, h)
         self.band = border_band(plan.cfg, w, h)
+        # the continued edge (extend): its entries, then the top and bottom ones blurred along the row
+        self.prof = cl.Buffer(rt.ctx, mf.READ_WRITE, edge_band_bytes(w, h) if any(self.margin) else 16)
 
     def norms(self, sigma: float) -> int:
         """Taps and the 1-D normalisations of a Gaussian of `sigma`; returns its reach."""
@@ -60,18 +62,33 @@ class _Blur:
                                    open_border=self.open))
         return R
 
+    def profiles(self, j: int) -> None:
+        """render.border: extend: Gaussian j's sources past the edge (ref_edge_profiles)."""
+        p, rt = self.plan, self.plan.rt
+        if any(self.margin):
+            self.t.add("reference",
+                       self.prog.ref_edge_profiles(self.q, *rt.nd(2 * (p.w + p.h) + 4), scat0=p.chain, lut=p.lut,
+                                                   width=np.int32(p.w), height=np.int32(p.h), j=np.int32(j),
+                                                   norm_x=self.nx, norm_y=self.ny, kx=np.int32(self.band[0]),
+                                                   ky=np.int32(self.band[1]), gate=np.float32(EDGE_BAND_LOGP),
+                                                   prof=self.prof))
+
     def blur_add(self, R: int) -> None:
-        """acc += the Gaussian blur of src (taps beyond the image reach nothing: capped)."""
+        """acc += the Gaussian blur of src (taps beyond the image reach nothing: capped), with
+        the continued edge's (profiles) when the border is extend."""
         p, rt, t = self.plan, self.plan.rt, self.t
         mx, my = self.margin
         R = np.int32(min(R, max(p.w + mx, p.h + my)))
         w, h = np.int32(p.w), np.int32(p.h)
         t.add("reference",
               self.prog.ref_rows(self.q, *rt.nd(p.w, p.h), src=self.src, width=w, height=h, taps=self.taps, R=R,
-                                 margin=np.int32(mx), band=np.int32(self.band[0]), dst=self.tmp))
+                                 margin=np.int32(mx), prof=self.prof, dst=self.tmp))
+        if my:
+            t.add("reference", self.prog.ref_profile_rows(self.q, *rt.nd(p.w, 2), prof=self.prof, width=w, height=h,
+                                                          taps=self.taps, R=R, mx=np.int32(mx)))
         t.add("reference",
               self.prog.ref_cols_acc(self.q, *rt.nd(p.w, p.h), src=self.tmp, width=w, height=h, taps=self.taps, R=R,
-                                     margin=np.int32(my), band=np.int32(self.band[1]), acc_img=self.acc))
+                                     margin=np.int32(my), prof=self.prof, acc_img=self.acc))
 
 
 def reference_into(plan, t) -> None:
@@ -90,6 +107,7 @@ def reference_into(plan, t) -> None:
                   blur.prog.ref_apsf_source(q, *rt.nd(w, h), scat0=plan.chain, lut=plan.lut, width=np.int32(w),
                                             height=np.int32(h), j=np.int32(j), norm_x=blur.nx, norm_y=blur.ny,
                                             src=blur.src))
+            blur.profiles(j)
             blur.blur_add(R)
     else:
         sigma = plan.download(plan.spread, 1, t)   # glue: which bins exist decides the work

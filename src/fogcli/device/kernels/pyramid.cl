@@ -386,6 +386,7 @@ __kernel void prep_level0(__global const float4 *chain, __global float4 *prep, c
 }
 
 #ifdef PSF_APSF
+#define PYRAMID_EDGE_BANDS
 #include "edge_bands.h"
 
 /* render.border: extend. Level 0 of the padded frame's chain at 1/scale resolution (the

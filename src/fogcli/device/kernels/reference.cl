@@ -2,9 +2,8 @@
  * point-spread kernel, truncated at R = ceil(4 sigma). Closed border: each kernel is
  * normalised over the in-image pixels it reaches, so no scattered energy leaves the frame;
  * open: normalised over the whole plane, so what falls outside is lost. extend: open, with
- * the frame's edge continued `margin` pixels past each side as sources (the blur passes
- * read the mean of the `band` pixels next to the edge there), the world a photograph goes on
- * showing.
+ * the frame's edge continued `margin` pixels past each side as sources, as the pyramid
+ * continues it (edge_bands.h), the world a photograph goes on showing.
  *
  * psf gaussian, binned form: sigma is split between two neighbouring bins of a geometric
  * ladder (linear weights in log sigma); each bin is a separable Gaussian whose per-pixel
@@ -12,6 +11,7 @@
  * of Gaussians, one pass per Gaussian with each pixel's own weight (ref_apsf_source).
  * `ref_brute` is the O(N^2) definition of the Gaussian, kept to validate the binned form. */
 #include "common.h"
+#include "edge_bands.h"
 
 /* taps[r] = exp(-r^2 / (2 sigma^2)), r = 0..R */
 __kernel void ref_taps(__global float *taps, const float sigma, const int R)
@@ -35,8 +35,16 @@ __kernel void ref_norm1d(__global const float *taps, const int R, const int n,
 }
 
 #ifdef PSF_APSF
-/* Gaussian j of the table: each pixel's L_sc times its own weight (from log P in .w of
- * the colour chain, per channel), divided by the kernel's normalisation */
+/* Gaussian j of the table: a pixel's L_sc times its own weight (from log P in .w of the
+ * colour chain, per channel), divided by the kernel's normalisation n */
+inline float4 apsf_source(float4 v, __global const float *lut, const int j, const float n)
+{
+    int nlev = (int)lut[3];
+    return (float4)(lut_at(lut, lut_shape(nlev, j, 0), v.w) * v.x / n,
+                    lut_at(lut, lut_shape(nlev, j, 1), v.w) * v.y / n,
+                    lut_at(lut, lut_shape(nlev, j, 2), v.w) * v.z / n, 0.0f);
+}
+
 __kernel void ref_apsf_source(__global const float4 *scat0, __global const float *lut,
                               const int width, const int height, const int j,
                               __global const float *norm_x, __global const float *norm_y,
@@ -45,12 +53,31 @@ __kernel void ref_apsf_source(__global const float4 *scat0, __global const float
     int i = get_global_id(0), y = get_global_id(1);
     if (i >= width || y >= height) return;
     int idx = y * width + i;
-    float4 v = scat0[idx];
-    int nlev = (int)lut[3];
-    float n = norm_x[i] * norm_y[y];
-    src[idx] = (float4)(lut_at(lut, lut_shape(nlev, j, 0), v.w) * v.x / n,
-                        lut_at(lut, lut_shape(nlev, j, 1), v.w) * v.y / n,
-                        lut_at(lut, lut_shape(nlev, j, 2), v.w) * v.z / n, 0.0f);
+    src[idx] = apsf_source(scat0[idx], lut, j, norm_x[i] * norm_y[y]);
+}
+
+/* render.border: extend: Gaussian j's sources past the edge, entry by entry (edge_bands.h):
+ * the mean of ref_apsf_source's value over the band's pixels on the end pixel's surface */
+__kernel void ref_edge_profiles(__global const float4 *scat0, __global const float *lut,
+                                const int width, const int height, const int j,
+                                __global const float *norm_x, __global const float *norm_y,
+                                const int kx, const int ky, const float gate, __global float4 *prof)
+{
+    int i = get_global_id(0);
+    if (i >= 2 * (width + height) + 4) return;
+    int xa, xb, ya, yb, ex, ey;
+    edge_band(i, width, height, kx, ky, &xa, &xb, &ya, &yb, &ex, &ey);
+    float lp_end = scat0[ey * width + ex].w;
+    float4 s = (float4)(0.0f);
+    float n = 0.0f;
+    for (int y = ya; y < yb; ++y)
+        for (int x = xa; x < xb; ++x) {
+            float4 v = scat0[y * width + x];
+            if (fabs(v.w - lp_end) > gate) continue;
+            s += apsf_source(v, lut, j, norm_x[x] * norm_y[y]);
+            n += 1.0f;
+        }
+    prof[i] = s / n;
 }
 #endif
 
@@ -73,56 +100,57 @@ __kernel void ref_bin_source(__global const float4 *scat0, __global const float 
     src[idx] = (float4)(w * v.xyz / (norm_x[i] * norm_y[j]), 0.0f);
 }
 
-/* margin: sources continue this far past each end (extend) as the mean of the `band` pixels
- * next to it (kernels/pyramid.cl edge_bands); the column pass reads the row pass's result the
- * same way, so a corner continues as the band x band block's mean, as if the image had been
- * padded so */
-inline float4 band_mean(__global const float4 *p, const int stride, const int a, const int band)
-{
-    float4 s = (float4)(0.0f);
-    for (int k = 0; k < band; ++k) s += p[(a + k) * stride];
-    return s / (float)band;
-}
-
+/* margin: sources continue this far past each end (extend) as the pyramid continues them
+ * (kernels/edge_bands.h): row j's left and right as prof[j], prof[h + j] (ref_edge_profiles).
+ * The column pass reads the top and bottom continuations already blurred along the row
+ * (ref_profile_rows), so the result is the open blur of the padded frame. */
 __kernel void ref_rows(__global const float4 *src, const int width, const int height,
-                       __global const float *taps, const int R, const int margin, const int band,
-                       __global float4 *dst)
+                       __global const float *taps, const int R, const int margin,
+                       __global const float4 *prof, __global float4 *dst)
 {
     int i = get_global_id(0), j = get_global_id(1);
     if (i >= width || j >= height) return;
     __global const float4 *row = src + j * width;
-    float4 lo = (float4)(0.0f), hi = (float4)(0.0f);
-    if (margin > 0) {
-        lo = band_mean(row, 1, 0, band);
-        hi = band_mean(row, 1, width - band, band);
-    }
     float4 acc = taps[0] * row[i];
     for (int d = 1; d <= R; ++d) {
         float t = taps[d];
-        if (i - d >= -margin) acc += t * (i - d >= 0 ? row[i - d] : lo);
-        if (i + d < width + margin) acc += t * (i + d < width ? row[i + d] : hi);
+        if (i - d >= -margin) acc += t * (i - d >= 0 ? row[i - d] : prof[j]);
+        if (i + d < width + margin) acc += t * (i + d < width ? row[i + d] : prof[height + j]);
     }
     dst[j * width + i] = acc;
 }
 
 __kernel void ref_cols_acc(__global const float4 *src, const int width, const int height,
-                           __global const float *taps, const int R, const int margin, const int band,
-                           __global float4 *acc_img)
+                           __global const float *taps, const int R, const int margin,
+                           __global const float4 *prof, __global float4 *acc_img)
 {
     int i = get_global_id(0), j = get_global_id(1);
     if (i >= width || j >= height) return;
-    float4 lo = (float4)(0.0f), hi = (float4)(0.0f);
-    if (margin > 0) {
-        lo = band_mean(src + i, width, 0, band);
-        hi = band_mean(src + i, width, height - band, band);
-    }
+    int e = 2 * (width + height) + 4;     /* the blurred top row, then the bottom one */
     float4 acc = taps[0] * src[j * width + i];
     for (int d = 1; d <= R; ++d) {
         float t = taps[d];
-        if (j - d >= -margin) acc += t * (j - d >= 0 ? src[(j - d) * width + i] : lo);
-        if (j + d < height + margin) acc += t * (j + d < height ? src[(j + d) * width + i] : hi);
+        if (j - d >= -margin) acc += t * (j - d >= 0 ? src[(j - d) * width + i] : prof[e + i]);
+        if (j + d < height + margin) acc += t * (j + d < height ? src[(j + d) * width + i] : prof[e + width + i]);
     }
     acc_img[j * width + i] += acc;
+}
+
+/* The top (b 0) and bottom (b 1) continuations blurred along the row, their corners going on
+ * past each end up to mx: into prof after the entries (ref_cols_acc reads them) */
+__kernel void ref_profile_rows(__global float4 *prof, const int width, const int height,
+                               __global const float *taps, const int R, const int mx)
+{
+    int i = get_global_id(0), b = get_global_id(1);
+    if (i >= width || b > 1) return;
+    int row = 2 * height + b * width, corner = 2 * (height + width) + 2 * b;
+    float4 acc = taps[0] * prof[row + i];
+    for (int d = 1; d <= R; ++d) {
+        float t = taps[d];
+        if (i - d >= -mx) acc += t * (i - d >= 0 ? prof[row + i - d] : prof[corner]);
+        if (i + d < width + mx) acc += t * (i + d < width ? prof[row + i + d] : prof[corner + 1]);
+    }
+    prof[2 * (width + height) + 4 + b * width + i] = acc;
 }
 
 /* Brute-force definition: pixel y's normalisation, then an all-pairs gather. */
