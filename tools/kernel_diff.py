@@ -79,6 +79,8 @@ CASES = {
     "reference, gaussian, brute force": ("fog", ["render.method=reference", "render.psf=gaussian"],
                                          {**SMALL, "then": "brute force"}),
     "extend border": ("fog", ["render.border=extend"], {}),
+    # the reference pads the frame as the pyramid's extension does (ref_edge_profiles, ref_profile_rows)
+    "reference, extend border": ("fog", ["render.method=reference", "render.border=extend"], SMALL),
     "gaussian, level 0 set": ("fog", ["render.psf=gaussian"], {"then": "level 0"}),
     # a depth enlarged 2 x 2 by nearest neighbour: its edges realigned to the colour's
     "depth enlarged 2 x 2": ("fog", [], {"enlarged": True}),
