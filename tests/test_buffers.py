@@ -6,7 +6,8 @@ import pytest
 
 from helpers import plan_for
 from fogcli.errors import ProcessingError
-from fogcli.device.plan import ALIASES, BUFFERS, buffer_bytes, check_memory, ext_level, plan_features, planned_bytes
+from fogcli.device.border_size import ext_level
+from fogcli.device.plan import ALIASES, BUFFERS, buffer_bytes, check_memory, plan_features, planned_bytes
 
 
 @pytest.mark.parametrize("sets,aovs", [((), ()), (("render.psf=apsf", "render.border=extend"), ("scattered", "transmittance")),

@@ -25,6 +25,12 @@ def test_documents_and_images_referred_to_exist():
             assert (p.parent / img).exists(), f"{p.name} shows {img}"
 
 
+def _border_margin_block() -> str:
+    """The block tools/border_margin.py wrote into docs/physics.md."""
+    text = (ROOT / "docs" / "physics.md").read_text()
+    return text.split("<!-- border-margin: begin -->")[1].split("<!-- border-margin: end -->")[0]
+
+
 def test_default_border_margin_is_the_calibrations_choice():
     """render.border_margin's default (the margin of `border: extend`) is, on the calibration
     scenes of the table tools/border_margin.py wrote into docs/physics.md, within BORDER_TIE of
@@ -37,7 +43,7 @@ def test_default_border_margin_is_the_calibrations_choice():
     edges, session 44) moved it to 0.05."""
     from fogcli.config.model import Render
 
-    block = (ROOT / "docs" / "physics.md").read_text().split("<!-- border-margin: begin -->")[1].split("<!-- border-margin: end -->")[0]
+    block = _border_margin_block()
     head = next(ln for ln in block.splitlines() if ln.startswith("| case |"))
     margins = [float(c.split()[-1]) for c in head.strip("|").split("|") if c.strip().startswith("margin")]
 
@@ -59,7 +65,7 @@ def test_default_border_band_is_the_calibrations_choice():
     L1 and of the lowest mean abs(energy - 1), as the margin alone is above."""
     from fogcli.config.model import Render
 
-    block = (ROOT / "docs" / "physics.md").read_text().split("<!-- border-margin: begin -->")[1].split("<!-- border-margin: end -->")[0]
+    block = _border_margin_block()
     grid = block.split("border_band by border_margin, calibration scenes")[1].split("border_band by border_margin")[0]
     lines = [ln for ln in grid.splitlines() if ln.startswith("| ")]
     margins = [float(c.split()[-1]) for c in lines[0].strip("|").split("|")[1:]]

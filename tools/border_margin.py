@@ -9,7 +9,7 @@ BORDER_TIE of the lowest (tests/test_docs.py), the default moving only when they
 above it; plaza and panel are held out.
 Writes the block between the border-margin markers of docs/physics.md.
 
-    python tools/border_margin.py [--doc docs/physics.md]     # about 5 minutes
+    python tools/border_margin.py [--doc docs/physics.md]     # about 70 s
 """
 from __future__ import annotations
 

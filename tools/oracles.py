@@ -6,6 +6,7 @@ import math
 import numpy as np
 
 import oracles_warp
+from fogcli.device.border_size import EDGE_BAND_LOGP
 from fogcli.physics.luminance import luminance
 
 
@@ -715,8 +716,6 @@ def continue_edges(a, mx: int, my: int, kx: int, ky: int, lp=None, gate: float |
     mean of its kx pixels next to the edge, a column's top part the mean of its ky, a corner
     the kx x ky block's; with `lp` (h, w: log P) only the pixels whose log P is within `gate`
     (border_size.EDGE_BAND_LOGP) of the end pixel's count."""
-    from fogcli.device.border_size import EDGE_BAND_LOGP
-
     a = np.asarray(a, np.float64)
     h, w = a.shape[:2]
     lp = np.zeros((h, w)) if lp is None else np.asarray(lp, np.float64)

@@ -6,7 +6,8 @@ from __future__ import annotations
 import numpy as np
 
 from fogcli.device.composite import composite_source
-from fogcli.device.border_size import EDGE_BAND_LOGP, border_band, border_margin, edge_band_bytes, ext_level
+from fogcli.device.border_size import (EDGE_BAND_LOGP, border_band, border_margin, edge_band_bytes, edge_entries,
+                                       ext_level)
 from fogcli.device.plan import Plan, Timings
 from fogcli.device.preprocess import upload_lut
 from fogcli.device.pyramid import collapse, receiver_depth, reduce
@@ -50,7 +51,7 @@ def extend(plan, t: Timings) -> bool:
                                              edge_band_bytes(plan.w, plan.h))
     kx, ky = border_band(plan.cfg, plan.w, plan.h)
     t.add("pyramid",
-          plan.k_edge_bands(q, *plan.rt.nd(2 * (plan.w + plan.h) + 4), chain0=plan.chain,
+          plan.k_edge_bands(q, *plan.rt.nd(edge_entries(plan.w, plan.h)), chain0=plan.chain,
                             sep0=plan.chain2 if plan.sep else plan.chain, with_sep=i32(bool(plan.sep)), w=i32(plan.w),
                             h=i32(plan.h), kx=i32(kx), ky=i32(ky), gate=np.float32(EDGE_BAND_LOGP),
                             bands=plan._edge_bands))

@@ -1,5 +1,5 @@
 """The sizes of `render.border`: how far the frame's edge is continued, as what band, at
-which level, and whether the tabulated point spread runs at all (plan.py re-exports them)."""
+which level, and whether the tabulated point spread runs at all."""
 from __future__ import annotations
 
 from fogcli.config.model import Config
@@ -34,10 +34,16 @@ def border_band(cfg: Config, width: int, height: int) -> tuple[int, int]:
     return (min(width, max(1, int(round(f * width)))), min(height, max(1, int(round(f * height)))))
 
 
+def edge_entries(width: int, height: int) -> int:
+    """What the edge continues as is kept per entry (kernels/edge_bands.h, edge_entries): each
+    row's left and right end, each column's top and bottom end and the four corners."""
+    return 2 * (width + height) + 4
+
+
 def edge_band_bytes(width: int, height: int) -> int:
-    """The continued edge's sources (kernels/pyramid.cl edge_bands): two float4 for each row's
-    left and right end, each column's top and bottom and the four corners."""
-    return 32 * (2 * (width + height) + 4)
+    """Two float4 an entry: the pyramid's band terms (edge_bands), or the reference's entries
+    followed by its two blurred rows of `width` (ref_edge_profiles, ref_profile_rows)."""
+    return 32 * edge_entries(width, height)
 
 
 def ext_level(cfg: Config, width: int, height: int) -> int:

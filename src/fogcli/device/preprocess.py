@@ -7,7 +7,8 @@ import numpy as np
 
 from fogcli.device import ground
 from fogcli.device.noise import noise_args, noise_grid, p_samples
-from fogcli.device.plan import LIGHT_SHARE, Timings, halo_depth, open_border
+from fogcli.device.border_size import open_border
+from fogcli.device.plan import LIGHT_SHARE, Timings, halo_depth
 from fogcli.device.pyramid import receiver_depth
 from fogcli.device.structs import camera_struct, medium_struct, primitive_launches
 from fogcli.physics.apsf_lut import build_lut

@@ -12,7 +12,8 @@ import math
 
 import numpy as np
 
-from fogcli.device.border_size import EDGE_BAND_LOGP, border_band, border_margin, edge_band_bytes, open_border
+from fogcli.device.border_size import (EDGE_BAND_LOGP, border_band, border_margin, edge_band_bytes, edge_entries,
+                                       open_border)
 from fogcli.device.plan import REFERENCE_BUFFERS, defines
 from fogcli.physics.apsf import load_table
 from fogcli.physics.apsf_lut import lut_offsets
@@ -67,7 +68,7 @@ class _Blur:
         p, rt = self.plan, self.plan.rt
         if any(self.margin):
             self.t.add("reference",
-                       self.prog.ref_edge_profiles(self.q, *rt.nd(2 * (p.w + p.h) + 4), scat0=p.chain, lut=p.lut,
+                       self.prog.ref_edge_profiles(self.q, *rt.nd(edge_entries(p.w, p.h)), scat0=p.chain, lut=p.lut,
                                                    width=np.int32(p.w), height=np.int32(p.h), j=np.int32(j),
                                                    norm_x=self.nx, norm_y=self.ny, kx=np.int32(self.band[0]),
                                                    ky=np.int32(self.band[1]), gate=np.float32(EDGE_BAND_LOGP),

@@ -10,6 +10,10 @@
 #ifndef EDGE_BANDS_H
 #define EDGE_BANDS_H
 
+/* how many entries (device/border_size.py edge_entries); the reference keeps its two blurred
+ * rows after them (ref_profile_rows) */
+inline int edge_entries(int w, int h) { return 2 * (w + h) + 4; }
+
 /* entry i's band [xa, xb) x [ya, yb) and its end pixel (ex, ey) */
 inline void edge_band(int i, int w, int h, int kx, int ky, int *xa, int *xb, int *ya, int *yb, int *ex, int *ey)
 {
@@ -53,7 +57,7 @@ __kernel void edge_bands(__global const float4 *chain0, __global const float4 *s
                          __global float4 *bands)
 {
     int i = get_global_id(0);
-    if (i >= 2 * (w + h) + 4) return;
+    if (i >= edge_entries(w, h)) return;
     int xa, xb, ya, yb, ex, ey;
     edge_band(i, w, h, kx, ky, &xa, &xb, &ya, &yb, &ex, &ey);
     float lp_end = chain0[ey * w + ex].w;

@@ -64,7 +64,7 @@ __kernel void ref_edge_profiles(__global const float4 *scat0, __global const flo
                                 const int kx, const int ky, const float gate, __global float4 *prof)
 {
     int i = get_global_id(0);
-    if (i >= 2 * (width + height) + 4) return;
+    if (i >= edge_entries(width, height)) return;
     int xa, xb, ya, yb, ex, ey;
     edge_band(i, width, height, kx, ky, &xa, &xb, &ya, &yb, &ex, &ey);
     float lp_end = scat0[ey * width + ex].w;
@@ -126,7 +126,7 @@ __kernel void ref_cols_acc(__global const float4 *src, const int width, const in
 {
     int i = get_global_id(0), j = get_global_id(1);
     if (i >= width || j >= height) return;
-    int e = 2 * (width + height) + 4;     /* the blurred top row, then the bottom one */
+    int e = edge_entries(width, height);     /* the blurred top row, then the bottom one */
     float4 acc = taps[0] * src[j * width + i];
     for (int d = 1; d <= R; ++d) {
         float t = taps[d];
@@ -150,7 +150,7 @@ __kernel void ref_profile_rows(__global float4 *prof, const int width, const int
         if (i - d >= -mx) acc += t * (i - d >= 0 ? prof[row + i - d] : prof[corner]);
         if (i + d < width + mx) acc += t * (i + d < width ? prof[row + i + d] : prof[corner + 1]);
     }
-    prof[2 * (width + height) + 4 + b * width + i] = acc;
+    prof[edge_entries(width, height) + b * width + i] = acc;
 }
 
 /* Brute-force definition: pixel y's normalisation, then an all-pairs gather. */
