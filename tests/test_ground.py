@@ -319,6 +319,22 @@ def test_a_bright_fog_slab_matches_a_random_walk():
     assert f_down > 0.8           # most of it comes back: the camera sits in a bright diffuse field
 
 
+def test_the_sky_scattered_along_a_view_matches_a_random_walk():
+    """The slab's sky term along views of three elevations (source-function integration of
+    every order) against backward walks of tools/dome_check.py under the same plane sky:
+    haze's medium (albedo 0.9, g 0.7) under 3 optical units of sky. 40 000 walks a view,
+    noise about 0.7 %; they agree within 2.5 %. The same walk under a dome is what says how
+    short the slab is of one (docs/physics.md)."""
+    from dome_check import plane_sky, walk
+
+    albedo, g, tau_h, tau_H = 0.9, 0.7, 0.05, 3.0
+    rng = np.random.default_rng(3)
+    for mu_v in (0.05, 0.35, 0.9):
+        want, err = walk(mu_v, albedo, g, tau_h, plane_sky(tau_H - tau_h), 40000, rng)
+        got = slab.inscatter(albedo, g, tau_h, tau_H, np.array([mu_v]), np.array([np.inf]))[1][0]
+        assert err < 0.01 * want and abs(got / want - 1) < 0.025, (mu_v, got, want, err)
+
+
 @pytest.mark.parametrize("medium", ["haze", "sea"])
 def test_a_light_takes_nothing_from_the_grounds_scattered_light(medium):
     """A light's airlight joins level 0 of the colour chain, where the ground's sources
