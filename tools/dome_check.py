@@ -27,7 +27,7 @@ HEIGHT = 1.6      # the camera above the ground (tools/groundtruth/scenes.py: GR
 RADIUS = 150.0    # the dome (scenes.py: NEAR_DOME_R)
 
 
-def _turn(d: np.ndarray, ct: np.ndarray, phi: np.ndarray) -> np.ndarray:
+def turn(d: np.ndarray, ct: np.ndarray, phi: np.ndarray) -> np.ndarray:
     """Directions d (n, 3) turned by angles of cosine ct about them, at azimuths phi."""
     a = np.where(np.abs(d[:, 2:3]) < 0.9, [[0.0, 0.0, 1.0]], [[1.0, 0.0, 0.0]])
     u = np.cross(d, a)
@@ -66,7 +66,7 @@ def walk(mu_v: float, albedo: float, g: float, tau_h: float, sky, n: int, rng) -
         else:
             xi = rng.random(idx.size)
             ct = (1.0 + g * g - ((1.0 - g * g) / (1.0 - g + 2.0 * g * xi)) ** 2) / (2.0 * g)
-        d = _turn(d, ct, 2.0 * np.pi * rng.random(idx.size))
+        d = turn(d, ct, 2.0 * np.pi * rng.random(idx.size))
         live = w > 1e-4          # Russian roulette below this weight keeps the mean
         coin = rng.random(idx.size) < 0.1
         w = np.where(live, w, np.where(coin, w / 0.1, 0.0))
