@@ -91,13 +91,14 @@ def plane_sky(tau_up: float):
 
 
 def model(albedo: float, g: float, tau_h: float, tau_R: float, tau_H: float, mu_v: float) -> float:
-    """fogcli's scattered light of a unit dome sky along a view to the dome (as
-    device/ground.table builds it: the slab's sky term, plus the dome's first order in
-    place of the plane's where it counts)."""
+    """fogcli's scattered light of a unit dome sky along a view to the dome or the ground
+    (as device/ground.table builds it and preprocess reads it at the pixel's depth: the
+    slab's sky term, plus the dome's first order in place of the plane's where it counts)."""
     mu = np.array([mu_v])
-    sky = slab.inscatter(albedo, g, tau_h, tau_H, mu, np.array([np.inf]))[1][0]
+    t = dome.ray_end(mu, tau_h, tau_R)        # a pixel of the dome or the ground: its depth ends the ray
+    sky = slab.inscatter(albedo, g, tau_h, tau_H, mu, t)[1][0]
     if dome.matters(tau_R):
-        sky += dome.table(albedo, g, tau_h, tau_R, tau_H - tau_h, mu, np.array([np.inf]))[0, 0]
+        sky += dome.table(albedo, g, tau_h, tau_R, tau_H - tau_h, mu, t)[0, 0]
     return float(sky)
 
 
