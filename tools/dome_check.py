@@ -61,12 +61,7 @@ def walk(mu_v: float, albedo: float, g: float, tau_h: float, sky, n: int, rng) -
         first = False
         idx, p, d, w, s = idx[keep], p[keep], d[keep], w[keep] * albedo, s[keep]
         p = p + d * s[:, None]
-        if g == 0.0:
-            ct = 1.0 - 2.0 * rng.random(idx.size)
-        else:
-            xi = rng.random(idx.size)
-            ct = (1.0 + g * g - ((1.0 - g * g) / (1.0 - g + 2.0 * g * xi)) ** 2) / (2.0 * g)
-        d = turn(d, ct, 2.0 * np.pi * rng.random(idx.size))
+        d = turn(d, dome.hg_cosine(g, rng.random(idx.size)), 2.0 * np.pi * rng.random(idx.size))
         live = w > 1e-4          # Russian roulette below this weight keeps the mean
         coin = rng.random(idx.size) < 0.1
         w = np.where(live, w, np.where(coin, w / 0.1, 0.0))

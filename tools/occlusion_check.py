@@ -23,6 +23,7 @@ from pathlib import Path
 import numpy as np
 
 from dome_check import turn
+from fogcli.physics.dome import hg_cosine
 
 WIDTH, HEIGHT, FOV = 64, 48, 60.0
 CAMERA = 1.6          # above the ground
@@ -96,9 +97,7 @@ def walk_image(medium: tuple, scene: dict | None, dome: float, n: int, rng) -> n
         first = False
         idx, p, d, w, s = idx[~out], p[~out], d[~out], w[~out] * ss / st, s[~out]
         p = p + d * s[:, None]
-        xi = rng.random(idx.size)
-        ct = (1.0 + g * g - ((1.0 - g * g) / (1.0 - g + 2.0 * g * xi)) ** 2) / (2.0 * g)
-        d = turn(d, ct, 2.0 * np.pi * rng.random(idx.size))
+        d = turn(d, hg_cosine(g, rng.random(idx.size)), 2.0 * np.pi * rng.random(idx.size))
         w = np.where(w < 1e-3, np.where(rng.random(idx.size) < 0.2, w / 0.2, 0.0), w)
         live = w > 0.0
         idx, p, d, w = idx[live], p[live], d[live], w[live]

@@ -38,13 +38,19 @@ def matters(tau_R) -> bool:
     return bool(np.any(np.exp(-np.asarray(tau_R, np.float64)) >= MIN_LIGHT))
 
 
-def hg_cosines(g: float, n: int = NTH) -> np.ndarray:
-    """cos theta from the Henyey-Greenstein inverse CDF at the centres of n equal strata: a
-    mean over them (and uniform azimuths) is the integral with the phase function's weight."""
-    xi = (np.arange(n) + 0.5) / n
+def hg_cosine(g: float, xi: np.ndarray) -> np.ndarray:
+    """cos theta of the Henyey-Greenstein phase function at probabilities xi in [0, 1) (its
+    inverse CDF): uniform xi give its scattering angles."""
+    xi = np.asarray(xi, np.float64)
     if abs(g) < 1e-6:
         return 1.0 - 2.0 * xi
     return (1.0 + g * g - ((1.0 - g * g) / (1.0 - g + 2.0 * g * xi)) ** 2) / (2.0 * g)
+
+
+def hg_cosines(g: float, n: int = NTH) -> np.ndarray:
+    """cos theta at the centres of n equal strata of probability: a mean over them (and
+    uniform azimuths) is the integral with the phase function's weight."""
+    return hg_cosine(g, (np.arange(n) + 0.5) / n)
 
 
 def azimuth_sines(n: int = NPH) -> np.ndarray:
