@@ -52,24 +52,26 @@ def pixel_rays() -> np.ndarray:
 
 def first_hit(p: np.ndarray, d: np.ndarray, scene: dict | None, dome: float) -> tuple[np.ndarray, np.ndarray]:
     """Distance from p along d to the first surface, and its radiance (the dome's, the
-    ground's, 0 for an occluder). scene None: no occluders."""
+    ground's, a rectangle's fifth entry or 0, a box's 0). scene None: no occluders; a scene
+    may set its own "sky" and "ground" radiance."""
+    scene = scene or {}
     b = (p * d).sum(1)
     t = -b + np.sqrt(np.maximum(b * b - ((p * p).sum(1) - dome * dome), 0.0))
-    rad = np.full(len(p), SKY)
+    rad = np.full(len(p), scene.get("sky", SKY))
     with np.errstate(divide="ignore", invalid="ignore"):
         tg = np.where(d[:, 1] < 0.0, (p[:, 1] - Y0) / -d[:, 1], np.inf)
-        rad = np.where(tg < t, GROUND, rad)
+        rad = np.where(tg < t, scene.get("ground", GROUND), rad)
         t = np.minimum(t, tg)
-        for ax, at, r0, r1 in (scene or {}).get("rects", []):
+        for ax, at, r0, r1, *emit in scene.get("rects", []):
             o = [k for k in range(3) if k != ax]
             tw = (at - p[:, ax]) / d[:, ax]
             tw = np.where(np.isfinite(tw) & (tw > 1e-9), tw, np.inf)
             q = p + d * np.where(np.isfinite(tw), tw, 0.0)[:, None]
             inside = (q[:, o[0]] >= r0[0]) & (q[:, o[0]] <= r0[1]) & (q[:, o[1]] >= r1[0]) & (q[:, o[1]] <= r1[1])
             tw = np.where(inside, tw, np.inf)
-            rad = np.where(tw < t, 0.0, rad)
+            rad = np.where(tw < t, emit[0] if emit else 0.0, rad)
             t = np.minimum(t, tw)
-        for c, h in (scene or {}).get("boxes", []):
+        for c, h in scene.get("boxes", []):
             inv = 1.0 / np.where(d == 0.0, 1e-30, d)
             t0, t1 = (np.subtract(c, h)[None] - p) * inv, (np.add(c, h)[None] - p) * inv
             near, far = np.minimum(t0, t1).max(1), np.maximum(t0, t1).min(1)
@@ -112,13 +114,14 @@ def vacuum(scene: dict | None, dome: float) -> tuple[np.ndarray, np.ndarray]:
             t.reshape(HEIGHT, WIDTH).astype(np.float32))
 
 
-def fogcli_scattered(medium: tuple, colour: np.ndarray, depth: np.ndarray) -> np.ndarray:
+def fogcli_scattered(medium: tuple, colour: np.ndarray, depth: np.ndarray, sets: tuple = ()) -> np.ndarray:
+    """fogcli's default (and `sets`) on the frame: the image minus the attenuated direct light."""
     from fogcli import apply
     from fogcli.api import make_config
 
     sa, ss, g = medium
     sets = [f"medium.absorption={[sa] * 3}", f"medium.scattering={[ss] * 3}", f"medium.asymmetry={g}",
-            f"camera.fov={FOV}", "camera.depth=distance", "camera.max_depth=100000"]
+            f"camera.fov={FOV}", "camera.depth=distance", "camera.max_depth=100000", *sets]
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         img = apply(colour, depth, make_config(None, sets=sets))
