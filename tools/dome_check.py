@@ -19,6 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
+from backward_walk import scattered
 from fogcli.physics import dome, slab
 from groundtruth.load import cases
 
@@ -27,46 +28,20 @@ HEIGHT = 1.6      # the camera above the ground (tools/groundtruth/scenes.py: GR
 RADIUS = 150.0    # the dome (scenes.py: NEAR_DOME_R)
 
 
-def turn(d: np.ndarray, ct: np.ndarray, phi: np.ndarray) -> np.ndarray:
-    """Directions d (n, 3) turned by angles of cosine ct about them, at azimuths phi."""
-    a = np.where(np.abs(d[:, 2:3]) < 0.9, [[0.0, 0.0, 1.0]], [[1.0, 0.0, 0.0]])
-    u = np.cross(d, a)
-    u /= np.linalg.norm(u, axis=1, keepdims=True)
-    v = np.cross(d, u)
-    st = np.sqrt(np.maximum(1.0 - ct * ct, 0.0))[:, None]
-    return d * ct[:, None] + st * (u * np.cos(phi)[:, None] + v * np.sin(phi)[:, None])
-
-
 def walk(mu_v: float, albedo: float, g: float, tau_h: float, sky, n: int, rng) -> tuple[float, float]:
     """Mean scattered radiance (and its standard error) reaching the camera along a view of
     elevation sine mu_v, per unit sky radiance: n backward walks from the camera (optical
-    units, the ground tau_h below it, black), each scoring its weight albedo^k where it
-    leaves through the sky after k >= 1 scatterings. sky(p, d) -> the optical distance from
-    p along d to the sky (inf where it does not get there)."""
-    p = np.zeros((n, 3))
-    d = np.tile([np.sqrt(1.0 - mu_v * mu_v), 0.0, mu_v], (n, 1))
-    w = np.ones(n)
-    score = np.zeros(n)
-    idx = np.arange(n)
-    first = True
-    while idx.size:
-        s = -np.log(rng.random(idx.size))
+    units, the ground tau_h below it, black) scoring where they leave through the sky
+    (backward_walk.scattered). sky(p, d) -> the optical distance from p along d to the sky
+    (inf where it does not get there)."""
+    def hit(p, d):
         to_sky = sky(p, d)
         with np.errstate(divide="ignore"):
             to_ground = np.where(d[:, 2] < 0.0, (p[:, 2] + tau_h) / np.maximum(-d[:, 2], 1e-300), np.inf)
-        out = (to_sky <= to_ground) & (to_sky < s)
-        if not first:
-            score[idx[out]] = w[out]
-        keep = (s < to_sky) & (s < to_ground)
-        first = False
-        idx, p, d, w, s = idx[keep], p[keep], d[keep], w[keep] * albedo, s[keep]
-        p = p + d * s[:, None]
-        d = turn(d, dome.hg_cosine(g, rng.random(idx.size)), 2.0 * np.pi * rng.random(idx.size))
-        live = w > 1e-4          # Russian roulette below this weight keeps the mean
-        coin = rng.random(idx.size) < 0.1
-        w = np.where(live, w, np.where(coin, w / 0.1, 0.0))
-        alive = w > 0.0
-        idx, p, d, w = idx[alive], p[alive], d[alive], w[alive]
+        return np.minimum(to_sky, to_ground), np.where(to_sky <= to_ground, 1.0, 0.0)
+
+    d = np.tile([np.sqrt(1.0 - mu_v * mu_v), 0.0, mu_v], (n, 1))
+    score = scattered(np.zeros((n, 3)), d, 1.0, albedo, g, hit, rng)
     return float(score.mean()), float(score.std() / np.sqrt(n))
 
 

@@ -28,9 +28,9 @@ VARIANTS = (("default", ()), ("halo_depth none", ("render.halo_depth=none",)),
 
 def measure(walks: int) -> list[tuple]:
     rows = []
+    colour, depth = vacuum(SCENE, DOME)
     for mname, medium in MEDIA.items():
         want = walk_image(medium, SCENE, DOME, walks, np.random.default_rng(41))
-        colour, depth = vacuum(SCENE, DOME)
         got = [fogcli_scattered(medium, colour, depth, sets) for _, sets in VARIANTS]
         for r0 in range(0, want.shape[0], BANDS):
             band = slice(r0, r0 + BANDS)

@@ -22,8 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
-from dome_check import turn
-from fogcli.physics.dome import hg_cosine
+from backward_walk import scattered
 
 WIDTH, HEIGHT, FOV = 64, 48, 60.0
 CAMERA = 1.6          # above the ground
@@ -83,26 +82,10 @@ def first_hit(p: np.ndarray, d: np.ndarray, scene: dict | None, dome: float) -> 
 
 def walk_image(medium: tuple, scene: dict | None, dome: float, n: int, rng) -> np.ndarray:
     """(h, w) scattered radiance (light that scattered at least once) by n backward walks a
-    pixel; Russian roulette below weight 1e-3 keeps the mean."""
+    pixel (backward_walk.scattered)."""
     sa, ss, g = medium
-    st = sa + ss
     d = np.repeat(pixel_rays(), n, 0)
-    p, w = np.zeros_like(d), np.ones(len(d))
-    score, idx = np.zeros(len(d)), np.arange(len(d))
-    first = True
-    while idx.size:
-        s = -np.log(rng.random(idx.size)) / st
-        t, rad = first_hit(p, d, scene, dome)
-        out = t < s
-        if not first:
-            score[idx[out]] = (w * rad)[out]
-        first = False
-        idx, p, d, w, s = idx[~out], p[~out], d[~out], w[~out] * ss / st, s[~out]
-        p = p + d * s[:, None]
-        d = turn(d, hg_cosine(g, rng.random(idx.size)), 2.0 * np.pi * rng.random(idx.size))
-        w = np.where(w < 1e-3, np.where(rng.random(idx.size) < 0.2, w / 0.2, 0.0), w)
-        live = w > 0.0
-        idx, p, d, w = idx[live], p[live], d[live], w[live]
+    score = scattered(np.zeros_like(d), d, sa + ss, ss / (sa + ss), g, lambda p, q: first_hit(p, q, scene, dome), rng)
     return score.reshape(-1, n).mean(1).reshape(HEIGHT, WIDTH)
 
 
